@@ -1,0 +1,29 @@
+# Set-up, demo and tests on a bare machine: every target installs what it needs first.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export MPLBACKEND := Agg
+
+.PHONY: setup demo test clean
+
+setup: $(STAMP)
+
+$(STAMP): setup.py package.xml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --upgrade pip
+	$(PY) -m pip install "ros-jazzy-rclpy[fastrtps]" ros-jazzy-common-interfaces \
+		numpy matplotlib pyyaml pytest
+	$(PY) -m pip install --no-deps -e .
+	touch $(STAMP)
+
+demo: setup
+	$(VENV)/bin/formation-control sim config/particle_circular.yaml \
+		--out demo.npz --plot demo.png
+
+test: setup
+	$(PY) -m pytest -q
+
+clean:
+	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png

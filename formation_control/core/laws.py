@@ -1,0 +1,146 @@
+"""
+Collective-motion steering laws on the "particle view" of a fleet (Ch. 1, 3, 4, 5, 7).
+
+Every law here acts on a :class:`View`: for each vehicle its position ``r`` (complex), the
+phase it steers (theta, gamma or psi), the rate of that phase, and its inertial speed ``s``
+with ``s'``. The laws return, for the vehicles ``idx`` only, the desired phase rate ``phi``
+(first-order laws) or the desired phase acceleration (backstepping, proportional). All-to-all
+sums are O(N) means, so the same call serves one vehicle that knows the views it has
+received (``idx=[k]``) and the whole fleet (``idx=None``).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from formation_control.core.geometry import inner
+
+
+@dataclass
+class View:
+    """
+    Particle view of N vehicles.
+
+    Attributes
+    ----------
+    r : (N,) complex positions (m)
+    phase : (N,) steered phase (rad): theta (1.3), gamma (1.8) or psi = theta + beta (7.11)
+    rate : (N,) phase rate (rad/s): xi_k, Omega_k or omega_k
+    speed : (N,) inertial speed s_k (m/s), 1 for unit particles, (1.6) in flow
+    speed_dot : (N,) s_k' (m/s^2), (4.9) in flow
+    """
+
+    r: np.ndarray
+    phase: np.ndarray
+    rate: np.ndarray
+    speed: np.ndarray
+    speed_dot: np.ndarray
+
+    @property
+    def e(self):
+        return np.exp(1j * self.phase)
+
+
+@dataclass(frozen=True)
+class Terms:
+    """phi, its time derivative and the backstepping cross term sigma, for vehicles idx."""
+
+    phi: np.ndarray
+    phi_dot: np.ndarray
+    sigma: np.ndarray
+
+
+@dataclass(frozen=True)
+class Parallel:
+    """
+    Phase synchronisation, ``phi_k = -K <p, i e_k>`` with K < 0 (1.12), (1.18), (3.1), (4.1).
+
+    Potential ``V = (1 - |p|^2) / 2`` (1.11); ``sigma_k = <p, i e_k> / N`` is the term
+    ``-dV/dphase_k`` that the backstepping law (3.7), (4.3) adds.
+    """
+
+    K: float
+
+    def terms(self, view, idx=slice(None)):
+        e = view.e
+        p = e.mean()
+        pw = (e * view.rate).mean()
+        ek, wk = e[idx], view.rate[idx]
+        q = inner(p, 1j * ek)
+        phi_dot = -self.K * (inner(pw, ek) - wk * inner(p, ek))
+        return Terms(-self.K * q, phi_dot, q / e.size)
+
+    def potential(self, view):
+        return 0.5 * (1.0 - abs(view.e.mean()) ** 2)
+
+
+@dataclass(frozen=True)
+class Circular:
+    """
+    Circular formation, ``phi_k = omega0 (s_k + K G_k)`` with K > 0, where
+    ``G_k = <e_k, P_k c> + a_k0 <e_k, c_k - c0>`` and ``c_k = r_k + i e_k / omega0``.
+
+    (1.16), (1.19), (3.9), (4.4); the prescribed-centre term of (7.17), (7.18) is switched on
+    per vehicle by ``informed``. Potential (7.18): ``<c, P c>/2 + sum a_k0 |c_k - c0|^2 / 2``.
+    ``sigma_k = G_k / omega0`` is the cross term of the backstepping laws (3.14), (4.8), (7.25).
+    """
+
+    K: float
+    omega0: float
+    c0: complex = 0j
+    informed: np.ndarray = None
+
+    def centres(self, view):
+        return view.r + 1j * view.e / self.omega0
+
+    def _a0(self, n, idx=slice(None)):
+        if self.informed is None:
+            return 0.0
+        return np.broadcast_to(self.informed, (n,))[idx]
+
+    def terms(self, view, idx=slice(None)):
+        e = view.e
+        c = view.r + 1j * e / self.omega0
+        c_dot = e * (view.speed - view.rate / self.omega0)
+        ek, wk, ck = e[idx], view.rate[idx], c[idx]
+        a0 = self._a0(e.size, idx)
+        pc = ck - c.mean()
+        dc0 = ck - self.c0
+        g = inner(ek, pc) + a0 * inner(ek, dc0)
+        ck_dot_along = view.speed[idx] - wk / self.omega0            # <e_k, c_k'>
+        g_dot = (wk * inner(1j * ek, pc) + ck_dot_along - inner(c_dot.mean(), ek)
+                 + a0 * (wk * inner(1j * ek, dc0) + ck_dot_along))
+        phi = self.omega0 * (view.speed[idx] + self.K * g)
+        phi_dot = self.omega0 * (view.speed_dot[idx] + self.K * g_dot)
+        return Terms(phi, phi_dot, g / self.omega0)
+
+    def potential(self, view):
+        c = self.centres(view)
+        pc = c - c.mean()
+        return 0.5 * (np.sum(abs(pc) ** 2) + np.sum(self._a0(c.size) * abs(c - self.c0) ** 2))
+
+
+def first_order(formation, view, idx=slice(None)):
+    """First-order steering, phase' = phi_k (1.12), (1.16), (1.18), (1.19), (7.17)."""
+    return formation.terms(view, idx).phi
+
+
+def backstepping(formation, view, kappa, idx=slice(None)):
+    """
+    Backstepping phase acceleration ``sigma_k - kappa z_k + phi_k'`` with ``z_k = rate_k - phi_k``.
+
+    (3.7), (3.14), (4.3), (4.8), (7.12), (7.25); the composite function
+    ``V_c = V + sum z_k^2 / 2`` then has ``V_c' = sum (-|K| or K/N) (...)^2 - kappa z_k^2 <= 0``.
+    """
+    t = formation.terms(view, idx)
+    return t.sigma - kappa * (view.rate[idx] - t.phi) + t.phi_dot
+
+
+def proportional(formation, view, K_p, idx=slice(None)):
+    """Proportional phase acceleration ``-K_p z_k`` (5.5)."""
+    return -K_p * (view.rate[idx] - formation.terms(view, idx).phi)
+
+
+def composite_lyapunov(formation, view):
+    """``V_c = V + sum z_k^2 / 2`` (2.10), with the potential of ``formation``."""
+    z = view.rate - formation.terms(view).phi
+    return formation.potential(view) + 0.5 * np.sum(z ** 2)
