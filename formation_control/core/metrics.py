@@ -70,10 +70,16 @@ def steady_turn(sc):
     """
     Steady turn of a rigid body on radius 1/|omega0| (7.9)-(7.10), corrected (errata).
 
-    Returns (v0, s0, beta0, yaw_rate): ``v0 = -m0 u0 omega0 / h`` (skids outward),
-    ``s0 = u0 sqrt(1 + (m0 omega0 / h)^2)``, ``beta0 = atan2(v0, u0)``, yaw rate ``omega0 s0``.
+    Returns (v0, s0, beta0, yaw_rate): ``v0 = -m0 u0 omega0 / h_eff`` (skids outward),
+    ``s0 = u0 sqrt(1 + (m0 omega0 / h_eff)^2)``, ``beta0 = atan2(v0, u0)``, yaw rate
+    ``omega0 s0``. ``h_eff = h``, except for the centre-of-pressure model with its drag moment
+    cancelled (A.20): there the steady force ``F = -(l1/l) h s v`` adds to the drag,
+    ``h_eff = h (1 + l1/l)``.
     """
-    v0 = -sc.m0 * sc.u0 * sc.omega0 / sc.h
+    h_eff = sc.h
+    if sc.model == 'rigid_cop' and sc.cancel_drag_moment:
+        h_eff = sc.h * (1.0 + sc.l1 / sc.l)
+    v0 = -sc.m0 * sc.u0 * sc.omega0 / h_eff
     s0 = float(np.hypot(sc.u0, v0))
     return v0, s0, float(np.arctan2(v0, sc.u0)), sc.omega0 * s0
 

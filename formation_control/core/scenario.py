@@ -175,6 +175,8 @@ def _check_structure(sc):
         if n not in (0, sc.num_vehicles):
             _fail(name, list(getattr(sc, name)),
                   f'must have num_vehicles = {sc.num_vehicles} entries (or none: random)')
+    if sc.model in RIGID_MODELS and any(u <= 0 for u in sc.init_u):
+        _fail('init_u', list(sc.init_u), 'rigid bodies start with forward speed u > 0 m/s')
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
         _fail('informed', list(sc.informed), f'vehicle ids must lie in 1..{sc.num_vehicles}')
@@ -217,8 +219,23 @@ def steering_bandwidth(sc):
     return {'backstepping': sc.kappa, 'proportional': sc.K_p, 'pi': sc.K_P}[sc.controller]
 
 
+def uses_held_force(sc):
+    """Whether the steering law reads the course rate from the model with the held force F."""
+    return sc.controller == 'pi' or sc.law_variant == 'full'
+
+
+def held_force_loop_gain(sc):
+    """
+    Gain ``bandwidth * I0 / (l m0 u0)`` of the one-sample loop F -> beta' -> F of tail steering.
+
+    With the full law, beta' (hence psi') contains F/m0 (7.7); computed from the held force it
+    closes a loop through one sample that diverges when this gain nears 1.
+    """
+    return steering_bandwidth(sc) * sc.I0 / (sc.l * sc.m0 * sc.u0)
+
+
 def _check_physics(sc):
-    """Errata, 'Physical parameters': the two conditions the rigid-body laws need."""
+    """Errata, 'Physical parameters': the conditions the rigid-body laws need."""
     notes = []
     if sc.model in ('rigid', 'rigid_cop'):
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
@@ -227,9 +244,16 @@ def _check_physics(sc):
                 f'tail steering has a right-half-plane zero at u0*sqrt(h*l/I0) = {zero:.3g} '
                 f'rad/s, below half the steering bandwidth {band:.3g} rad/s: the law would '
                 f'diverge. Raise u0, h or l, or lower I0 or the gain (parameters u0, h, l, I0)')
-        if zero < 2.0 * band:
-            notes.append(f'right-half-plane zero u0*sqrt(h*l/I0) = {zero:.3g} rad/s is less '
-                         f'than twice the steering bandwidth {band:.3g} rad/s')
+        if zero < band:
+            notes.append(f'right-half-plane zero u0*sqrt(h*l/I0) = {zero:.3g} rad/s lies below '
+                         f'the steering bandwidth {band:.3g} rad/s: expect slow, oscillating turns')
+        gain = held_force_loop_gain(sc)
+        if uses_held_force(sc) and gain >= 0.8:
+            raise ScenarioError(
+                f'the full law on tail steering closes a one-sample loop through the held force '
+                f'with gain bandwidth*I0/(l*m0*u0) = {gain:.3g}, which must stay below 0.8 '
+                f"(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: "
+                f"practical, or model: rigid_couple")
     if sc.model in RIGID_MODELS and sc.controller == 'pi':
         if not sc.h * sc.u0 / sc.m0 > sc.K_I / sc.K_P:
             raise ScenarioError(

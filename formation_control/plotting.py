@@ -1,0 +1,45 @@
+"""
+Thesis-style figures of a run: trajectories with heading (and ground-velocity) arrows, turning
+rate over time, and for rigid bodies speeds and crab angles.
+"""
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from formation_control.core.metrics import crab_angles  # noqa: E402
+from formation_control.core.models import RIGID_MODELS  # noqa: E402
+
+
+def _arrows(ax, run, k, flow):
+    X = run.X[k]
+    ax.quiver(X[0], X[1], np.cos(X[2]), np.sin(X[2]), color='k', angles='xy',
+              scale_units='xy', scale=2.0, width=0.004, label='heading')
+    if flow != 0:
+        vel = (X[4] + 1j * X[5]) * np.exp(1j * X[2]) + flow
+        ax.quiver(X[0], X[1], vel.real, vel.imag, color='r', angles='xy', scale_units='xy',
+                  scale=2.0, width=0.004, label='ground velocity')
+
+
+def plot_run(run, path):
+    """Write the figure of ``run`` (a :class:`simulator.Run`) to ``path`` (PNG)."""
+    sc = run.sc
+    rigid = sc.model in RIGID_MODELS
+    fig, axes = plt.subplots(1, 3 if rigid else 2, figsize=(16 if rigid else 11, 5))
+    ax = axes[0]
+    ax.plot(run.X[:, 0], run.X[:, 1], lw=0.8)
+    _arrows(ax, run, -1, sc.flow_c)
+    ax.set(xlabel='x (m)', ylabel='y (m)', aspect='equal',
+           title=f'{sc.model} {sc.formation}, {sc.controller}, N={sc.num_vehicles}')
+    axes[1].plot(run.t, run.X[:, 3], lw=0.8)
+    axes[1].set(xlabel='t (s)', ylabel='turning rate omega (rad/s)', title='turning rate')
+    if rigid:
+        beta, beta_hat = crab_angles(run.X.transpose(1, 0, 2), sc.flow_c)
+        axes[2].plot(run.t, np.degrees(beta), lw=0.8, color='tab:blue')
+        axes[2].plot(run.t, np.degrees(beta_hat), lw=0.8, color='tab:red', ls='--')
+        axes[2].set(xlabel='t (s)', ylabel='deg',
+                    title='crab angles beta (solid), beta_hat (dashed)')
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
