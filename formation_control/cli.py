@@ -13,15 +13,16 @@ def find_scenario(name):
     if path.exists():
         return path
     stem = path.name if path.suffix else path.name + '.yaml'
-    candidates = [Path(__file__).resolve().parents[1] / 'config' / stem]
+    source_tree = Path(__file__).resolve().parents[1] / 'config' / stem
+    if source_tree.exists():
+        return source_tree
     try:
         from ament_index_python.packages import get_package_share_directory
-        candidates.append(Path(get_package_share_directory('formation_control')) / 'config' / stem)
-    except (ImportError, LookupError):
-        pass
-    for candidate in candidates:
-        if candidate.exists():
-            return candidate
+        candidate = Path(get_package_share_directory('formation_control')) / 'config' / stem
+    except (ImportError, LookupError, OSError):
+        candidate = None
+    if candidate is not None and candidate.exists():
+        return candidate
     raise scenario.ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')
 
 

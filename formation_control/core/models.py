@@ -73,20 +73,23 @@ def body_accel(X_, U_, plant):
 
 def deriv(X_, U_, plant):
     """Return dX/dt for the model ``plant.model``; see the module docstring for the layout."""
-    dX = np.zeros_like(X_)
-    heading = np.exp(1j * X_[THETA])
+    dX = np.empty_like(X_)
+    c, s = np.cos(X_[THETA]), np.sin(X_[THETA])
     if plant.model in PARTICLE_MODELS:
-        vel = heading + plant.flow                           # (1.4), (1.7)
+        dX[X], dX[Y] = c, s                                  # (1.1), (1.3)
+        dX[U:] = 0.0
         if plant.model == 'first_order':
-            dX[THETA] = U_[1]                                # (1.1)
+            dX[THETA], dX[OMEGA] = U_[1], 0.0
         else:
-            dX[THETA] = X_[OMEGA]
-            dX[OMEGA] = U_[1]                                # (1.3)
+            dX[THETA], dX[OMEGA] = X_[OMEGA], U_[1]
     else:
-        vel = (X_[U] + 1j * X_[V]) * heading + plant.flow    # (8.1)
+        u, v = X_[U], X_[V]
+        dX[X], dX[Y] = u * c - v * s, u * s + v * c          # (6.7)
         dX[THETA] = X_[OMEGA]
         dX[U], dX[V], dX[OMEGA] = body_accel(X_, U_, plant)
-    dX[X], dX[Y] = vel.real, vel.imag
+    if plant.flow:
+        dX[X] += plant.flow.real                             # (1.4), (1.7), (8.1)
+        dX[Y] += plant.flow.imag
     return dX
 
 

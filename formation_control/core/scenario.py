@@ -6,6 +6,7 @@ parameter and the values it may take, before anything runs.
 from dataclasses import asdict, dataclass, field, fields, replace
 import json
 import math
+import re
 
 import numpy as np
 import yaml
@@ -16,6 +17,18 @@ FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
 LAW_VARIANTS = ('practical', 'full')
 INIT_ARRAYS = ('init_x', 'init_y', 'init_theta', 'init_omega', 'init_u', 'init_v')
+CHOICES = {'model': MODELS, 'formation': FORMATIONS, 'controller': CONTROLLERS,
+           'law_variant': LAW_VARIANTS}
+
+
+class _Loader(yaml.SafeLoader):
+    """YAML 1.2 numbers, as the ROS 2 parameter parser reads them (``1e3`` is a float)."""
+
+
+_Loader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$'),
+    list('-+0123456789.'))
 
 
 class ScenarioError(ValueError):
@@ -126,7 +139,7 @@ def _coerce(name, value):
         return float(value)
     if isinstance(default, str):
         if not isinstance(value, str):
-            _fail(name, value, 'must be a string')
+            _fail(name, value, f"must be one of {' | '.join(CHOICES[name])}")
         return value
     if not isinstance(value, (list, tuple)):
         _fail(name, value, 'must be a list')
@@ -146,9 +159,9 @@ def _coerce_int_item(name, v):
     return int(v)
 
 
-def _choice(sc, name, allowed):
-    if getattr(sc, name) not in allowed:
-        _fail(name, getattr(sc, name), f"allowed values: {' | '.join(allowed)}")
+def _choice(sc, name):
+    if getattr(sc, name) not in CHOICES[name]:
+        _fail(name, getattr(sc, name), f"allowed values: {' | '.join(CHOICES[name])}")
 
 
 def _positive(sc, *names):
@@ -158,10 +171,8 @@ def _positive(sc, *names):
 
 
 def _check_structure(sc):
-    _choice(sc, 'model', MODELS)
-    _choice(sc, 'formation', FORMATIONS)
-    _choice(sc, 'controller', CONTROLLERS)
-    _choice(sc, 'law_variant', LAW_VARIANTS)
+    for name in CHOICES:
+        _choice(sc, name)
     if sc.num_vehicles < 1:
         _fail('num_vehicles', sc.num_vehicles, 'must be >= 1')
     if (sc.model == 'first_order') != (sc.controller == 'first_order'):
@@ -196,6 +207,11 @@ def _check_gains(sc):
             sc.substeps * sc.dt_integration - sc.dt_control) > 1e-9 * sc.dt_control:
         _fail('dt_integration', sc.dt_integration,
               f'must divide dt_control = {sc.dt_control} into a whole number of steps')
+    for name in ('duration', 'record_dt'):
+        periods = getattr(sc, name) / sc.dt_control
+        if periods < 1 - 1e-9 or abs(periods - round(periods)) > 1e-6:
+            _fail(name, getattr(sc, name),
+                  f'must be a whole number (>= 1) of control periods dt_control = {sc.dt_control}')
     speed = abs(sc.flow_c)
     if sc.model in PARTICLE_MODELS and speed >= 1:
         _fail('flow', list(sc.flow), 'unit-speed particles need |flow| < 1 m/s (1.6)')
@@ -205,8 +221,6 @@ def _check_gains(sc):
             _fail('K_I', sc.K_I, 'must be >= 0')
         if speed >= sc.u0:
             _fail('flow', list(sc.flow), f'rigid bodies need |flow| < u0 = {sc.u0} m/s')
-        if sc.controller == 'first_order':
-            _fail('controller', sc.controller, 'rigid bodies need a second-order steering law')
 
 
 def rhp_zero(sc):
@@ -282,19 +296,27 @@ def parse_override(text):
     if ':=' not in text:
         raise ScenarioError(f"override {text!r} must read name:=value")
     name, value = text.split(':=', 1)
-    return name.strip(), yaml.safe_load(value)
+    try:
+        return name.strip(), yaml.load(value, Loader=_Loader)
+    except yaml.YAMLError as err:
+        raise ScenarioError(f'override {text!r}: value is not valid YAML ({err})') from None
 
 
 def read_params(path):
     """Return the ``/**: ros__parameters`` mapping of a ROS 2 parameter file."""
-    with open(path, encoding='utf-8') as f:
-        doc = yaml.safe_load(f)
     try:
-        params = doc['/**']['ros__parameters']
+        with open(path, encoding='utf-8') as f:
+            doc = yaml.load(f, Loader=_Loader)
+    except (OSError, yaml.YAMLError) as err:
+        raise ScenarioError(f'{path}: cannot read the scenario ({err})') from None
+    try:
+        params = doc['/**']['ros__parameters'] or {}
     except (TypeError, KeyError):
+        params = None
+    if not isinstance(params, dict):
         raise ScenarioError(f"{path}: a scenario is a ROS 2 parameter file with a "
-                            f"'/**: ros__parameters:' section") from None
-    return dict(params or {})
+                            f"'/**: ros__parameters:' section mapping parameter names to values")
+    return params
 
 
 def load(path, overrides=(), **values):

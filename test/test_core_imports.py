@@ -1,0 +1,56 @@
+"""
+The maths core is pure numpy: importing it and running a simulation in a fresh interpreter
+loads nothing from ROS, even though rclpy and ament_index_python are installed alongside.
+"""
+import importlib.util
+import json
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+ROS_PREFIXES = ('rclpy', 'rcl', 'rmw', 'geometry_msgs', 'nav_msgs', 'std_msgs',
+                'builtin_interfaces', 'ament_index_python')
+CORE_MODULES = ('scenario', 'simulator', 'laws', 'control', 'metrics', 'models')
+
+REPORT = textwrap.dedent(f'''
+    import json
+    import sys
+    ros = sorted(m for m in sys.modules if m.startswith({ROS_PREFIXES!r}))
+    print(json.dumps({{'ros': ros, 'modules': sorted(sys.modules)}}))
+''')
+
+CORE_RUN = '\n'.join(f'import formation_control.core.{name}' for name in CORE_MODULES) + '''
+from formation_control.core.scenario import resolve
+from formation_control.core.simulator import simulate, summary
+for params in ({'num_vehicles': 3, 'duration': 0.2},
+               {'num_vehicles': 2, 'model': 'rigid_couple', 'formation': 'circular',
+                'controller': 'pi', 'flow': [0.3, 0.0], 'duration': 0.2}):
+    run = simulate(resolve(params))
+    assert run.X.shape == (3, 6, params['num_vehicles'])
+    summary(run)
+'''
+
+
+def _child(code):
+    proc = subprocess.run([sys.executable, '-c', code + REPORT], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+def test_core_and_simulation_load_no_ros_module():
+    report = _child(CORE_RUN)
+    assert report['ros'] == []
+    loaded = set(report['modules'])
+    assert {f'formation_control.core.{name}' for name in CORE_MODULES} <= loaded
+    assert 'numpy' in loaded
+    assert 'formation_control.cli' not in loaded
+
+
+@pytest.mark.parametrize('module', ['ament_index_python', 'rclpy'])
+def test_the_check_sees_ros_modules(module):
+    if importlib.util.find_spec(module) is None:
+        pytest.skip(f'{module} is not installed')
+    assert module in _child(f'import {module}\n')['ros']
