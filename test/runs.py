@@ -10,8 +10,8 @@ SEEDS = (1, 2, 3)
 
 
 @lru_cache(maxsize=None)
-def run_of(name, seed, **overrides):
-    sc = scenario.load(CONFIG / f'{name}.yaml', seed=seed, **overrides)
+def run_of(name, seed, overrides=()):
+    sc = scenario.load(CONFIG / f'{name}.yaml', overrides, seed=seed)
     return simulator.simulate(sc)
 
 
