@@ -14,7 +14,7 @@ $(STAMP): setup.py package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --upgrade pip
 	$(PY) -m pip install "ros-jazzy-rclpy[fastrtps]" ros-jazzy-common-interfaces \
-		numpy matplotlib pyyaml pytest
+		numpy matplotlib pyyaml pytest rosbags
 	$(PY) -m pip install --no-deps -e .
 	touch $(STAMP)
 

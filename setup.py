@@ -13,7 +13,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
     ],
-    install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib'],
+    install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
     extras_require={'test': ['pytest']},
     zip_safe=True,
     maintainer='formation_control developers',
@@ -23,6 +23,8 @@ setup(
     entry_points={
         'console_scripts': [
             'formation-control = formation_control.cli:main',
+            'plant = formation_control.ros.plant:main',
+            'vehicle = formation_control.ros.vehicle:main',
         ],
     },
 )

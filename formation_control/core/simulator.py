@@ -36,7 +36,7 @@ class Run:
 
 
 class Stepper:
-    """One sampled-data period at a time: ``command`` then ``advance`` (shared with the plant)."""
+    """One sampled-data period at a time: ``command`` (or ``hold``) then ``advance``."""
 
     def __init__(self, sc, X0=None):
         self.sc = sc
@@ -44,37 +44,52 @@ class Stepper:
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
         self.U = np.zeros((2, self.X.shape[1]))
 
-    def command(self):
-        """Compute and hold every vehicle's command from the current state."""
-        view = self.ctrl.view(self.X, self.U[1])
-        self.U = self.ctrl.command(view, self.X)
+    def hold(self, U):
+        """Hold ``U`` over the next period (the first-order turn rate is the state omega)."""
+        self.U = np.array(U, float)
         if self.sc.model == 'first_order':
             self.X[OMEGA] = self.U[1]
         return self.U
 
-    def advance(self, U=None):
-        """Integrate one control period with ``U`` (default: the held command) held."""
+    def command(self):
+        """Compute and hold every vehicle's command from the current state."""
+        return self.hold(self.ctrl.command(self.ctrl.view(self.X, self.U[1]), self.X))
+
+    def advance(self):
+        """Integrate one control period with the held command."""
         sc = self.sc
-        held = self.U if U is None else U
-        self.X = integrate(self.X, held, sc.dt_integration, sc.substeps, self.ctrl.plant)
+        self.X = integrate(self.X, self.U, sc.dt_integration, sc.substeps, self.ctrl.plant)
         return self.X
+
+
+class Recorder:
+    """Keeps the state and held command every ``record_dt`` (the simulator and the plant)."""
+
+    def __init__(self, sc):
+        self.sc = sc
+        self.steps = int(round(sc.duration / sc.dt_control))
+        self.every = max(1, int(round(sc.record_dt / sc.dt_control)))
+        self.t, self.X, self.U = [], [], []
+
+    def record(self, n, X, U):
+        if n % self.every == 0 or n == self.steps:
+            self.t.append(n * self.sc.dt_control)
+            self.X.append(X.copy())
+            self.U.append(U.copy())
+
+    def run(self):
+        return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U))
 
 
 def simulate(sc, X0=None):
     """Run the scenario for ``sc.duration`` seconds and record every ``record_dt``."""
     stepper = Stepper(sc, X0)
-    steps = int(round(sc.duration / sc.dt_control))
-    every = max(1, int(round(sc.record_dt / sc.dt_control)))
-    t, Xs, Us = [], [], []
-    for n in range(steps + 1):
-        U = stepper.command()
-        if n % every == 0 or n == steps:
-            t.append(n * sc.dt_control)
-            Xs.append(stepper.X.copy())
-            Us.append(U.copy())
-        if n < steps:
+    rec = Recorder(sc)
+    for n in range(rec.steps + 1):
+        rec.record(n, stepper.X, stepper.command())
+        if n < rec.steps:
             stepper.advance()
-    return Run(sc, np.array(t), np.array(Xs), np.array(Us))
+    return rec.run()
 
 
 def summary(run):

@@ -1,0 +1,127 @@
+"""
+Topics, QoS and message conversions shared by the plant and the vehicle nodes.
+
+Per vehicle k (1..N), in the ``map`` frame (REP-105) and SI units (REP-103):
+
+=============================  ===============================  ==============================
+topic                          type                             content
+=============================  ===============================  ==============================
+``/vehicle_k/odom``            nav_msgs/Odometry                pose (yaw = heading theta),
+                                                                twist in ``vehicle_k/base_link``
+                                                                = ground velocity, yaw rate
+``/vehicle_k/flow``            geometry_msgs/Vector3Stamped     flow the vehicle measures (map)
+``/vehicle_k/formation_state`` sensor_msgs/JointState           see :data:`STATE_FIELDS`
+``/vehicle_k/cmd``             geometry_msgs/WrenchStamped      force.x = T, force.y = F (N);
+                                                                torque.z = angular acceleration
+                                                                (second_order) or turn rate
+                                                                (first_order)
+=============================  ===============================  ==============================
+
+Every stamp is the time of the state it carries; in lockstep it names the step.
+"""
+import math
+
+import numpy as np
+from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from nav_msgs.msg import Odometry
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from formation_control.core.models import OMEGA, PARTICLE_MODELS, THETA, U, V
+
+MAP_FRAME = 'map'
+STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
+"""formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s)."""
+
+STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""Odometry, formation states and commands: every sample of a lockstep step must arrive, and a
+node that joins late gets the latest ones (transient local)."""
+
+LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""The flow: published when it changes, kept for late joiners."""
+
+
+def topic(k, name):
+    return f'/vehicle_{k}/{name}'
+
+
+def base_link(k):
+    return f'vehicle_{k}/base_link'
+
+
+def stamp_ns(stamp):
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def set_stamp(header, ns):
+    header.stamp.sec, header.stamp.nanosec = divmod(int(ns), 1_000_000_000)
+
+
+def odom_msg(k, ns, X, flow):
+    """Odometry of vehicle k from its state column X (6,): ground velocity in the body frame."""
+    msg = Odometry()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = MAP_FRAME
+    msg.child_frame_id = base_link(k)
+    theta = float(X[THETA])
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(X[0]), float(X[1])
+    msg.pose.pose.orientation.z = math.sin(0.5 * theta)
+    msg.pose.pose.orientation.w = math.cos(0.5 * theta)
+    body = complex(X[U], X[V]) + flow * complex(math.cos(theta), -math.sin(theta))
+    msg.twist.twist.linear.x, msg.twist.twist.linear.y = body.real, body.imag
+    msg.twist.twist.angular.z = float(X[OMEGA])
+    return msg
+
+
+def state_from_odom(msg, flow, model):
+    """The state column (6,) of a vehicle from its Odometry and the flow it measures."""
+    q = msg.pose.pose.orientation
+    theta = 2.0 * math.atan2(q.z, q.w)
+    tw = msg.twist.twist
+    rel = complex(tw.linear.x, tw.linear.y) - flow * complex(math.cos(theta), -math.sin(theta))
+    if model in PARTICLE_MODELS:
+        rel = 1.0 + 0j
+    p = msg.pose.pose.position
+    return np.array([p.x, p.y, theta, tw.angular.z, rel.real, rel.imag])
+
+
+def flow_msg(k, ns, flow):
+    msg = Vector3Stamped()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = MAP_FRAME
+    msg.vector.x, msg.vector.y = flow.real, flow.imag
+    return msg
+
+
+def cmd_msg(k, ns, u, model):
+    """WrenchStamped of one vehicle's input column u (2,)."""
+    msg = WrenchStamped()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = base_link(k)
+    if model in PARTICLE_MODELS:
+        msg.wrench.torque.z = float(u[1])
+    else:
+        msg.wrench.force.x, msg.wrench.force.y = float(u[0]), float(u[1])
+    return msg
+
+
+def input_from_cmd(msg, model):
+    w = msg.wrench
+    if model in PARTICLE_MODELS:
+        return 0.0, w.torque.z
+    return w.force.x, w.force.y
+
+
+def state_msg(k, ns, X, view_row):
+    """formation_state of vehicle k: its pose, heading, yaw rate and the law's phase values."""
+    msg = JointState()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = base_link(k)
+    msg.name = list(STATE_FIELDS)
+    r, phase, rate, speed = view_row
+    msg.position = [r.real, r.imag, float(X[THETA]), float(X[OMEGA]), phase, rate, speed]
+    return msg
