@@ -14,7 +14,8 @@ $(STAMP): setup.py package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --upgrade pip
 	$(PY) -m pip install "ros-jazzy-rclpy[fastrtps]" ros-jazzy-common-interfaces \
-		numpy matplotlib pyyaml pytest rosbags
+		ros-jazzy-domain-coordinator \
+		numpy matplotlib pyyaml pytest rosbags colcon-common-extensions
 	$(PY) -m pip install --no-deps -e .
 	touch $(STAMP)
 

@@ -1,4 +1,7 @@
-"""Command line: ``formation-control sim SCENARIO.yaml ...`` runs the offline simulator."""
+"""
+Command line: ``formation-control sim`` runs the offline simulator, ``formation-control swarm``
+runs a fleet as ROS 2 processes (plant + one process per vehicle).
+"""
 import argparse
 import json
 from pathlib import Path
@@ -32,16 +35,26 @@ def _print_summary(out):
         print(f'  {key:18s} {text}')
 
 
-def cmd_sim(args):
+def _load(args):
     sc = scenario.load(find_scenario(args.scenario), args.param,
                        duration=args.duration, seed=args.seed)
     for note in sc.warnings:
         print(f'warning: {note}', file=sys.stderr)
-    run = simulator.simulate(sc)
-    out = simulator.summary(run)
+    return sc
+
+
+def _report(args, sc, out, what):
     print(f'{args.scenario}: {sc.num_vehicles} vehicles, {sc.model} {sc.formation} '
-          f'({sc.controller}), {out["duration"]:g} s simulated')
+          f'({sc.controller}), {out["duration"]:g} s simulated {what}')
     _print_summary(out)
+    if args.summary:
+        Path(args.summary).write_text(json.dumps(out, indent=2))
+
+
+def cmd_sim(args):
+    sc = _load(args)
+    run = simulator.simulate(sc)
+    _report(args, sc, simulator.summary(run), 'offline')
     if args.out:
         run.save(args.out)
         print(f'wrote {args.out}')
@@ -49,24 +62,53 @@ def cmd_sim(args):
         from formation_control.plotting import plot_run
         plot_run(run, args.plot)
         print(f'wrote {args.plot}')
-    if args.summary:
-        Path(args.summary).write_text(json.dumps(out, indent=2))
     return 0
+
+
+def cmd_swarm(args):
+    from formation_control import swarm
+    sc = _load(args)
+    note = swarm.environment_note()
+    if note:
+        print(note, file=sys.stderr)
+    try:
+        _, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout)
+    except KeyboardInterrupt:
+        print('interrupted: every process of the fleet was stopped', file=sys.stderr)
+        return 130
+    except (RuntimeError, TimeoutError, FileExistsError, FileNotFoundError) as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 1
+    _report(args, sc, out, f'as ROS 2 processes ({args.mode})')
+    return 0
+
+
+def _scenario_arguments(parser):
+    parser.add_argument('scenario', help='scenario YAML (ROS 2 parameter file) or config name')
+    parser.add_argument('--summary', help='write the convergence figures to this .json')
+    parser.add_argument('--duration', type=float, help='override duration (s)')
+    parser.add_argument('--seed', type=int, help='override the random seed')
+    parser.add_argument('-p', '--param', action='append', default=[], metavar='NAME:=VALUE',
+                        help='override any scenario parameter (repeatable)')
 
 
 def build_parser():
     parser = argparse.ArgumentParser(prog='formation-control', description=__doc__)
     sub = parser.add_subparsers(dest='command', required=True)
     sim = sub.add_parser('sim', help='run a scenario in the offline simulator')
-    sim.add_argument('scenario', help='scenario YAML (ROS 2 parameter file) or config name')
+    _scenario_arguments(sim)
     sim.add_argument('--out', help='write the run to this .npz')
     sim.add_argument('--plot', help='write a figure to this .png')
-    sim.add_argument('--summary', help='write the convergence figures to this .json')
-    sim.add_argument('--duration', type=float, help='override duration (s)')
-    sim.add_argument('--seed', type=int, help='override the random seed')
-    sim.add_argument('-p', '--param', action='append', default=[], metavar='NAME:=VALUE',
-                     help='override any scenario parameter (repeatable)')
     sim.set_defaults(func=cmd_sim)
+    swarm = sub.add_parser('swarm', help='run a scenario as ROS 2 processes, one per vehicle')
+    _scenario_arguments(swarm)
+    swarm.add_argument('--mode', choices=('lockstep', 'realtime'), default='lockstep')
+    swarm.add_argument('--real-time-factor', type=float, default=1.0,
+                       help='realtime mode: simulated seconds per wall second')
+    swarm.add_argument('--bag', help='record every topic to this new rosbag2 directory (MCAP)')
+    swarm.add_argument('--timeout', type=float,
+                       help='give up after this many wall seconds (default 60 + 20 x duration)')
+    swarm.set_defaults(func=cmd_swarm)
     return parser
 
 

@@ -1,4 +1,6 @@
+import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -8,3 +10,25 @@ CONFIG = Path(__file__).resolve().parents[1] / 'config'
 @pytest.fixture
 def config_dir():
     return CONFIG
+
+
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+
+
+@pytest.fixture
+def ros(monkeypatch):
+    """A private ROS_DOMAIN_ID, the processes the test starts, and a probe node."""
+    from domain_coordinator import domain_id
+
+    from rosutil import Probe, Processes, ros_environment, shm_clean
+    with domain_id() as did:
+        env = ros_environment(did)
+        monkeypatch.setenv('ROS_DOMAIN_ID', str(did))
+        procs = Processes(env)
+        probe = Probe(did)
+        try:
+            yield SimpleNamespace(domain_id=did, env=env, procs=procs, probe=probe)
+        finally:
+            probe.close()
+            procs.stop_all()
+            shm_clean(env)

@@ -4,14 +4,15 @@ Offline simulator: the sampled-data loop the ROS plant runs too.
 Each control period every vehicle's command is computed from the state at the start of the
 period and held while RK4 integrates the plant over ``dt_control / dt_integration`` steps.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+import json
 
 import numpy as np
 
 from formation_control.core import metrics
 from formation_control.core.control import Controller
 from formation_control.core.models import integrate, OMEGA, RIGID_MODELS, STATE_NAMES
-from formation_control.core.scenario import initial_state
+from formation_control.core.scenario import initial_state, resolve
 
 
 @dataclass
@@ -22,10 +23,12 @@ class Run:
     t: np.ndarray
     X: np.ndarray
     U: np.ndarray
+    meta: dict = field(default_factory=dict)
 
     def arrays(self):
         """The ``.npz`` layout: t, x, y, theta, omega, u, v (T, N), T and F for rigid bodies."""
-        out = {'t': self.t, 'params': np.array(self.sc.to_json())}
+        out = {'t': self.t, 'params': np.array(self.sc.to_json()),
+               'meta': np.array(json.dumps(self.meta))}
         out.update({name: self.X[:, row] for row, name in enumerate(STATE_NAMES)})
         if self.sc.model in RIGID_MODELS:
             out['T'], out['F'] = self.U[:, 0], self.U[:, 1]
@@ -33,6 +36,18 @@ class Run:
 
     def save(self, path):
         np.savez_compressed(path, **self.arrays())
+
+
+def load_run(path):
+    """Read a run written by :meth:`Run.save` (the simulator or the plant node)."""
+    with np.load(path) as d:
+        sc = resolve(json.loads(str(d['params'])))
+        X = np.stack([d[name] for name in STATE_NAMES], axis=1)
+        U = np.zeros((X.shape[0], 2, X.shape[2]))
+        if 'T' in d:
+            U[:, 0], U[:, 1] = d['T'], d['F']
+        meta = json.loads(str(d['meta'])) if 'meta' in d else {}
+        return Run(sc, d['t'].copy(), X, U, meta)
 
 
 class Stepper:

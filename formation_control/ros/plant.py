@@ -8,6 +8,7 @@ period, and publishes step n + 1. Real time: a wall timer advances one period ev
 ``dt_control / real_time_factor`` seconds with the last command of each vehicle held.
 """
 import sys
+import time
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
@@ -53,6 +54,7 @@ class PlantNode(Node):
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
         self.n = 0
+        self.wall_start = None
         self.t0_ns = 0 if self.mode == 'lockstep' else self.get_clock().now().nanoseconds
         self.done = False
         n = sc.num_vehicles
@@ -110,6 +112,8 @@ class PlantNode(Node):
             self._advance()
 
     def _advance(self):
+        if self.wall_start is None:
+            self.wall_start = time.perf_counter()
         U = self.stepper.hold(self.pending)
         self.recorder.record(self.n, self.stepper.X, U)
         if self.n >= self.recorder.steps:
@@ -119,10 +123,15 @@ class PlantNode(Node):
         self._publish_step()
 
     def _finish(self):
+        wall = time.perf_counter() - self.wall_start
+        simulated = self.n * self.sc.dt_control
         path = self.get_parameter('record_path').value
         if path:
-            self.recorder.run().save(path)
-        self.get_logger().info(f'plant: {self.n * self.sc.dt_control:g} s simulated')
+            run = self.recorder.run()
+            run.meta = {'mode': self.mode, 'wall_time': wall, 'simulated_time': simulated}
+            run.save(path)
+        self.get_logger().info(f'plant: {simulated:g} s simulated in {wall:.3g} s of wall time '
+                               f'(real-time factor {simulated / max(wall, 1e-9):.3g})')
         self.done = self.get_parameter('exit_when_done').value
 
 

@@ -1,23 +1,38 @@
-"""The main loop every node shares: spin_once until done or shut down, exit 0 on SIGINT."""
+"""The main loop every node shares: spin_once until done or asked to stop, exit 0 on SIGINT."""
+import signal
 import sys
 
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
 
 from formation_control.core.scenario import ScenarioError
 
 
+class _StopFlag:
+    """SIGINT / SIGTERM set a flag the loop checks: a signal at any moment stops the node."""
+
+    def __init__(self):
+        self.raised = False
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._raise)
+
+    def _raise(self, *_):
+        self.raised = True
+
+
 def run(make_node, args=None):
     """Create the node with ``make_node(context)``; a bad scenario exits 2 with the reason."""
-    rclpy.init(args=args)
+    stop = _StopFlag()
+    rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
     context = rclpy.get_default_context()
     node = None
     try:
         node = make_node(context)
-        executor = SingleThreadedExecutor(context=context)
+        executor = EventsExecutor(context=context)
         executor.add_node(node)
-        while context.ok() and not getattr(node, 'done', False):
+        while not stop.raised and context.ok() and not getattr(node, 'done', False):
             executor.spin_once(timeout_sec=0.1)
     except (ScenarioError, InvalidParameterTypeException, InvalidParameterValueException) as err:
         print(f'error: {err}', file=sys.stderr)

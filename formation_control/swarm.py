@@ -1,0 +1,167 @@
+"""
+``formation-control swarm``: a fleet as real processes, the plant and one ``vehicle`` process
+per vehicle (the executables ``ros2 run`` starts), optionally recorded to a bag.
+"""
+import os
+from pathlib import Path
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+from formation_control.core import simulator
+
+
+def write_params(sc, path):
+    """The resolved scenario as a ROS 2 parameter file (empty lists left out: ROS types them)."""
+    values = {k: v for k, v in sc.to_dict().items() if v != []}
+    Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': values}}))
+    return str(path)
+
+
+def executable(name):
+    """A console script beside the running one (venv, colcon lib/), else on PATH."""
+    here = Path(sys.argv[0]).resolve().parent / name
+    found = str(here) if here.exists() else shutil.which(name)
+    if found is None:
+        raise FileNotFoundError(f'executable {name!r} not found beside {sys.argv[0]} or on PATH')
+    return found
+
+
+def stop(procs, grace=(5.0, 3.0)):
+    """SIGINT, SIGINT again, then SIGKILL, each after its deadline; returns the exit codes."""
+    for deadline in (*grace, None):
+        alive = [p for p in procs if p.poll() is None]
+        if not alive:
+            break
+        for p in alive:
+            p.send_signal(signal.SIGKILL if deadline is None else signal.SIGINT)
+        end = time.monotonic() + (deadline or 5.0)
+        for p in alive:
+            try:
+                p.wait(timeout=max(0.0, end - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+    return [p.returncode for p in procs]
+
+
+class Swarm:
+    """The processes of one run; use as a context manager so they are always stopped."""
+
+    def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None):
+        self.sc, self.mode = sc, mode
+        self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.record = self.dir / 'run.npz'
+        params = write_params(sc, self.dir / 'scenario.yaml')
+        common = ['--ros-args', '--params-file', params, '-p', f'mode:={mode}']
+        if mode == 'lockstep':
+            common += ['-p', 'use_sim_time:=true']
+        self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
+                          '-p', f'real_time_factor:={float(real_time_factor)}']]
+        self.commands += [[executable('vehicle'), *common, '-p', f'vehicle_id:={k}']
+                          for k in range(1, sc.num_vehicles + 1)]
+        self.procs = []
+
+    def __enter__(self):
+        for i, cmd in enumerate(self.commands):
+            log = open(self.dir / ('plant.log' if i == 0 else f'vehicle_{i}.log'), 'w')
+            self.procs.append(subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+                                               stdin=subprocess.DEVNULL))
+            log.close()
+        return self
+
+    def __exit__(self, *exc):
+        stop(self.procs)
+
+    @property
+    def plant(self):
+        return self.procs[0]
+
+    def log_tail(self, name='plant.log', lines=20):
+        text = (self.dir / name).read_text(errors='replace').splitlines()
+        return '\n'.join(text[-lines:])
+
+    def result(self):
+        """The recorded run and its summary with the real-time factor."""
+        run = simulator.load_run(self.record)
+        out = simulator.summary(run)
+        out['real_time_factor'] = run.meta['simulated_time'] / max(run.meta['wall_time'], 1e-9)
+        out['mode'] = self.mode
+        return run, out
+
+
+def wait_plant(swarm, timeout, recorder=None):
+    """Wait for the plant to finish (spinning the bag recorder meanwhile)."""
+    end = time.monotonic() + timeout
+    while swarm.plant.poll() is None:
+        if time.monotonic() > end:
+            raise TimeoutError(f'the run did not finish within {timeout:g} s; plant log:\n'
+                               + swarm.log_tail())
+        if recorder is None:
+            time.sleep(0.05)
+        else:
+            recorder.spin(0.05)
+    if swarm.plant.returncode != 0:
+        raise RuntimeError(f'the plant exited with {swarm.plant.returncode}:\n'
+                           + swarm.log_tail())
+
+
+class Recording:
+    """A bag recorder node on its own context, spun by :func:`wait_plant`."""
+
+    def __init__(self, path, n, sim_time):
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.parameter import Parameter
+
+        from formation_control.ros.bag import BagRecorder, fleet_topics
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+        self.node = BagRecorder(str(path), fleet_topics(n), context=self.context,
+                                parameter_overrides=[Parameter('use_sim_time', value=sim_time)])
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def spin(self, seconds):
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=max(0.0, end - time.monotonic()))
+
+    def close(self, drain=1.0):
+        self.spin(drain)
+        self.node.close()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None):
+    """Run a fleet as processes; returns (run, summary). Every process is stopped on exit."""
+    timeout = timeout or 60.0 + 20.0 * sc.duration
+    recording = None
+    if bag is not None:
+        if Path(bag).exists():
+            raise FileExistsError(f'bag directory {bag} exists already')
+        recording = Recording(bag, sc.num_vehicles, mode == 'lockstep')
+    try:
+        with Swarm(sc, mode, real_time_factor, workdir) as swarm:
+            wait_plant(swarm, timeout, recording)
+    finally:
+        if recording is not None:
+            recording.close()
+    run, out = swarm.result()
+    out['logs'] = str(swarm.dir)
+    if bag is not None:
+        out['bag'] = str(bag)
+    return run, out
+
+
+def environment_note():
+    if 'ROS_AUTOMATIC_DISCOVERY_RANGE' not in os.environ:
+        return ('note: ROS_AUTOMATIC_DISCOVERY_RANGE is unset; set it to LOCALHOST to keep '
+                'discovery on this machine')
+    return None

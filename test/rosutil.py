@@ -1,0 +1,98 @@
+"""Test harness for real ROS 2 processes: a private domain, probe nodes, clean shutdown."""
+import os
+from pathlib import Path
+import subprocess
+import sys
+import tempfile
+import time
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+
+from formation_control.swarm import stop
+
+BIN = Path(sys.executable).parent
+CONFIG = Path(__file__).resolve().parents[1] / 'config'
+
+
+class Processes:
+    """Processes a test starts; all of them are stopped (INT, INT, KILL) at teardown."""
+
+    def __init__(self, env):
+        self.env = env
+        self.procs = []
+
+    def start(self, exe, *args):
+        log = tempfile.TemporaryFile('w+')
+        proc = subprocess.Popen([str(BIN / exe), *map(str, args)], env=self.env, stdout=log,
+                                stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL)
+        proc.log = log
+        self.procs.append(proc)
+        return proc
+
+    def run(self, exe, *args, timeout=60):
+        return subprocess.run([str(BIN / exe), *map(str, args)], env=self.env, text=True,
+                              capture_output=True, timeout=timeout, stdin=subprocess.DEVNULL)
+
+    def stop_all(self):
+        codes = stop(self.procs)
+        for proc in self.procs:
+            proc.log.close()
+        return codes
+
+
+def output(proc):
+    proc.log.seek(0)
+    return proc.log.read()
+
+
+def interrupt(proc, timeout=10.0):
+    """SIGINT once and return the exit code (None if it did not stop in time)."""
+    proc.send_signal(2)
+    try:
+        return proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None
+
+
+class Probe:
+    """An in-process node on its own context in the test's domain."""
+
+    def __init__(self, domain_id, name='probe'):
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain_id,
+                   signal_handler_options=rclpy.SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def spin_until(self, predicate, timeout=20.0):
+        end = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > end:
+                return False
+            self.executor.spin_once(timeout_sec=0.05)
+        return True
+
+    def collect(self, msg_type, topic, qos):
+        box = []
+        self.node.create_subscription(msg_type, topic, box.append, qos)
+        return box
+
+    def close(self):
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def shm_clean(env):
+    fastdds = BIN / 'fastdds'
+    if fastdds.exists():
+        subprocess.run([str(fastdds), 'shm', 'clean'], env=env, capture_output=True, timeout=30)
+
+
+def ros_environment(domain_id):
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
+               PYTHONUNBUFFERED='1')
+    env.pop('RMW_IMPLEMENTATION', None)
+    return env

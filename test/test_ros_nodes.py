@@ -1,0 +1,147 @@
+"""
+The executables as real processes (no launch_testing): what each publishes, how parameters are
+set, refused and changed, and a clean exit 0 on SIGINT.
+"""
+import math
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
+from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from formation_control.core import scenario
+from formation_control.core.control import Controller
+from formation_control.core.scenario import initial_state
+from formation_control.ros import interface as itf
+from rosutil import CONFIG, interrupt
+
+PARTICLE = CONFIG / 'particle_parallel.yaml'
+
+
+def _args(path, *params):
+    out = ['--ros-args', '--params-file', path]
+    for p in params:
+        out += ['-p', p]
+    return out
+
+
+def test_plant_publishes_initial_state_and_exits_on_sigint(ros):
+    plant = ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=3', 'flow:=[0.2, -0.1]',
+                                            'exit_when_done:=false'))
+    odom = ros.probe.collect(Odometry, '/vehicle_2/odom', itf.STATE_QOS)
+    flow = ros.probe.collect(Vector3Stamped, '/vehicle_3/flow', itf.LATCHED_QOS)
+    assert ros.probe.spin_until(lambda: odom and flow)
+    sc = scenario.load(PARTICLE, ['num_vehicles:=3', 'flow:=[0.2, -0.1]'])
+    X = initial_state(sc)[:, 1]
+    msg = odom[0]
+    assert msg.header.frame_id == 'map' and msg.child_frame_id == 'vehicle_2/base_link'
+    assert itf.stamp_ns(msg.header.stamp) == 0
+    assert (msg.pose.pose.position.x, msg.pose.pose.position.y) == pytest.approx((X[0], X[1]))
+    q = msg.pose.pose.orientation
+    assert 2 * math.atan2(q.z, q.w) == pytest.approx(math.remainder(X[2], 2 * math.pi))
+    ground_body = (1 + complex(0.2, -0.1) * np.exp(-1j * X[2]))
+    assert msg.twist.twist.linear.x == pytest.approx(ground_body.real)
+    assert msg.twist.twist.linear.y == pytest.approx(ground_body.imag)
+    assert (flow[0].vector.x, flow[0].vector.y) == pytest.approx((0.2, -0.1))
+    assert interrupt(plant) == 0
+
+
+def test_plant_owns_clock_in_lockstep(ros):
+    ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=2', 'exit_when_done:=false'))
+    clock = ros.probe.collect(Clock, '/clock', 10)
+    assert ros.probe.spin_until(lambda: clock)
+    assert clock[0].clock.sec == 0 and clock[0].clock.nanosec == 0
+
+
+def test_vehicle_answers_its_neighbours_with_state_and_command(ros):
+    """Vehicle 1 of 2 gets its odometry and vehicle 2's state for t = 0.4 s, and commands."""
+    vehicle = ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=2', 'vehicle_id:=1'))
+    node = ros.probe.node
+    odom_pub = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
+    state_pub = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
+    states = ros.probe.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = ros.probe.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    assert ros.probe.spin_until(lambda: odom_pub.get_subscription_count() > 0
+                                and state_pub.get_subscription_count() > 0)
+    sc = scenario.load(PARTICLE, ['num_vehicles:=2'])
+    ctrl = Controller(sc)
+    X = np.array([[0.5, -1.0], [1.0, 2.0], [0.3, 2.5], [0.2, -0.4], [1.0, 1.0], [0.0, 0.0]])
+    view = ctrl.view(X)
+    expected = ctrl.command(view, X[:, [0]], [0])
+    ns = 400_000_000
+    state_pub.publish(itf.state_msg(2, ns, X[:, 1], (view.r[1], view.phase[1], view.rate[1],
+                                                     view.speed[1])))
+    odom_pub.publish(itf.odom_msg(1, ns, X[:, 0], 0j))
+    assert ros.probe.spin_until(lambda: cmds and states)
+    assert list(states[0].name) == list(itf.STATE_FIELDS)
+    np.testing.assert_allclose(states[0].position, [0.5, 1.0, 0.3, 0.2, 0.3, 0.2, 1.0],
+                               atol=1e-12)
+    assert itf.stamp_ns(cmds[0].header.stamp) == ns
+    assert cmds[0].header.frame_id == 'vehicle_1/base_link'
+    assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
+    assert interrupt(vehicle) == 0
+
+
+def _call(probe, srv_type, name, request, timeout=15.0):
+    client = probe.node.create_client(srv_type, name)
+    assert client.wait_for_service(timeout_sec=timeout)
+    future = client.call_async(request)
+    assert probe.spin_until(future.done, timeout)
+    return future.result()
+
+
+def _double(name, value):
+    return ParameterMsg(name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE,
+                                                       double_value=value))
+
+
+def test_parameters_from_yaml_and_run_time_changes(ros, tmp_path):
+    params = tmp_path / 'fleet.yaml'
+    params.write_text(PARTICLE.read_text().replace('kappa: 5.0', 'kappa: 3.5'))
+    vehicle = ros.procs.start('vehicle', *_args(params, 'num_vehicles:=4', 'vehicle_id:=3'))
+    name = '/vehicle_3'
+    got = _call(ros.probe, GetParameters, f'{name}/get_parameters',
+                GetParameters.Request(names=['kappa', 'num_vehicles', 'vehicle_id']))
+    assert [v.double_value for v in got.values[:1]] == [3.5]
+    assert [v.integer_value for v in got.values[1:]] == [4, 3]
+    described = _call(ros.probe, DescribeParameters, f'{name}/describe_parameters',
+                      DescribeParameters.Request(names=['kappa', 'num_vehicles']))
+    kappa, num = described.descriptors
+    assert 'kappa' in kappa.description and not kappa.read_only and num.read_only
+    bad = _call(ros.probe, SetParameters, f'{name}/set_parameters',
+                SetParameters.Request(parameters=[_double('K', 2.0)]))
+    assert not bad.results[0].successful
+    assert "parameter 'K'" in bad.results[0].reason and 'K < 0' in bad.results[0].reason
+    locked = _call(ros.probe, SetParameters, f'{name}/set_parameters', SetParameters.Request(
+        parameters=[ParameterMsg(name='num_vehicles', value=ParameterValue(
+            type=ParameterType.PARAMETER_INTEGER, integer_value=5))]))
+    assert not locked.results[0].successful
+    ok = _call(ros.probe, SetParameters, f'{name}/set_parameters',
+               SetParameters.Request(parameters=[_double('kappa', 2.0)]))
+    assert ok.results[0].successful
+    got = _call(ros.probe, GetParameters, f'{name}/get_parameters',
+                GetParameters.Request(names=['kappa', 'K']))
+    assert [v.double_value for v in got.values] == [2.0, -1.0]
+    assert vehicle.poll() is None
+    assert interrupt(vehicle) == 0
+
+
+@pytest.mark.parametrize('exe, params, named', [
+    ('vehicle', ['vehicle_id:=1', 'kappa:=-1.0'], 'kappa out of range'),
+    ('vehicle', ['vehicle_id:=1', 'K:=1.0'], "parameter 'K' = 1.0 is invalid: formation parallel"),
+    ('vehicle', ['vehicle_id:=17'], "parameter 'vehicle_id' = 17"),
+    ('vehicle', [], "parameter 'vehicle_id'"),
+    ('vehicle', ['vehicle_id:=1', 'kapa:=1.0'], "unknown parameter(s) 'kapa'"),
+    ('plant', ['formation:=circle'], "parameter 'formation' = 'circle'"),
+    ('plant', ['mode:=fast'], "parameter 'mode' = 'fast'"),
+    ('plant', ['num_vehicles:=0'], 'num_vehicles'),
+    ('plant', ['kappa:=abc'], "parameter 'kappa' to 'abc'"),
+])
+def test_bad_parameter_at_start_up_exits_non_zero_naming_it(ros, exe, params, named):
+    result = ros.procs.run(exe, *_args(CONFIG / 'first_order_parallel.yaml', *params))
+    assert result.returncode != 0
+    assert named in result.stderr + result.stdout
