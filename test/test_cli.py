@@ -83,7 +83,7 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
     assert proc.stderr == ''
     lines = proc.stdout.splitlines()
     assert lines[0] == (f"{CONFIG / 'particle_parallel.yaml'}: 4 vehicles, second_order "
-                        'parallel (backstepping), 5 s simulated')
+                        'parallel (backstepping), 5 s simulated offline')
     assert 'wrote run.npz' in lines and 'wrote run.png' in lines
     summary = json.loads((cwd / 's.json').read_text())
     assert set(summary) == SUMMARY_KEYS
@@ -97,7 +97,8 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
 def test_npz_has_the_documented_arrays(particle_run):
     cwd, _ = particle_run
     with np.load(cwd / 'run.npz', allow_pickle=False) as npz:
-        assert set(npz.files) == {'t', 'params', *STATE_KEYS}
+        assert set(npz.files) == {'t', 'params', 'meta', 'command', *STATE_KEYS}
+        assert npz['command'].shape == (51, 4)
         t = npz['t']
         np.testing.assert_allclose(t, np.arange(51) * 0.1, atol=1e-9)
         for key in STATE_KEYS:
@@ -158,7 +159,7 @@ def test_rigid_npz_has_thrust_and_steering_force(rigid_run):
     figures = _printed_figures(proc.stdout)
     assert {'mean_u', 'mean_v'} <= set(figures)
     with np.load(cwd / 'rigid.npz', allow_pickle=False) as npz:
-        assert set(npz.files) == {'t', 'params', 'T', 'F', *STATE_KEYS}
+        assert set(npz.files) == {'t', 'params', 'meta', 'T', 'F', *STATE_KEYS}
         arrays = {k: npz[k] for k in npz.files}
     params = json.loads(arrays['params'].item())
     assert (params['model'], params['num_vehicles'], params['duration'], params['I0']) == (
@@ -215,6 +216,6 @@ def test_config_name_without_path_or_suffix_is_found(tmp_path, ament):
                    ament=ament)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith('particle_parallel: 2 vehicles, second_order parallel '
-                                  '(backstepping), 1 s simulated')
+                                  '(backstepping), 1 s simulated offline')
     summary = json.loads((tmp_path / 's.json').read_text())
     assert (summary['num_vehicles'], summary['duration']) == (2, 1.0)

@@ -26,12 +26,17 @@ class Run:
     meta: dict = field(default_factory=dict)
 
     def arrays(self):
-        """The ``.npz`` layout: t, x, y, theta, omega, u, v (T, N), T and F for rigid bodies."""
+        """
+        The ``.npz`` layout: t (T,); x, y, theta, omega, u, v (T, N); the held commands, T and F
+        (N) for rigid bodies, ``command`` for particles (rad/s^2, or rad/s for first order).
+        """
         out = {'t': self.t, 'params': np.array(self.sc.to_json()),
                'meta': np.array(json.dumps(self.meta))}
         out.update({name: self.X[:, row] for row, name in enumerate(STATE_NAMES)})
         if self.sc.model in RIGID_MODELS:
             out['T'], out['F'] = self.U[:, 0], self.U[:, 1]
+        else:
+            out['command'] = self.U[:, 1]
         return out
 
     def save(self, path):
@@ -46,6 +51,8 @@ def load_run(path):
         U = np.zeros((X.shape[0], 2, X.shape[2]))
         if 'T' in d:
             U[:, 0], U[:, 1] = d['T'], d['F']
+        else:
+            U[:, 1] = d['command']
         meta = json.loads(str(d['meta'])) if 'meta' in d else {}
         return Run(sc, d['t'].copy(), X, U, meta)
 
