@@ -20,8 +20,8 @@ $(STAMP): setup.py package.xml
 	touch $(STAMP)
 
 demo: setup
-	$(VENV)/bin/formation-control sim config/particle_circular.yaml \
-		--out demo.npz --plot demo.png
+	ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-37} $(VENV)/bin/formation-control swarm \
+		config/rigid_circular.yaml --duration 60 --out demo.npz --plot demo.png
 
 test: setup
 	$(PY) -m pytest -q

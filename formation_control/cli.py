@@ -51,10 +51,7 @@ def _report(args, sc, out, what):
         Path(args.summary).write_text(json.dumps(out, indent=2))
 
 
-def cmd_sim(args):
-    sc = _load(args)
-    run = simulator.simulate(sc)
-    _report(args, sc, simulator.summary(run), 'offline')
+def _write(args, run):
     if args.out:
         run.save(args.out)
         print(f'wrote {args.out}')
@@ -62,6 +59,13 @@ def cmd_sim(args):
         from formation_control.plotting import plot_run
         plot_run(run, args.plot)
         print(f'wrote {args.plot}')
+
+
+def cmd_sim(args):
+    sc = _load(args)
+    run = simulator.simulate(sc)
+    _report(args, sc, simulator.summary(run), 'offline')
+    _write(args, run)
     return 0
 
 
@@ -72,7 +76,7 @@ def cmd_swarm(args):
     if note:
         print(note, file=sys.stderr)
     try:
-        _, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout)
+        run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 130
@@ -80,6 +84,7 @@ def cmd_swarm(args):
         print(f'error: {err}', file=sys.stderr)
         return 1
     _report(args, sc, out, f'as ROS 2 processes ({args.mode})')
+    _write(args, run)
     return 0
 
 
@@ -90,6 +95,8 @@ def _scenario_arguments(parser):
     parser.add_argument('--seed', type=int, help='override the random seed')
     parser.add_argument('-p', '--param', action='append', default=[], metavar='NAME:=VALUE',
                         help='override any scenario parameter (repeatable)')
+    parser.add_argument('--out', help='write the run to this .npz')
+    parser.add_argument('--plot', help='write a figure to this .png')
 
 
 def build_parser():
@@ -97,8 +104,6 @@ def build_parser():
     sub = parser.add_subparsers(dest='command', required=True)
     sim = sub.add_parser('sim', help='run a scenario in the offline simulator')
     _scenario_arguments(sim)
-    sim.add_argument('--out', help='write the run to this .npz')
-    sim.add_argument('--plot', help='write a figure to this .png')
     sim.set_defaults(func=cmd_sim)
     swarm = sub.add_parser('swarm', help='run a scenario as ROS 2 processes, one per vehicle')
     _scenario_arguments(swarm)

@@ -1,0 +1,52 @@
+"""
+``colcon build`` (colcon from PyPI) produces the layout ``ros2 run`` and the ament index need:
+lib/formation_control/<exe>, share/formation_control/{package.xml, config/}, the index marker.
+"""
+import os
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+COLCON = Path(sys.executable).parent / 'colcon'
+
+
+@pytest.fixture(scope='module')
+def install(tmp_path_factory):
+    ws = tmp_path_factory.mktemp('ws')
+    shutil.copytree(ROOT, ws / 'src' / 'formation_control', ignore=shutil.ignore_patterns(
+        '.venv', 'build', 'install', 'log', '*.egg-info', '__pycache__', '.git', '*.npz',
+        '*.png', '.pytest_cache'))
+    result = subprocess.run([str(COLCON), 'build', '--event-handlers', 'console_direct-'],
+                            cwd=ws, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return ws / 'install' / 'formation_control'
+
+
+def test_installed_layout(install):
+    for exe in ('plant', 'vehicle', 'formation-control'):
+        assert os.access(install / 'lib' / 'formation_control' / exe, os.X_OK), exe
+    share = install / 'share' / 'formation_control'
+    assert (share / 'package.xml').is_file()
+    shipped = sorted(p.name for p in (ROOT / 'config').glob('*.yaml'))
+    assert sorted(p.name for p in (share / 'config').glob('*.yaml')) == shipped
+    assert (install / 'share' / 'ament_index' / 'resource_index' / 'packages'
+            / 'formation_control').is_file()
+
+
+def test_installed_console_script_finds_configs_through_the_ament_index(install, tmp_path):
+    site = next((install / 'lib').glob('python3*/site-packages'))
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(install), PYTHONPATH=str(site))
+    result = subprocess.run([str(install / 'lib' / 'formation_control' / 'formation-control'),
+                             'sim', 'rigid_parallel', '--duration', '1'], cwd=tmp_path, env=env,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert 'rigid_parallel: 5 vehicles' in result.stdout
+    probe = subprocess.run([sys.executable, '-c', 'import formation_control; '
+                            'print(formation_control.__file__)'], env=env, capture_output=True,
+                           cwd=tmp_path,
+                           text=True, timeout=60)
+    assert probe.stdout.startswith(str(site))
