@@ -79,7 +79,7 @@ def cmd_swarm(args):
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
-        return 130
+        return 0
     except (RuntimeError, TimeoutError, FileExistsError, FileNotFoundError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

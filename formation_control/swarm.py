@@ -52,7 +52,8 @@ def stop(procs, grace=(5.0, 3.0)):
 class Swarm:
     """The processes of one run; use as a context manager so they are always stopped."""
 
-    def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None):
+    def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
+                 wait_for_start=False):
         self.sc, self.mode = sc, mode
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -62,7 +63,8 @@ class Swarm:
         if mode == 'lockstep':
             common += ['-p', 'use_sim_time:=true']
         self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
-                          '-p', f'real_time_factor:={float(real_time_factor)}']]
+                          '-p', f'real_time_factor:={float(real_time_factor)}',
+                          '-p', f'wait_for_start:={str(wait_for_start).lower()}']]
         self.commands += [[executable('vehicle'), *common, '-p', f'vehicle_id:={k}']
                           for k in range(1, sc.num_vehicles + 1)]
         self.procs = []
@@ -96,8 +98,10 @@ class Swarm:
 
 
 def wait_plant(swarm, timeout, recorder=None):
-    """Wait for the plant to finish (spinning the bag recorder meanwhile)."""
+    """Wait for the plant to finish (spinning the bag recorder meanwhile, then draining it)."""
     end = time.monotonic() + timeout
+    if recorder is not None:
+        recorder.start_when_discovered(timeout)
     while swarm.plant.poll() is None:
         if time.monotonic() > end:
             raise TimeoutError(f'the run did not finish within {timeout:g} s; plant log:\n'
@@ -109,23 +113,42 @@ def wait_plant(swarm, timeout, recorder=None):
     if swarm.plant.returncode != 0:
         raise RuntimeError(f'the plant exited with {swarm.plant.returncode}:\n'
                            + swarm.log_tail())
+    if recorder is not None:
+        recorder.spin(1.0)
 
 
 class Recording:
-    """A bag recorder node on its own context, spun by :func:`wait_plant`."""
+    """
+    A bag recorder node on its own context, spun by :func:`wait_plant`. The plant holds step 0
+    until the recorder has discovered every publisher of the fleet, so the bag misses nothing.
+    """
 
     def __init__(self, path, n, sim_time):
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
+        from std_msgs.msg import Empty
 
         from formation_control.ros.bag import BagRecorder, fleet_topics
+        from formation_control.ros.interface import LATCHED_QOS
+        from formation_control.ros.plant import START_TOPIC
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+        self.topics = [t for t, _ in fleet_topics(n) if sim_time or t != '/clock']
         self.node = BagRecorder(str(path), fleet_topics(n), context=self.context,
                                 parameter_overrides=[Parameter('use_sim_time', value=sim_time)])
+        self.start = self.node.create_publisher(Empty, START_TOPIC, LATCHED_QOS)
+        self.start_msg = Empty()
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+
+    def start_when_discovered(self, timeout):
+        end = time.monotonic() + timeout
+        while any(self.node.count_publishers(t) == 0 for t in self.topics):
+            if time.monotonic() > end:
+                raise TimeoutError('the bag recorder did not discover every topic in time')
+            self.spin(0.05)
+        self.start.publish(self.start_msg)
 
     def spin(self, seconds):
         end = time.monotonic() + seconds
@@ -148,7 +171,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
             raise FileExistsError(f'bag directory {bag} exists already')
         recording = Recording(bag, sc.num_vehicles, mode == 'lockstep')
     try:
-        with Swarm(sc, mode, real_time_factor, workdir) as swarm:
+        with Swarm(sc, mode, real_time_factor, workdir, recording is not None) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

@@ -44,7 +44,7 @@ def test_realtime_fleet_converges(ros, tmp_path):
     out, _ = _swarm(ros, tmp_path, 'rigid_parallel', '--mode', 'realtime', '--duration', '15')
     assert out['mode'] == 'realtime'
     assert out['converged'], out
-    assert 0.7 < out['real_time_factor'] < 1.3
+    assert 0.5 < out['real_time_factor'] < 1.2
 
 
 def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
@@ -69,3 +69,33 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
     assert last.header.stamp.sec == 2 and last.header.stamp.nanosec == 0
     assert last.pose.pose.position.x == pytest.approx(fleet.X[-1, 0, 1], abs=1e-12)
     assert last.child_frame_id == 'vehicle_2/base_link'
+
+
+def _fleet_pids(domain_id):
+    """Processes of this test's domain running the plant or a vehicle."""
+    pids = []
+    for entry in Path('/proc').iterdir():
+        try:
+            environ = (entry / 'environ').read_bytes().split(b'\0')
+            cmdline = (entry / 'cmdline').read_bytes().split(b'\0')
+        except (OSError, ValueError):
+            continue
+        if (f'ROS_DOMAIN_ID={domain_id}'.encode() in environ
+                and any(arg.endswith((b'/plant', b'/vehicle')) for arg in cmdline)):
+            pids.append(int(entry.name))
+    return pids
+
+
+def test_swarm_stops_every_process_on_ctrl_c(ros):
+    from geometry_msgs.msg import WrenchStamped
+
+    from formation_control.ros.interface import STATE_QOS
+    swarm = ros.procs.start('formation-control', 'swarm', CONFIG / 'particle_parallel.yaml',
+                            '-p', 'num_vehicles:=3', '--duration', '600')
+    cmds = ros.probe.collect(WrenchStamped, '/vehicle_3/cmd', STATE_QOS)
+    assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
+    fleet = _fleet_pids(ros.domain_id)
+    assert len(fleet) == 4
+    swarm.send_signal(2)
+    assert swarm.wait(timeout=30) == 0
+    assert not [pid for pid in fleet if Path(f'/proc/{pid}').exists()]

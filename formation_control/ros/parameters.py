@@ -96,11 +96,22 @@ def current(node):
     return scenario.resolve(_values(node))
 
 
-def unknown_overrides(node, extra=()):
-    """Parameter names given to the node (YAML or -p) that it does not know."""
+def reject_unknown(node, extra=()):
+    """Refuse parameter names given to the node (YAML or -p) that it does not know."""
     known = set(scenario.PARAMETER_NAMES) | set(extra) | {'use_sim_time'}
-    return sorted(n for n in node._parameter_overrides
-                  if n not in known and not n.startswith('qos_overrides.'))
+    unknown = sorted(n for n in node._parameter_overrides
+                     if n not in known and not n.startswith('qos_overrides.'))
+    if unknown:
+        raise ScenarioError(f"unknown parameter(s) {', '.join(repr(u) for u in unknown)}")
+
+
+def choice(node, name, allowed):
+    """The value of a string parameter, refused unless it is one of ``allowed``."""
+    value = node.get_parameter(name).value
+    if value not in allowed:
+        raise ScenarioError(f"parameter {name!r} = {value!r} is invalid: allowed values: "
+                            f"{' | '.join(allowed)}")
+    return value
 
 
 def validator(node):

@@ -16,14 +16,15 @@ from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Empty
 
 from formation_control.core import simulator
-from formation_control.core.scenario import ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
-from formation_control.ros.vehicle import _check_node_parameters, MODES
+from formation_control.ros.vehicle import MODES
 
-NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done')
+NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start')
+START_TOPIC = '/formation/start'
 
 
 class PlantNode(Node):
@@ -42,21 +43,21 @@ class PlantNode(Node):
             read_only=True))
         self.declare_parameter('exit_when_done', True, ParameterDescriptor(
             description='exit once duration is simulated', read_only=True))
+        self.declare_parameter('wait_for_start', False, ParameterDescriptor(
+            description=f'hold step 0 until a std_msgs/Empty on {START_TOPIC} (lets a recorder '
+                        'discover every topic first)', read_only=True))
         parameters.declare(self)
-        _check_node_parameters(self, NODE_PARAMETERS)
+        parameters.reject_unknown(self, NODE_PARAMETERS)
         self.sc = sc = parameters.current(self)
-        self.mode = self.get_parameter('mode').value
-        if self.mode not in MODES:
-            raise ScenarioError(f"parameter 'mode' = {self.mode!r} is invalid: allowed values: "
-                                f"{' | '.join(MODES)}")
+        self.mode = parameters.choice(self, 'mode', MODES)
         for note in sc.warnings:
             self.get_logger().warn(note)
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
         self.n = 0
         self.wall_start = None
-        self.t0_ns = 0 if self.mode == 'lockstep' else self.get_clock().now().nanoseconds
-        self.done = False
+        self.t0_ns = 0
+        self.started = self.done = False
         n = sc.num_vehicles
         self.pending = np.zeros((2, n))
         self.got = np.zeros(n, bool)
@@ -74,10 +75,20 @@ class PlantNode(Node):
             pub.publish(itf.flow_msg(k, 0, sc.flow_c))
         self.get_logger().info(f'plant: {n} x {sc.model}, {sc.formation} ({sc.controller}), '
                                f'{self.mode}, {sc.duration:g} s')
-        self._publish_step()
+        if self.get_parameter('wait_for_start').value:
+            self.create_subscription(Empty, START_TOPIC, self._start, itf.LATCHED_QOS)
+        else:
+            self._start()
+
+    def _start(self, _msg=None):
+        if self.started:
+            return
+        self.started = True
         if self.mode == 'realtime':
-            period = sc.dt_control / self.get_parameter('real_time_factor').value
+            self.t0_ns = self.get_clock().now().nanoseconds
+            period = self.sc.dt_control / self.get_parameter('real_time_factor').value
             self.create_timer(period, self._on_timer)
+        self._publish_step()
 
     def _step_ns(self):
         return self.t0_ns + int(round(self.n * self.sc.dt_control * 1e9))
@@ -99,7 +110,7 @@ class PlantNode(Node):
                                    throttle_duration_sec=2.0)
             return
         if self.mode == 'lockstep':
-            if self.done or itf.stamp_ns(msg.header.stamp) != self._step_ns():
+            if not self.started or self.done or itf.stamp_ns(msg.header.stamp) != self._step_ns():
                 return
             self.got[k - 1] = True
         self.pending[:, k - 1] = u

@@ -39,12 +39,9 @@ class VehicleNode(Node):
             description='lockstep (event-driven, sim time) | realtime (own timer)',
             read_only=True))
         parameters.declare(self)
-        _check_node_parameters(self, ('vehicle_id', 'mode'))
+        parameters.reject_unknown(self, ('vehicle_id', 'mode'))
         self.sc = parameters.current(self)
-        self.mode = self.get_parameter('mode').value
-        if self.mode not in MODES:
-            raise ScenarioError(f"parameter 'mode' = {self.mode!r} is invalid: allowed values: "
-                                f"{' | '.join(MODES)}")
+        self.mode = parameters.choice(self, 'mode', MODES)
         if not 1 <= vehicle_id <= self.sc.num_vehicles:
             raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
                                 f'1..num_vehicles = {self.sc.num_vehicles}')
@@ -142,12 +139,6 @@ class VehicleNode(Node):
         self.F_held = U[1].copy()
         self.commanded_ns = ns
         self.cmd_pub.publish(itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model))
-
-
-def _check_node_parameters(node, extra):
-    unknown = parameters.unknown_overrides(node, extra)
-    if unknown:
-        raise ScenarioError(f"unknown parameter(s) {', '.join(repr(u) for u in unknown)}")
 
 
 def vehicle_id_from_args(context):
