@@ -11,6 +11,9 @@ from rclpy.parameter import Parameter
 from formation_control.core import scenario
 from formation_control.core.scenario import Scenario, ScenarioError
 
+MODES = ('lockstep', 'realtime')
+"""Time modes of the plant and the vehicles."""
+
 RUNTIME = ('K', 'kappa', 'omega0', 'K_p', 'u0', 'K_f', 'K_P', 'K_I', 'c0', 'informed')
 """Gains and references a running node accepts; every other scenario parameter is read-only."""
 

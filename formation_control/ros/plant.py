@@ -21,7 +21,6 @@ from std_msgs.msg import Empty
 from formation_control.core import simulator
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
-from formation_control.ros.vehicle import MODES
 
 NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start')
 START_TOPIC = '/formation/start'
@@ -49,7 +48,7 @@ class PlantNode(Node):
         parameters.declare(self)
         parameters.reject_unknown(self, NODE_PARAMETERS)
         self.sc = sc = parameters.current(self)
-        self.mode = parameters.choice(self, 'mode', MODES)
+        self.mode = parameters.choice(self, 'mode', parameters.MODES)
         for note in sc.warnings:
             self.get_logger().warn(note)
         self.stepper = simulator.Stepper(sc)

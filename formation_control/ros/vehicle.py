@@ -24,8 +24,6 @@ from formation_control.core.scenario import ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
 
-MODES = ('lockstep', 'realtime')
-
 
 class VehicleNode(Node):
     """The controller of vehicle ``vehicle_id`` (1..N)."""
@@ -41,7 +39,7 @@ class VehicleNode(Node):
         parameters.declare(self)
         parameters.reject_unknown(self, ('vehicle_id', 'mode'))
         self.sc = parameters.current(self)
-        self.mode = parameters.choice(self, 'mode', MODES)
+        self.mode = parameters.choice(self, 'mode', parameters.MODES)
         if not 1 <= vehicle_id <= self.sc.num_vehicles:
             raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
                                 f'1..num_vehicles = {self.sc.num_vehicles}')
