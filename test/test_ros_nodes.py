@@ -52,7 +52,7 @@ def test_plant_publishes_initial_state_and_exits_on_sigint(ros):
 
 def test_plant_owns_clock_in_lockstep(ros):
     ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=2', 'exit_when_done:=false'))
-    clock = ros.probe.collect(Clock, '/clock', 10)
+    clock = ros.probe.collect(Clock, '/clock', itf.LATCHED_QOS)
     assert ros.probe.spin_until(lambda: clock)
     assert clock[0].clock.sec == 0 and clock[0].clock.nanosec == 0
 

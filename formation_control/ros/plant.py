@@ -69,7 +69,7 @@ class PlantNode(Node):
                                      lambda msg, k=k: self._on_cmd(k, msg), itf.STATE_QOS)
         self.clock_pub = None
         if self.mode == 'lockstep':
-            self.clock_pub = self.create_publisher(Clock, '/clock', 10)
+            self.clock_pub = self.create_publisher(Clock, '/clock', itf.LATCHED_QOS)
         for k, pub in enumerate(self.flow_pubs, start=1):
             pub.publish(itf.flow_msg(k, 0, sc.flow_c))
         self.get_logger().info(f'plant: {n} x {sc.model}, {sc.formation} ({sc.controller}), '
