@@ -1,13 +1,14 @@
 """
 Command line: ``formation-control sim`` runs the offline simulator, ``formation-control swarm``
-runs a fleet as ROS 2 processes (plant + one process per vehicle).
+runs a fleet as ROS 2 processes (plant + one process per vehicle + monitor); ``plot`` and
+``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2 bag.
 """
 import argparse
 import json
 from pathlib import Path
 import sys
 
-from formation_control.core import scenario, simulator
+from formation_control.core import report, scenario, simulator
 
 
 def find_scenario(name):
@@ -29,12 +30,6 @@ def find_scenario(name):
     raise scenario.ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')
 
 
-def _print_summary(out):
-    for key, value in out.items():
-        text = f'{value:.6g}' if isinstance(value, float) else value
-        print(f'  {key:18s} {text}')
-
-
 def _load(args):
     sc = scenario.load(find_scenario(args.scenario), args.param,
                        duration=args.duration, seed=args.seed)
@@ -43,12 +38,20 @@ def _load(args):
     return sc
 
 
-def _report(args, sc, out, what):
-    print(f'{args.scenario}: {sc.num_vehicles} vehicles, {sc.model} {sc.formation} '
-          f'({sc.controller}), {out["duration"]:g} s simulated {what}')
-    _print_summary(out)
-    if args.summary:
-        Path(args.summary).write_text(json.dumps(out, indent=2))
+def _report(run, source, what, extra=None, summary_path=None):
+    sc = run.sc
+    out, rows = report.report(run)
+    out.update(extra or {})
+    out['final'] = {name: value for name, value, _, _ in rows}
+    out['predicted'] = {name: pred for name, _, pred, _ in rows if pred is not None}
+    title = (f'{source}: {sc.num_vehicles} vehicles, {sc.model} {sc.formation} '
+             f'({sc.controller}), {out["duration"]:g} s {what}')
+    print(report.format_report(title, out, rows))
+    for key, value in (extra or {}).items():
+        text = f'{value:.4g}' if isinstance(value, float) else value
+        print(f'  {key:20s} {text}')
+    if summary_path:
+        Path(summary_path).write_text(json.dumps(out, indent=2))
 
 
 def _write(args, run):
@@ -64,7 +67,7 @@ def _write(args, run):
 def cmd_sim(args):
     sc = _load(args)
     run = simulator.simulate(sc)
-    _report(args, sc, simulator.summary(run), 'offline')
+    _report(run, args.scenario, 'simulated offline', summary_path=args.summary)
     _write(args, run)
     return 0
 
@@ -76,15 +79,43 @@ def cmd_swarm(args):
     if note:
         print(note, file=sys.stderr)
     try:
-        run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout)
+        run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
+                                   monitor=not args.no_monitor)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
     except (RuntimeError, TimeoutError, FileExistsError, FileNotFoundError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 1
-    _report(args, sc, out, f'as ROS 2 processes ({args.mode})')
+    extra = {k: out[k] for k in ('mode', 'real_time_factor', 'logs', 'bag') if k in out}
+    _report(run, args.scenario, 'as ROS 2 processes', extra, args.summary)
     _write(args, run)
+    return 0
+
+
+def load_source(path):
+    """A run from a simulator/plant ``.npz`` or a rosbag2 bag directory."""
+    from formation_control import bagfile
+    if bagfile.is_bag(path):
+        return bagfile.read_run(path)
+    if Path(path).is_file():
+        try:
+            return simulator.load_run(path)
+        except (OSError, ValueError, KeyError) as err:
+            raise scenario.ScenarioError(f'{path}: not a run .npz ({err})') from None
+    raise scenario.ScenarioError(f'SOURCE {path!r} is neither a run .npz nor a rosbag2 bag '
+                                 f'directory (one with metadata.yaml)')
+
+
+def cmd_plot(args):
+    from formation_control.plotting import plot_run
+    plot_run(load_source(args.source), args.out)
+    print(f'wrote {args.out}')
+    return 0
+
+
+def cmd_report(args):
+    _report(load_source(args.source), args.source, 'recorded', summary_path=args.summary)
     return 0
 
 
@@ -113,7 +144,17 @@ def build_parser():
     swarm.add_argument('--bag', help='record every topic to this new rosbag2 directory (MCAP)')
     swarm.add_argument('--timeout', type=float,
                        help='give up after this many wall seconds (default 60 + 20 x duration)')
+    swarm.add_argument('--no-monitor', action='store_true',
+                       help='do not start the monitor node (no metrics or diagnostics)')
     swarm.set_defaults(func=cmd_swarm)
+    plot = sub.add_parser('plot', help='draw the figures of a run (.npz or bag)')
+    plot.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
+    plot.add_argument('--out', required=True, help='PNG file to write')
+    plot.set_defaults(func=cmd_plot)
+    rep = sub.add_parser('report', help='convergence and steady state of a run (.npz or bag)')
+    rep.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
+    rep.add_argument('--summary', help='write the figures to this .json')
+    rep.set_defaults(func=cmd_report)
     return parser
 
 

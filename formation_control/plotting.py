@@ -1,6 +1,7 @@
 """
-Thesis-style figures of a run: trajectories with heading (and ground-velocity) arrows, turning
-rate over time, and for rigid bodies speeds and crab angles.
+Thesis-style figures of a run: trajectories with heading (and ground-velocity) arrows; turning
+rate and speeds; crab angles; the composite Lyapunov value on a log scale. They draw
+:func:`report.series`, so a run from the simulator, the plant's ``.npz`` or a bag looks the same.
 """
 import matplotlib
 
@@ -8,43 +9,65 @@ matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from formation_control.core.metrics import crab_angles  # noqa: E402
 from formation_control.core.models import RIGID_MODELS  # noqa: E402
+from formation_control.core.report import series  # noqa: E402
 
 
-def _arrows(ax, X, flow, length):
-    ax.quiver(X[0], X[1], np.cos(X[2]), np.sin(X[2]), color='k', angles='xy',
+def _arrows(ax, d, flow, length):
+    x, y, theta = d['x'][-1], d['y'][-1], d['theta'][-1]
+    ax.quiver(x, y, np.cos(theta), np.sin(theta), color='k', angles='xy',
               scale_units='xy', scale=1.0 / length, width=0.005, label='heading')
     if flow != 0:
-        vel = (X[4] + 1j * X[5]) * np.exp(1j * X[2]) + flow
-        ax.quiver(X[0], X[1], vel.real, vel.imag, color='r', angles='xy', scale_units='xy',
+        ground = d['speed'][-1] * np.exp(1j * (theta + d['beta_hat'][-1]))
+        ax.quiver(x, y, ground.real, ground.imag, color='r', angles='xy', scale_units='xy',
                   scale=1.0 / length, width=0.005, label='ground velocity')
 
 
-def plot_run(run, path):
-    """Write the figure of ``run`` (a :class:`simulator.Run`) to ``path`` (PNG)."""
-    sc = run.sc
-    rigid = sc.model in RIGID_MODELS
-    fig, axes = plt.subplots(1, 3 if rigid else 2, figsize=(16 if rigid else 11, 5))
-    ax = axes[0]
-    ax.plot(run.X[:, 0], run.X[:, 1], lw=0.8)
-    ax.plot(run.X[0, 0], run.X[0, 1], 'o', color='0.5', ms=3, label='start')
-    span = np.ptp(run.X[:, 0]) + np.ptp(run.X[:, 1])
-    _arrows(ax, run.X[-1], sc.flow_c, 0.04 * span)
+def _trajectories(ax, d, sc):
+    ax.plot(d['x'], d['y'], lw=0.8)
+    ax.plot(d['x'][0], d['y'][0], 'o', color='0.5', ms=3, label='start')
+    span = np.ptp(d['x']) + np.ptp(d['y'])
+    _arrows(ax, d, sc.flow_c, 0.04 * span)
     ax.legend(loc='upper right', fontsize='small')
     ax.set(xlabel='x (m)', ylabel='y (m)', aspect='equal',
            title=f'{sc.model} {sc.formation}, {sc.controller}, N={sc.num_vehicles}')
-    axes[1].plot(run.t, run.X[:, 3], lw=0.8)
-    axes[1].set(xlabel='t (s)', ylabel='turning rate omega (rad/s)', title='turning rate')
+
+
+def _rates(ax, d, rigid):
+    ax.plot(d['t'], d['omega'], lw=0.8)
+    ax.set(xlabel='t (s)', ylabel='turning rate omega (rad/s)', title='turning rate')
     if rigid:
-        speed = np.hypot(run.X[:, 4], run.X[:, 5])
-        axes[1].plot(run.t, speed, lw=0.6, ls=':', color='0.4')
-        axes[1].set(ylabel='omega (rad/s); speed s (m/s, dotted)')
-        beta, beta_hat = crab_angles(run.X.transpose(1, 0, 2), sc.flow_c)
-        axes[2].plot(run.t, np.degrees(beta), lw=0.8, color='tab:blue')
-        axes[2].plot(run.t, np.degrees(beta_hat), lw=0.8, color='tab:red', ls='--')
-        axes[2].set(xlabel='t (s)', ylabel='deg',
-                    title='crab angles beta (solid), beta_hat (dashed)')
+        ax.plot(d['t'], d['speed'], lw=0.6, ls=':', color='0.4')
+        ax.set(ylabel='omega (rad/s); ground speed (m/s, dotted)',
+               title='turning rate and speed')
+
+
+def _crab(ax, d):
+    ax.plot(d['t'], np.degrees(d['beta']), lw=0.8, color='tab:blue')
+    ax.plot(d['t'], np.degrees(d['beta_hat']), lw=0.8, color='tab:red', ls='--')
+    ax.set(xlabel='t (s)', ylabel='deg', title='crab angles beta (solid), beta_hat (dashed)')
+
+
+def _lyapunov(ax, d):
+    ax.semilogy(d['t'], np.maximum(d['lyapunov'], 1e-300), lw=0.9, color='k')
+    ax.set(xlabel='t (s)', ylabel='V_c', title='composite Lyapunov value (2.10)')
+
+
+def plot_run(run, path):
+    """Write the figure of ``run`` (a :class:`simulator.Run`) to ``path`` (PNG); returns the data."""
+    sc = run.sc
+    d = series(run)
+    rigid = sc.model in RIGID_MODELS
+    fig, axes = plt.subplots(2, 2, figsize=(13, 10))
+    _trajectories(axes[0, 0], d, sc)
+    _rates(axes[0, 1], d, rigid)
+    if rigid:
+        _crab(axes[1, 0], d)
+    else:
+        axes[1, 0].plot(d['t'], d['order'], lw=0.9, color='k')
+        axes[1, 0].set(xlabel='t (s)', ylabel='|p|', title='order parameter |p| (1.10)')
+    _lyapunov(axes[1, 1], d)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
+    return d

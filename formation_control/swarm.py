@@ -1,6 +1,6 @@
 """
-``formation-control swarm``: a fleet as real processes, the plant and one ``vehicle`` process
-per vehicle (the executables ``ros2 run`` starts), optionally recorded to a bag.
+``formation-control swarm``: a fleet as real processes, the plant, one ``vehicle`` process per
+vehicle and the ``monitor`` (the executables ``ros2 run`` starts), optionally recorded to a bag.
 """
 import os
 from pathlib import Path
@@ -14,6 +14,8 @@ import time
 import yaml
 
 from formation_control.core import simulator
+
+MONITOR_TOPICS = ('/formation/metrics', '/diagnostics')
 
 
 def write_params(sc, path):
@@ -53,7 +55,7 @@ class Swarm:
     """The processes of one run; use as a context manager so they are always stopped."""
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
-                 wait_for_start=False):
+                 wait_for_start=False, monitor=True):
         self.sc, self.mode = sc, mode
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -67,11 +69,16 @@ class Swarm:
                           '-p', f'wait_for_start:={str(wait_for_start).lower()}']]
         self.commands += [[executable('vehicle'), *common, '-p', f'vehicle_id:={k}']
                           for k in range(1, sc.num_vehicles + 1)]
+        self.logs = ['plant.log'] + [f'vehicle_{k}.log' for k in range(1, sc.num_vehicles + 1)]
+        if monitor:
+            self.commands.append([executable('monitor'), '--ros-args', '-p',
+                                  f'use_sim_time:={str(mode == "lockstep").lower()}'])
+            self.logs.append('monitor.log')
         self.procs = []
 
     def __enter__(self):
-        for i, cmd in enumerate(self.commands):
-            log = open(self.dir / ('plant.log' if i == 0 else f'vehicle_{i}.log'), 'w')
+        for cmd, name in zip(self.commands, self.logs):
+            log = open(self.dir / name, 'w')
             self.procs.append(subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
                                                stdin=subprocess.DEVNULL))
             log.close()
@@ -83,6 +90,13 @@ class Swarm:
     @property
     def plant(self):
         return self.procs[0]
+
+    def check(self):
+        """Raise if a process other than the plant has exited while the plant runs."""
+        for proc, name in zip(self.procs[1:], self.logs[1:]):
+            if proc.poll() is not None:
+                raise RuntimeError(f'{name[:-4]} exited with {proc.returncode} during the run:\n'
+                                   + self.log_tail(name))
 
     def log_tail(self, name='plant.log', lines=20):
         text = (self.dir / name).read_text(errors='replace').splitlines()
@@ -101,8 +115,9 @@ def wait_plant(swarm, timeout, recorder=None):
     """Wait for the plant to finish (spinning the bag recorder meanwhile, then draining it)."""
     end = time.monotonic() + timeout
     if recorder is not None:
-        recorder.start_when_discovered(timeout)
+        recorder.start_when_discovered(timeout, swarm.check)
     while swarm.plant.poll() is None:
+        swarm.check()
         if time.monotonic() > end:
             raise TimeoutError(f'the run did not finish within {timeout:g} s; plant log:\n'
                                + swarm.log_tail())
@@ -123,9 +138,9 @@ class Recording:
     until the recorder has discovered every publisher of the fleet, so the bag misses nothing.
     """
 
-    def __init__(self, path, n, sim_time):
+    def __init__(self, path, n, sim_time, monitor=True):
         import rclpy
-        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.experimental import EventsExecutor
         from rclpy.parameter import Parameter
         from std_msgs.msg import Empty
 
@@ -134,17 +149,19 @@ class Recording:
         from formation_control.ros.plant import START_TOPIC
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
-        self.topics = [t for t, _ in fleet_topics(n) if sim_time or t != '/clock']
-        self.node = BagRecorder(str(path), fleet_topics(n), context=self.context,
+        topics = [t for t in fleet_topics(n) if monitor or t[0] not in MONITOR_TOPICS]
+        self.topics = [t for t, _, _ in topics if sim_time or t != '/clock']
+        self.node = BagRecorder(str(path), topics, context=self.context,
                                 parameter_overrides=[Parameter('use_sim_time', value=sim_time)])
         self.start = self.node.create_publisher(Empty, START_TOPIC, LATCHED_QOS)
         self.start_msg = Empty()
-        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor = EventsExecutor(context=self.context)
         self.executor.add_node(self.node)
 
-    def start_when_discovered(self, timeout):
+    def start_when_discovered(self, timeout, check):
         end = time.monotonic() + timeout
         while any(self.node.count_publishers(t) == 0 for t in self.topics):
+            check()
             if time.monotonic() > end:
                 raise TimeoutError('the bag recorder did not discover every topic in time')
             self.spin(0.05)
@@ -162,16 +179,18 @@ class Recording:
         self.context.try_shutdown()
 
 
-def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None):
+def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
+              monitor=True):
     """Run a fleet as processes; returns (run, summary). Every process is stopped on exit."""
     timeout = timeout or 60.0 + 20.0 * sc.duration
     recording = None
     if bag is not None:
         if Path(bag).exists():
             raise FileExistsError(f'bag directory {bag} exists already')
-        recording = Recording(bag, sc.num_vehicles, mode == 'lockstep')
+        recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor)
     try:
-        with Swarm(sc, mode, real_time_factor, workdir, recording is not None) as swarm:
+        with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
+                   monitor) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

@@ -18,7 +18,7 @@ CLI = Path(sys.executable).parent / 'formation-control'
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 STATE_KEYS = ('x', 'y', 'theta', 'omega', 'u', 'v')
 SUMMARY_KEYS = {'num_vehicles', 'duration', 'converged', 'convergence_time', 'order_parameter',
-                'lyapunov', 'max_turn_rate'}
+                'lyapunov', 'max_turn_rate', 'final', 'predicted'}
 PARTICLE_OVERRIDES = ['num_vehicles:=4', 'duration:=5.0', 'flow:=[0.2, 0.1]', 'kappa:=4.0']
 AMENT_CASES = pytest.mark.parametrize('ament', [
     pytest.param(True, id='ament_prefix_set'),
@@ -37,16 +37,14 @@ def run_cli(cwd, *args, ament=True):
 
 
 def _printed_figures(stdout):
+    """The report rows: name -> (final, predicted or None)."""
     figures = {}
     for line in stdout.splitlines():
-        if line.startswith('  '):
-            key, value = line.split(None, 1)
-            figures[key] = value
+        words = line.split()
+        if line.startswith('  ') and words[0] not in ('converged', 'quantity'):
+            predicted = words[2] if len(words) > 2 else None
+            figures[words[0]] = (words[1], predicted)
     return figures
-
-
-def _formatted(value):
-    return f'{value:.6g}' if isinstance(value, float) else str(value)
 
 
 def _params(npz):
@@ -87,7 +85,13 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
     assert 'wrote run.npz' in lines and 'wrote run.png' in lines
     summary = json.loads((cwd / 's.json').read_text())
     assert set(summary) == SUMMARY_KEYS
-    assert _printed_figures(proc.stdout) == {k: _formatted(v) for k, v in summary.items()}
+    printed = _printed_figures(proc.stdout)
+    assert {k: v[0] for k, v in printed.items()} == {
+        k: f'{v:.6g}' for k, v in summary['final'].items()}
+    assert {k: v[1] for k, v in printed.items() if v[1] is not None} == {
+        k: f'{v:.6g}' for k, v in summary['predicted'].items()}
+    assert summary['final']['order_parameter'] == summary['order_parameter']
+    assert f"converged          {'yes' if summary['converged'] else 'no'}" in proc.stdout
     assert summary['num_vehicles'] == 4
     assert summary['duration'] == 5.0
     assert isinstance(summary['converged'], bool)
@@ -157,7 +161,7 @@ def test_rigid_npz_has_thrust_and_steering_force(rigid_run):
     assert proc.returncode == 0, proc.stderr
     assert 'rigid_parallel.yaml: 3 vehicles, rigid parallel (backstepping)' in proc.stdout
     figures = _printed_figures(proc.stdout)
-    assert {'mean_u', 'mean_v'} <= set(figures)
+    assert {'speed_error', 'crab_angle', 'crab_angle_inertial'} <= set(figures)
     with np.load(cwd / 'rigid.npz', allow_pickle=False) as npz:
         assert set(npz.files) == {'t', 'params', 'meta', 'T', 'F', *STATE_KEYS}
         arrays = {k: npz[k] for k in npz.files}
@@ -219,3 +223,22 @@ def test_config_name_without_path_or_suffix_is_found(tmp_path, ament):
                                   '(backstepping), 1 s simulated offline')
     summary = json.loads((tmp_path / 's.json').read_text())
     assert (summary['num_vehicles'], summary['duration']) == (2, 1.0)
+
+
+@pytest.mark.parametrize('command', ['report', 'plot'])
+def test_plot_and_report_refuse_a_source_that_is_no_run(tmp_path, command):
+    (tmp_path / 'notes.txt').write_text('not a run')
+    for source in (tmp_path / 'missing', tmp_path / 'notes.txt', tmp_path):
+        extra = ['--out', str(tmp_path / 'x.png')] if command == 'plot' else []
+        proc = subprocess.run([str(CLI), command, str(source), *extra],
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode == 2, proc.stderr
+        assert str(source) in proc.stderr and 'error:' in proc.stderr
+
+
+def test_report_of_an_npz_repeats_the_figures_of_the_run(particle_run):
+    cwd, proc = particle_run
+    again = subprocess.run([str(CLI), 'report', 'run.npz'], cwd=cwd,
+                           capture_output=True, text=True, timeout=60)
+    assert again.returncode == 0, again.stderr
+    assert _printed_figures(again.stdout) == _printed_figures(proc.stdout)

@@ -106,6 +106,15 @@ def steering_force(a, X, plant, cancel_drag_moment=True):
     return -plant.I0 * a / plant.l
 
 
+def command_limits(sc):
+    """(2,) bounds on |U| rows: (T, F) for rigid bodies, (-, turn input) for particles; inf = none."""
+    if sc.model in RIGID_MODELS:
+        limits = (sc.max_thrust, sc.max_steering_force)
+    else:
+        limits = (0.0, sc.max_turn_rate if sc.model == 'first_order' else sc.max_angular_accel)
+    return np.array([v if v > 0 else np.inf for v in limits])
+
+
 class Controller:
     """
     Decentralised formation controller of one scenario (see :mod:`scenario`).
@@ -126,6 +135,7 @@ class Controller:
         self.use_heading = sc.formation == 'parallel' and sc.flow_c == 0
         self.full = sc.controller == 'pi' or sc.law_variant == 'full'
         self.integral = None
+        self.limits = command_limits(sc)
 
     def thrust(self, X):
         """Thrust (7.1)/(8.10) for rigid bodies, zero for particles."""
@@ -161,11 +171,19 @@ class Controller:
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation, view, idx)
             U_[1] = body_rate_from_inertial(w, X[THETA], self.plant.flow)
-            return U_
+            return self.saturate(U_)
         lam = self.phase_accel(view, idx)
         if self.rigid:
             U_[0] = self.thrust(X)
             U_[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
             U_[1] = body_accel_from_inertial(lam, X[THETA], X[OMEGA], self.plant.flow)
-        return U_
+        return self.saturate(U_)
+
+    def saturate(self, U_):
+        """Clip each input row to its limit (:func:`command_limits`)."""
+        return np.clip(U_, -self.limits[:, None], self.limits[:, None])
+
+    def saturated(self, U_):
+        """(n,) bool: the vehicle's command sits on a limit."""
+        return np.any(abs(np.asarray(U_)) >= self.limits[:, None] * (1 - 1e-9), axis=0)

@@ -17,7 +17,7 @@ RADIUS_TOL = 1e-2        # circular: relative error of the mean radius
 
 @dataclass(frozen=True)
 class Snapshot:
-    """Formation quantities at one instant."""
+    """Formation quantities at one instant (SI units; nan where the scenario has no such value)."""
 
     order: float           # |p| of the steered phase (1.10)
     potential: float       # V of the formation (1.11), (1.14), (7.18)
@@ -25,19 +25,40 @@ class Snapshot:
     spread: float          # max_k |c_k - mean(c)| (m)
     radius: float          # mean_k |r_k - mean(c)| (m)
     max_rate: float        # max_k |phase rate| (rad/s)
+    centre: complex = complex(np.nan, np.nan)   # mean(c) (m)
+    speed_error: float = np.nan      # mean_k |u_k - u0| (m/s), rigid bodies (7.1)
+    crab: float = np.nan             # mean_k beta_k = atan2(v, u) (rad) (7.11)
+    crab_inertial: float = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
+
+    def values(self):
+        """Named values for messages and reports, leaving out those that do not apply."""
+        out = {'order_parameter': self.order, 'potential': self.potential,
+               'lyapunov': self.lyapunov, 'max_turn_rate': self.max_rate,
+               'centre_spread': self.spread, 'radius': self.radius,
+               'centre_x': self.centre.real, 'centre_y': self.centre.imag,
+               'speed_error': self.speed_error, 'crab_angle': self.crab,
+               'crab_angle_inertial': self.crab_inertial}
+        return {k: float(v) for k, v in out.items() if not np.isnan(v)}
 
 
-def snapshot(ctrl, view):
-    """Metrics of one view under the controller's formation law."""
+def snapshot(ctrl, X, inputs):
+    """Metrics of the states X (6, N) with held inputs (2, N) under the controller's law."""
+    view = ctrl.view(X, inputs[1])
     f = ctrl.formation
-    order = float(abs(view.e.mean()))
-    spread = radius = float('nan')
+    extra = {}
     if isinstance(f, laws.Circular):
         c = f.centres(view)
-        spread = float(np.max(abs(c - c.mean())))
-        radius = float(np.mean(abs(view.r - c.mean())))
-    return Snapshot(order, float(f.potential(view)), float(laws.composite_lyapunov(f, view)),
-                    spread, radius, float(np.max(abs(view.rate))))
+        extra.update(spread=float(np.max(abs(c - c.mean()))),
+                     radius=float(np.mean(abs(view.r - c.mean()))), centre=complex(c.mean()))
+    else:
+        extra.update(spread=np.nan, radius=np.nan)
+    if ctrl.rigid:
+        beta, beta_hat = crab_angles(X, ctrl.sc.flow_c)
+        extra.update(speed_error=float(np.mean(abs(X[U] - ctrl.sc.u0))),
+                     crab=float(beta.mean()), crab_inertial=float(beta_hat.mean()))
+    return Snapshot(float(abs(view.e.mean())), float(f.potential(view)),
+                    float(laws.composite_lyapunov(f, view)), max_rate=float(np.max(abs(view.rate))),
+                    **extra)
 
 
 def converged(sc, snap):
@@ -46,6 +67,18 @@ def converged(sc, snap):
         return snap.order > ORDER_TOL and snap.max_rate < RATE_TOL
     radius_error = abs(snap.radius * abs(sc.omega0) - 1.0)
     return snap.spread < SPREAD_TOL and radius_error < RADIUS_TOL
+
+
+def vehicles_converged(ctrl, view):
+    """(N,) bool: each vehicle meets its own share of :func:`converged`."""
+    f = ctrl.formation
+    if isinstance(f, laws.Circular):
+        c = f.centres(view)
+        radius_error = abs(abs(view.r - c.mean()) * abs(f.omega0) - 1.0)
+        return (abs(c - c.mean()) < SPREAD_TOL) & (radius_error < RADIUS_TOL)
+    p = view.e.mean()
+    aligned = np.cos(view.phase - np.angle(p)) > ORDER_TOL
+    return aligned & (abs(view.rate) < RATE_TOL)
 
 
 def convergence_time(t, flags):

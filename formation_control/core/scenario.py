@@ -44,6 +44,8 @@ class Scenario:
     flow [fx, fy] (m/s), K_p. Chapter 6-8 and Appendix A (rigid bodies): u0 (m/s), K_f,
     K_P, K_I, m0 (kg), I0 (kg m^2), l (m), h (kg/m), l1 (m), c0 [x, y] (m), informed
     (vehicle ids 1..N that know c0), law_variant (practical | full), cancel_drag_moment.
+    Command limits (0 = none): max_thrust, max_steering_force (N, rigid bodies),
+    max_angular_accel (rad/s^2, second order), max_turn_rate (rad/s, first order).
     Run: seed, dt_control and dt_integration (s), duration (s), record_dt (s), init_box (m,
     side of the square of random positions), init_* (explicit initial states, empty = random).
     When K is not given it takes the thesis' value for the formation (-1 parallel, +1 circular).
@@ -71,6 +73,10 @@ class Scenario:
     informed: tuple = ()
     law_variant: str = 'practical'
     cancel_drag_moment: bool = True
+    max_thrust: float = 0.0
+    max_steering_force: float = 0.0
+    max_angular_accel: float = 0.0
+    max_turn_rate: float = 0.0
     seed: int = 0
     dt_control: float = 0.02
     dt_integration: float = 0.002
@@ -113,6 +119,7 @@ class Scenario:
         return json.dumps(self.to_dict(), sort_keys=True)
 
 
+LIMITS = ('max_thrust', 'max_steering_force', 'max_angular_accel', 'max_turn_rate')
 PARAMETER_NAMES = tuple(f.name for f in fields(Scenario) if f.name != 'warnings')
 _DEFAULTS = Scenario()
 
@@ -201,6 +208,9 @@ def _check_gains(sc):
             _fail('K', sc.K, 'formation circular needs K > 0 (1.16), (3.14)')
         if sc.omega0 == 0:
             _fail('omega0', sc.omega0, 'formation circular needs omega0 != 0 (radius 1/|omega0|)')
+    for name in LIMITS:
+        if getattr(sc, name) < 0:
+            _fail(name, getattr(sc, name), 'must be >= 0 (0 = no limit)')
     _positive(sc, 'kappa', 'K_p', 'dt_control', 'dt_integration', 'duration', 'record_dt',
               'init_box')
     if sc.dt_integration > sc.dt_control or abs(

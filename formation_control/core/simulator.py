@@ -118,7 +118,7 @@ def summary(run):
     """Convergence figures of a run: final metrics, convergence flag and time."""
     sc = run.sc
     ctrl = Controller(sc)
-    snaps = [metrics.snapshot(ctrl, ctrl.view(X, U[1])) for X, U in zip(run.X, run.U)]
+    snaps = [metrics.snapshot(ctrl, X, U) for X, U in zip(run.X, run.U)]
     flags = [metrics.converged(sc, s) for s in snaps]
     final = snaps[-1]
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),

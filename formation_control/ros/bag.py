@@ -1,32 +1,51 @@
 """
-Record topics of a run into a rosbag2 bag (MCAP storage) with the ``rosbags`` library, the
-format ``ros2 bag info`` / ``ros2 bag play`` read. Messages are written as received (CDR bytes).
+Record topics of a run into a rosbag2 bag (MCAP storage, metadata version 9, what Jazzy's
+``ros2 bag info`` / ``ros2 bag play`` read) with the ``rosbags`` library. Messages are written
+as received (CDR bytes), each topic with the QoS its publishers offer.
 """
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability
+from rosbags.interfaces import QosTime
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
 
 from formation_control.ros import interface as itf
 
-def _record_qos(durability):
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, durability=durability,
-                      reliability=ReliabilityPolicy.RELIABLE)
-
-
-RECORD_QOS = _record_qos(DurabilityPolicy.TRANSIENT_LOCAL)
-CLOCK_QOS = _record_qos(DurabilityPolicy.VOLATILE)
+STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.VOLATILE)
+"""``/formation/metrics``, ``/formation/markers`` and ``/diagnostics``."""
 
 
 def fleet_topics(n):
-    """(topic, ROS type name) of every topic a fleet of n vehicles uses."""
-    topics = [('/clock', 'rosgraph_msgs/msg/Clock')]
+    """(topic, ROS type name, QoS) of every topic a fleet of n vehicles uses."""
+    topics = [('/clock', 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
+              (itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
+              (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', STREAM_QOS),
+              ('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', STREAM_QOS)]
     for k in range(1, n + 1):
-        topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry'),
-                   (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped'),
-                   (itf.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState'),
-                   (itf.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped')]
+        topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
+                   (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),
+                   (itf.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
+                    itf.STATE_QOS),
+                   (itf.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped', itf.STATE_QOS)]
     return topics
+
+
+def bag_qos(qos):
+    """The rosbags form of an rclpy QoS profile (written to metadata.yaml)."""
+    zero = QosTime(sec=0, nsec=0)
+    return Qos(history=QosHistory.KEEP_LAST, depth=qos.depth,
+               reliability=QosReliability[qos.reliability.name],
+               durability=QosDurability[qos.durability.name], deadline=zero, lifespan=zero,
+               liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=zero,
+               avoid_ros_namespace_conventions=False)
+
+
+def _record_qos(qos):
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                      reliability=qos.reliability, durability=qos.durability)
 
 
 def _msg_class(type_name):
@@ -36,7 +55,7 @@ def _msg_class(type_name):
 
 
 class BagRecorder(Node):
-    """Subscribes to ``topics`` and writes every message to a bag at ``path``."""
+    """Subscribes to ``topics`` ((name, type, QoS)) and writes every message to a bag at ``path``."""
 
     def __init__(self, path, topics, **kwargs):
         super().__init__('formation_bag_recorder', **kwargs)
@@ -44,11 +63,12 @@ class BagRecorder(Node):
         self.writer.open()
         typestore = get_typestore(Stores.ROS2_JAZZY)
         self.count = 0
-        for name, type_name in topics:
-            conn = self.writer.add_connection(name, type_name, typestore=typestore)
+        for name, type_name, qos in topics:
+            conn = self.writer.add_connection(name, type_name, typestore=typestore,
+                                              offered_qos_profiles=[bag_qos(qos)])
             self.create_subscription(_msg_class(type_name), name,
                                      lambda data, conn=conn: self._write(conn, data),
-                                     CLOCK_QOS if name == '/clock' else RECORD_QOS, raw=True)
+                                     _record_qos(qos), raw=True)
 
     def _write(self, conn, data):
         self.writer.write(conn, self.get_clock().now().nanoseconds, data)

@@ -17,6 +17,10 @@ topic                          type                             content
                                                                 (first_order)
 =============================  ===============================  ==============================
 
+Fleet-wide: ``/formation/scenario`` (std_msgs/String, latched: the plant's scenario as JSON),
+``/formation/metrics`` (sensor_msgs/JointState: :data:`METRIC_DOC` names in ``name``, values
+in ``position``), ``/diagnostics`` and ``/formation/markers`` (from the ``monitor`` node).
+
 Every stamp is the time of the state it carries; in lockstep it names the step.
 """
 import math
@@ -26,10 +30,27 @@ from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 from formation_control.core.models import OMEGA, PARTICLE_MODELS, THETA, U, V
 
 MAP_FRAME = 'map'
+SCENARIO_TOPIC = '/formation/scenario'
+METRICS_TOPIC = '/formation/metrics'
+MARKERS_TOPIC = '/formation/markers'
+METRIC_DOC = {
+    'order_parameter': '|p|, modulus of the mean phase vector (1.10); 1 = parallel',
+    'potential': 'formation potential V (1.11), (1.14), (7.18)',
+    'lyapunov': 'composite Lyapunov value V_c = V + sum z_k^2 / 2 (2.10)',
+    'max_turn_rate': 'max_k |phase rate| (rad/s)',
+    'centre_spread': 'circular: max_k |c_k - mean c| (m), c_k = r_k + i e_k / omega0',
+    'radius': 'circular: mean_k |r_k - mean c| (m); target 1/|omega0|',
+    'centre_x': 'circular: mean circle centre, x (m, map)',
+    'centre_y': 'circular: mean circle centre, y (m, map)',
+    'speed_error': 'rigid bodies: mean_k |u_k - u0| (m/s)',
+    'crab_angle': 'rigid bodies: mean_k beta_k = atan2(v_k, u_k) (rad), flow-relative',
+    'crab_angle_inertial': 'rigid bodies: mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)',
+}
 STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
 """formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s)."""
 
@@ -124,4 +145,18 @@ def state_msg(k, ns, X, view_row):
     msg.name = list(STATE_FIELDS)
     r, phase, rate, speed = view_row
     msg.position = [r.real, r.imag, float(X[THETA]), float(X[OMEGA]), phase, rate, speed]
+    return msg
+
+
+def scenario_msg(sc):
+    return String(data=sc.to_json())
+
+
+def metrics_msg(ns, values):
+    """``/formation/metrics``: JointState with the metric names and their values (position)."""
+    msg = JointState()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = MAP_FRAME
+    msg.name = list(values)
+    msg.position = [float(v) for v in values.values()]
     return msg

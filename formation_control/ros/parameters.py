@@ -14,7 +14,8 @@ from formation_control.core.scenario import Scenario, ScenarioError
 MODES = ('lockstep', 'realtime')
 """Time modes of the plant and the vehicles."""
 
-RUNTIME = ('K', 'kappa', 'omega0', 'K_p', 'u0', 'K_f', 'K_P', 'K_I', 'c0', 'informed')
+RUNTIME = ('K', 'kappa', 'omega0', 'K_p', 'u0', 'K_f', 'K_P', 'K_I', 'c0', 'informed',
+           *scenario.LIMITS)
 """Gains and references a running node accepts; every other scenario parameter is read-only."""
 
 DOCS = {
@@ -40,6 +41,10 @@ DOCS = {
     'informed': 'ids (1..N) of the vehicles that know c0',
     'law_variant': 'rigid-body steering: practical (thesis) | full (s\', beta\' terms)',
     'cancel_drag_moment': 'cancel the centre-of-pressure drag moment (A.20)',
+    'max_thrust': 'thrust limit |T| (N), rigid bodies; 0 = none',
+    'max_steering_force': 'steering force limit |F| (N), rigid bodies; 0 = none',
+    'max_angular_accel': 'angular acceleration limit (rad/s^2), second_order; 0 = none',
+    'max_turn_rate': 'turn-rate command limit (rad/s), first_order; 0 = none',
     'seed': 'random seed of the initial conditions',
     'dt_control': 'control period (s), > 0',
     'dt_integration': 'integration step (s), divides dt_control',
@@ -60,7 +65,7 @@ EMPTY_TYPES = {'informed': Parameter.Type.INTEGER_ARRAY}
 
 def _descriptor(name, read_only):
     d = ParameterDescriptor(description=DOCS[name], read_only=read_only)
-    if name in POSITIVE:
+    if name in POSITIVE or name in scenario.LIMITS:
         d.floating_point_range = [FloatingPointRange(from_value=0.0, to_value=1e9)]
     if name == 'num_vehicles':
         d.integer_range = [IntegerRange(from_value=1, to_value=100_000, step=1)]

@@ -16,7 +16,7 @@ from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Empty
+from std_msgs.msg import Empty, String
 
 from formation_control.core import simulator
 from formation_control.ros import interface as itf
@@ -72,6 +72,8 @@ class PlantNode(Node):
             self.clock_pub = self.create_publisher(Clock, '/clock', itf.LATCHED_QOS)
         for k, pub in enumerate(self.flow_pubs, start=1):
             pub.publish(itf.flow_msg(k, 0, sc.flow_c))
+        self.scenario_pub = self.create_publisher(String, itf.SCENARIO_TOPIC, itf.LATCHED_QOS)
+        self.scenario_pub.publish(itf.scenario_msg(sc))
         self.get_logger().info(f'plant: {n} x {sc.model}, {sc.formation} ({sc.controller}), '
                                f'{self.mode}, {sc.duration:g} s')
         if self.get_parameter('wait_for_start').value:

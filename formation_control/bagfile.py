@@ -1,0 +1,96 @@
+"""
+Read a rosbag2 bag written by ``swarm --bag`` (or ``ros2 bag record`` of the same topics) with
+the ``rosbags`` library: the run it holds, as the simulator's :class:`simulator.Run`, and the
+series of ``/formation/metrics`` and ``/diagnostics``.
+"""
+from collections import defaultdict
+import json
+from pathlib import Path
+
+import numpy as np
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
+
+from formation_control.core.models import OMEGA
+from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.simulator import Run
+from formation_control.ros import interface as itf
+
+
+def is_bag(path):
+    return Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists()
+
+
+def messages(path, topics):
+    """Yield (topic, message) for ``topics`` in a bag, in recorded order."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(path) as reader:
+        conns = [c for c in reader.connections if c.topic in topics]
+        for conn, _, data in reader.messages(connections=conns):
+            yield conn.topic, store.deserialize_cdr(data, conn.msgtype)
+
+
+def _stamp(msg):
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def _scenario(path):
+    for _, msg in messages(path, [itf.SCENARIO_TOPIC]):
+        return resolve(json.loads(msg.data))
+    raise ScenarioError(f'{path}: the bag has no {itf.SCENARIO_TOPIC} message (the plant '
+                        f'publishes it; record that topic)')
+
+
+def read_run(path):
+    """
+    The run a bag holds, sampled like the plant's record: every ``record_dt`` of the steps at
+    which every vehicle's odometry is present, with each vehicle's latest command at that time.
+    """
+    sc = _scenario(path)
+    n = sc.num_vehicles
+    index = {itf.topic(k, 'odom'): k - 1 for k in range(1, n + 1)}
+    cmd_index = {itf.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
+    odom = defaultdict(dict)
+    cmds = [[] for _ in range(n)]
+    for topic, msg in messages(path, set(index) | set(cmd_index)):
+        if topic in index:
+            odom[_stamp(msg)][index[topic]] = itf.state_from_odom(msg, sc.flow_c, sc.model)
+        else:
+            cmds[cmd_index[topic]].append((_stamp(msg), itf.input_from_cmd(msg, sc.model)))
+    stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)
+    if stamps.size == 0:
+        raise ScenarioError(f'{path}: no step with the odometry of all {n} vehicles')
+    steps = np.rint((stamps - stamps[0]) * 1e-9 / sc.dt_control).astype(int)
+    every = max(1, int(round(sc.record_dt / sc.dt_control)))
+    keep = (steps % every == 0) | (steps == steps[-1])
+    stamps, steps = stamps[keep], steps[keep]
+    X = np.array([np.column_stack([odom[s][k] for k in range(n)]) for s in stamps])
+    U = np.zeros((len(stamps), 2, n))
+    for k, seq in enumerate(cmds):
+        seq.sort(key=lambda item: item[0])
+        times = np.array([s for s, _ in seq], np.int64)
+        values = np.array([u for _, u in seq]).reshape(-1, 2)
+        at = np.searchsorted(times, stamps, side='right') - 1
+        U[at >= 0, :, k] = values[at[at >= 0]]
+    if sc.model == 'first_order':
+        X[:, OMEGA] = U[:, 1]
+    return Run(sc, steps * sc.dt_control, X, U, {'source': str(path)})
+
+
+def metrics(path):
+    """``/formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array})."""
+    rows = [(_stamp(msg), dict(zip(msg.name, msg.position)))
+            for _, msg in messages(path, [itf.METRICS_TOPIC])]
+    names = list(rows[0][1]) if rows else []
+    t = np.array([s for s, _ in rows], np.int64) * 1e-9
+    return t, {name: np.array([r.get(name, np.nan) for _, r in rows]) for name in names}
+
+
+def diagnostics(path):
+    """``/diagnostics`` of a bag: a list of (stamp s, [(name, level, message, {key: value})])."""
+    out = []
+    for _, msg in messages(path, ['/diagnostics']):
+        out.append((_stamp(msg) * 1e-9,
+                    [(s.name, int(s.level), s.message, {v.key: v.value for v in s.values})
+                     for s in msg.status]))
+    return out

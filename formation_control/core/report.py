@@ -1,0 +1,82 @@
+"""
+What a run shows, whatever recorded it (offline simulator, the plant's ``.npz``, a bag): the
+series the figures draw, and the final values next to the steady state the thesis predicts.
+"""
+import numpy as np
+
+from formation_control.core import metrics
+from formation_control.core.control import Controller
+from formation_control.core.models import RIGID_MODELS, THETA, U, V
+from formation_control.core.simulator import summary
+
+
+def series(run):
+    """
+    Per-sample data of the figures, each (T,) or (T, N): t, x, y, theta, omega, u, speed
+    (ground), beta, beta_hat (crab angles), lyapunov, order.
+    """
+    ctrl = Controller(run.sc)
+    snaps = [metrics.snapshot(ctrl, X, inputs) for X, inputs in zip(run.X, run.U)]
+    X = run.X.transpose(1, 0, 2)
+    beta, beta_hat = metrics.crab_angles(X, run.sc.flow_c)
+    ground = (X[U] + 1j * X[V]) * np.exp(1j * X[THETA]) + run.sc.flow_c
+    return {'t': run.t, 'x': X[0], 'y': X[1], 'theta': X[THETA], 'omega': X[3], 'u': X[U],
+            'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
+            'lyapunov': np.array([s.lyapunov for s in snaps]),
+            'order': np.array([s.order for s in snaps])}
+
+
+def predictions(sc, X):
+    """
+    Steady-state values the thesis' analysis predicts for ``sc``: name -> (value, source).
+
+    ``X`` (6, N), the final state, gives the common heading the crab angle (8.17) depends on.
+    """
+    rigid = sc.model in RIGID_MODELS
+    still = sc.flow_c == 0
+    out = {'potential': (0.0, 'minimum of V'), 'lyapunov': (0.0, '(2.10) V_c -> 0')}
+    if sc.formation == 'parallel':
+        out['order_parameter'] = (1.0, '(1.11) V = (1 - |p|^2)/2 -> 0')
+        out['max_turn_rate'] = (0.0, 'synchronised straight motion')
+    else:
+        out['centre_spread'] = (0.0, '(1.14) common centre')
+        out['radius'] = (1.0 / abs(sc.omega0), 'radius 1/|omega0|')
+        if sc.informed:
+            out['centre_x'] = (sc.c0[0], '(7.17) centre -> c0')
+            out['centre_y'] = (sc.c0[1], '(7.17) centre -> c0')
+        if still:
+            rate = abs(sc.omega0) * (metrics.steady_turn(sc)[1] if rigid else 1.0)
+            out['max_turn_rate'] = (rate, '(7.9)-(7.10) yaw rate omega0 s0' if rigid
+                                    else 'turn rate omega0')
+    if rigid:
+        out['speed_error'] = (0.0, '(7.1) u -> u0')
+        if sc.formation == 'circular' and still:
+            out['crab_angle'] = (metrics.steady_turn(sc)[2], '(7.9)-(7.10) corrected: beta0')
+        if sc.formation == 'parallel':
+            out['crab_angle'] = (0.0, 'straight motion: v -> 0')
+            crab = float(np.mean(metrics.parallel_flow_crab(sc, X[THETA])[0]))
+            out['crab_angle_inertial'] = (crab, '(8.17) at the final heading' if not still
+                                          else 'no flow: 0')
+    return out
+
+
+def report(run):
+    """(summary, rows): the run's summary and rows (name, measured, predicted, source)."""
+    out = summary(run)
+    final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1]).values()
+    predicted = predictions(run.sc, run.X[-1])
+    rows = [(name, value, *predicted.get(name, (None, ''))) for name, value in final.items()]
+    return out, rows
+
+
+def format_report(title, out, rows):
+    """The text ``formation-control report`` prints."""
+    time = out['convergence_time']
+    lines = [title,
+             f"  converged          {'yes' if out['converged'] else 'no'}"
+             + (f', from t = {time:.4g} s' if time is not None else ''),
+             f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
+    for name, value, predicted, source in rows:
+        pred = '' if predicted is None else f'{predicted:12.6g}'
+        lines.append(f'  {name:20s} {value:12.6g} {pred:>12s}  {source}'.rstrip())
+    return '\n'.join(lines)

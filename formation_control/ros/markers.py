@@ -1,0 +1,78 @@
+"""
+RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``): each vehicle's heading
+arrow, its ground-velocity arrow in a flow, its trail, the circle centres c_k and the
+prescribed centre c0.
+"""
+import math
+
+from geometry_msgs.msg import Point
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from formation_control.ros import interface as itf
+
+HEADING = ColorRGBA(r=0.1, g=0.3, b=0.9, a=1.0)
+VELOCITY = ColorRGBA(r=0.9, g=0.1, b=0.1, a=1.0)
+TRAIL = ColorRGBA(r=0.4, g=0.4, b=0.4, a=0.8)
+CENTRE = ColorRGBA(r=0.1, g=0.7, b=0.2, a=1.0)
+TARGET = ColorRGBA(r=1.0, g=0.6, b=0.0, a=0.8)
+
+
+def _marker(ns, name, ident, kind, color):
+    m = Marker()
+    itf.set_stamp(m.header, ns)
+    m.header.frame_id = itf.MAP_FRAME
+    m.ns, m.id, m.type, m.action, m.color = name, ident, kind, Marker.ADD, color
+    m.pose.orientation.w = 1.0
+    return m
+
+
+def _point(z):
+    return Point(x=float(z.real), y=float(z.imag))
+
+
+def vehicle_markers(ns, k, position, heading, ground_velocity, trail):
+    """Heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
+    arrow = _marker(ns, 'heading', k, Marker.ARROW, HEADING)
+    arrow.pose.position = _point(position)
+    arrow.pose.orientation.z = math.sin(0.5 * heading)
+    arrow.pose.orientation.w = math.cos(0.5 * heading)
+    arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.6, 0.12, 0.12
+    out = [arrow]
+    if ground_velocity is not None:
+        vel = _marker(ns, 'velocity', k, Marker.ARROW, VELOCITY)
+        vel.points = [_point(position), _point(position + ground_velocity)]
+        vel.scale.x, vel.scale.y, vel.scale.z = 0.05, 0.12, 0.12
+        out.append(vel)
+    line = _marker(ns, 'trail', k, Marker.LINE_STRIP, TRAIL)
+    line.points = [_point(z) for z in trail]
+    line.scale.x = 0.03
+    out.append(line)
+    return out
+
+
+def centre_markers(ns, centres, target):
+    """The circle centres c_k as spheres and the prescribed centre c0 (None: not prescribed)."""
+    spheres = _marker(ns, 'centres', 0, Marker.SPHERE_LIST, CENTRE)
+    spheres.points = [_point(c) for c in centres]
+    spheres.scale.x = spheres.scale.y = spheres.scale.z = 0.1
+    out = [spheres]
+    if target is not None:
+        disc = _marker(ns, 'target_centre', 0, Marker.CYLINDER, TARGET)
+        disc.pose.position = _point(target)
+        disc.scale.x = disc.scale.y = 0.25
+        disc.scale.z = 0.02
+        out.append(disc)
+    return out
+
+
+def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):
+    """The MarkerArray of a fleet: X (6, N), ground velocities (N,) or None, trails per vehicle."""
+    msg = MarkerArray()
+    for i in range(X.shape[1]):
+        vel = None if ground_velocity is None else ground_velocity[i]
+        msg.markers += vehicle_markers(ns, i + 1, complex(X[0, i], X[1, i]), float(X[2, i]),
+                                       vel, trails[i])
+    if centres is not None:
+        msg.markers += centre_markers(ns, centres, target)
+    return msg

@@ -1,0 +1,250 @@
+"""
+``monitor``: watches a running fleet and says how it is doing.
+
+It learns the scenario from the plant's latched ``/formation/scenario``, hears every vehicle's
+odometry, command and formation state, and publishes
+
+- ``/formation/metrics`` (sensor_msgs/JointState, names in :data:`interface.METRIC_DOC`), every
+  ``period`` seconds of the fleet's time, when it holds the odometry of every vehicle at one step;
+- ``/diagnostics``: one status per vehicle (stale odometry, command or formation state, saturated
+  command, not converging) and one for the formation ("converged" with the time it took),
+  every ``diagnostics_period`` wall seconds and whenever the formation's status changes;
+- ``/formation/markers`` for RViz, every ``markers_period`` wall seconds while subscribed.
+
+Times in the reports count from the first step the monitor heard.
+"""
+import json
+import sys
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import WrenchStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
+
+from formation_control.core import laws, metrics
+from formation_control.core.control import Controller
+from formation_control.core.models import THETA, U, V
+from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.ros import interface as itf
+from formation_control.ros import markers, parameters
+from formation_control.ros.bag import STREAM_QOS
+
+OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
+PREFIX = 'formation_control/'
+
+
+def _descriptor(text, low, high, integer=False):
+    d = ParameterDescriptor(description=text, read_only=True)
+    if integer:
+        d.integer_range = [IntegerRange(from_value=low, to_value=high, step=1)]
+    else:
+        d.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
+    return d
+
+
+NODE_PARAMETERS = {
+    'period': (0.1, _descriptor('fleet time between metrics samples (s)', 0.0, 3600.0)),
+    'stale_timeout': (2.0, _descriptor('wall seconds of silence before a stream is stale',
+                                       0.01, 3600.0)),
+    'converge_within': (60.0, _descriptor('fleet seconds after which a formation or vehicle '
+                                          'that has not converged is reported', 0.0, 1e6)),
+    'diagnostics_period': (1.0, _descriptor('wall seconds between /diagnostics', 0.01, 60.0)),
+    'markers_period': (0.2, _descriptor('wall seconds between /formation/markers', 0.01, 60.0)),
+    'trail_length': (300, _descriptor('points of each vehicle\'s trail marker', 2, 100_000,
+                                      integer=True)),
+}
+
+
+def _status(name, level, message, values):
+    return DiagnosticStatus(level=level, name=PREFIX + name, message=message,
+                            hardware_id=name if name.startswith('vehicle_') else '',
+                            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+
+
+class MonitorNode(Node):
+    """Metrics, diagnostics and markers of the fleet that publishes ``/formation/scenario``."""
+
+    def __init__(self, **kwargs):
+        super().__init__('formation_monitor', **kwargs)
+        for name, (default, descriptor) in NODE_PARAMETERS.items():
+            self.declare_parameter(name, default, descriptor)
+        parameters.reject_unknown(self, tuple(NODE_PARAMETERS))
+        self.p = {name: self.get_parameter(name).value for name in NODE_PARAMETERS}
+        self.wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.sc = None
+        self.rejected = 0
+        self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
+        self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
+                          clock=self.wall)
+
+    def _now(self):
+        return self.wall.now().nanoseconds * 1e-9
+
+    def _reject(self, what):
+        self.rejected += 1
+        self.get_logger().warn(f'dropped {what} (total dropped: {self.rejected})',
+                               throttle_duration_sec=2.0)
+
+    def _on_scenario(self, msg):
+        try:
+            sc = resolve(json.loads(msg.data))
+        except (ValueError, ScenarioError) as err:
+            return self._reject(f'a scenario that does not parse ({err})')
+        if self.sc is None:
+            self._setup(sc)
+        elif sc != self.sc:
+            self.get_logger().warn('a different scenario was announced; restart the monitor to '
+                                   'follow it', throttle_duration_sec=10.0)
+
+    def _setup(self, sc):
+        self.sc = sc
+        n = sc.num_vehicles
+        self.ctrl = Controller(sc)
+        self.X = np.full((6, n), np.nan)
+        self.U = np.zeros((2, n))
+        self.odom_ns = np.full(n, -1, np.int64)
+        self.heard = {stream: np.full(n, np.nan) for stream in ('odom', 'cmd', 'state')}
+        self.started = self._now()
+        self.t0_ns = self.next_ns = None
+        self.t = 0.0
+        self.trails = np.full((self.p['trail_length'], n), np.nan, complex)
+        self.samples = 0
+        self.since = None
+        self.vehicle_ok = np.zeros(n, bool)
+        self.saturated = np.zeros(n, bool)
+        self.values = {}
+        for k in range(1, n + 1):
+            self.create_subscription(Odometry, itf.topic(k, 'odom'),
+                                     lambda m, k=k: self._on_odom(k, m), itf.STATE_QOS)
+            self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
+                                     lambda m, k=k: self._on_cmd(k, m), itf.STATE_QOS)
+            self.create_subscription(JointState, itf.topic(k, 'formation_state'),
+                                     lambda _, k=k: self._heard('state', k), itf.STATE_QOS,
+                                     raw=True)
+        self.metrics_pub = self.create_publisher(JointState, itf.METRICS_TOPIC, STREAM_QOS)
+        self.markers_pub = self.create_publisher(MarkerArray, itf.MARKERS_TOPIC, STREAM_QOS)
+        self.create_timer(self.p['markers_period'], self.publish_markers, clock=self.wall)
+        self.get_logger().info(f'monitoring {n} x {sc.model}, {sc.formation}')
+
+    def _heard(self, stream, k):
+        self.heard[stream][k - 1] = self._now()
+
+    def _on_cmd(self, k, msg):
+        u = np.array(itf.input_from_cmd(msg, self.sc.model))
+        if not np.all(np.isfinite(u)):
+            return self._reject(f'a non-finite command of vehicle {k}')
+        self.U[:, k - 1] = u
+        self._heard('cmd', k)
+
+    def _on_odom(self, k, msg):
+        if msg.header.frame_id != itf.MAP_FRAME:
+            return self._reject(f'an odometry of vehicle {k} in frame {msg.header.frame_id!r}')
+        x = itf.state_from_odom(msg, self.sc.flow_c, self.sc.model)
+        if not np.all(np.isfinite(x)):
+            return self._reject(f'a non-finite odometry of vehicle {k}')
+        ns = itf.stamp_ns(msg.header.stamp)
+        self.X[:, k - 1] = x
+        self.odom_ns[k - 1] = ns
+        self._heard('odom', k)
+        if np.all(self.odom_ns == ns) and (self.next_ns is None or ns >= self.next_ns):
+            self._sample(ns)
+
+    def _sample(self, ns):
+        if self.t0_ns is None:
+            self.t0_ns = ns
+        self.next_ns = ns + int(round(self.p['period'] * 1e9))
+        self.t = (ns - self.t0_ns) * 1e-9
+        snap = metrics.snapshot(self.ctrl, self.X, self.U)
+        self.values = snap.values()
+        self.metrics_pub.publish(itf.metrics_msg(ns, self.values))
+        self.trails[self.samples % len(self.trails)] = self.X[0] + 1j * self.X[1]
+        self.samples += 1
+        self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(self.X, self.U[1]))
+        self.saturated = self.ctrl.saturated(self.U)
+        was = self.since is not None
+        if not metrics.converged(self.sc, snap):
+            self.since = None
+        elif not was:
+            self.since = self.t
+        if was != (self.since is not None):
+            self.publish_diagnostics()
+
+    def _vehicle_status(self, i, now):
+        reasons, level = [], OK
+        ages = {s: now - (h[i] if np.isfinite(h[i]) else self.started)
+                for s, h in self.heard.items()}
+        stale = self.p['stale_timeout']
+        if ages['odom'] > stale:
+            reasons.append(f"stale odom ({ages['odom']:.1f} s)")
+            level = ERROR
+        for stream, what in (('cmd', 'cmd'), ('state', 'formation_state')):
+            if ages[stream] > stale:
+                reasons.append(f'stale {what} ({ages[stream]:.1f} s)')
+        if self.saturated[i]:
+            reasons.append('command saturated')
+        late = self.t > self.p['converge_within'] and self.since is None
+        if late and not self.vehicle_ok[i]:
+            reasons.append(f"not converging after {self.t:.1f} s")
+        if reasons and level == OK:
+            level = WARN
+        values = {f'{s}_age': f'{a:.3f}' for s, a in ages.items()}
+        if self.ctrl.rigid:
+            values.update(thrust=self.U[0, i], steering_force=self.U[1, i])
+        else:
+            values['turn_command'] = self.U[1, i]
+        values['converged'] = bool(self.vehicle_ok[i])
+        return _status(f'vehicle_{i + 1}', level, '; '.join(reasons) or 'ok', values)
+
+    def _formation_status(self):
+        values = {'time': f'{self.t:.3f}', 'rejected_messages': self.rejected}
+        values.update({k: f'{v:.6g}' for k, v in self.values.items()})
+        if self.since is not None:
+            values['convergence_time'] = f'{self.since:.3f}'
+            return _status('formation', OK, f'converged in {self.since:.2f} s', values)
+        if self.t > self.p['converge_within']:
+            return _status('formation', WARN, f'not converged after {self.t:.1f} s', values)
+        return _status('formation', OK, 'converging', values)
+
+    def publish_diagnostics(self):
+        msg = DiagnosticArray()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        if self.sc is None:
+            msg.status = [_status('formation', WARN, f'waiting for {itf.SCENARIO_TOPIC}', {})]
+        else:
+            now = self._now()
+            msg.status = [self._formation_status()] + [
+                self._vehicle_status(i, now) for i in range(self.sc.num_vehicles)]
+        self.diag_pub.publish(msg)
+
+    def publish_markers(self):
+        if self.samples == 0 or self.markers_pub.get_subscription_count() == 0:
+            return
+        X, sc = self.X, self.sc
+        count = min(self.samples, len(self.trails))
+        order = (np.arange(count) + self.samples - count) % len(self.trails)
+        trails = self.trails[order].T
+        ground = None
+        if sc.flow_c != 0:
+            ground = (X[U] + 1j * X[V]) * np.exp(1j * X[THETA]) + sc.flow_c
+        centres = target = None
+        if isinstance(self.ctrl.formation, laws.Circular):
+            centres = self.ctrl.formation.centres(self.ctrl.view(X, self.U[1]))
+            target = sc.c0_c if sc.informed else None
+        ns = self.t0_ns + int(round(self.t * 1e9))
+        self.markers_pub.publish(markers.fleet_markers(ns, X, ground, trails, centres, target))
+
+
+def main(args=None):
+    from formation_control.ros.runner import run
+    return run(lambda context: MonitorNode(context=context), args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())
