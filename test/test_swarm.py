@@ -72,7 +72,7 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
 
 
 def _fleet_pids(domain_id):
-    """Processes of this test's domain running the plant or a vehicle."""
+    """Processes of this test's domain running the plant, a vehicle or the monitor."""
     pids = []
     for entry in Path('/proc').iterdir():
         try:
@@ -81,7 +81,7 @@ def _fleet_pids(domain_id):
         except (OSError, ValueError):
             continue
         if (f'ROS_DOMAIN_ID={domain_id}'.encode() in environ
-                and any(arg.endswith((b'/plant', b'/vehicle')) for arg in cmdline)):
+                and any(arg.endswith((b'/plant', b'/vehicle', b'/monitor')) for arg in cmdline)):
             pids.append(int(entry.name))
     return pids
 
@@ -95,7 +95,7 @@ def test_swarm_stops_every_process_on_ctrl_c(ros):
     cmds = ros.probe.collect(WrenchStamped, '/vehicle_3/cmd', STATE_QOS)
     assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
     fleet = _fleet_pids(ros.domain_id)
-    assert len(fleet) == 4
+    assert len(fleet) == 5
     swarm.send_signal(2)
     assert swarm.wait(timeout=30) == 0
     assert not [pid for pid in fleet if Path(f'/proc/{pid}').exists()]

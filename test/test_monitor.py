@@ -1,0 +1,272 @@
+"""
+Seeing a run: the monitor's metrics, diagnostics and markers, a recorded bag (its metadata as
+Jazzy's rosbag2 reads it), and plot / report from the bag and from the plant's .npz.
+"""
+import json
+import math
+import re
+import subprocess
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from domain_coordinator import domain_id
+import numpy as np
+from nav_msgs.msg import Odometry
+import pytest
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+import yaml
+
+from formation_control import bagfile
+from formation_control.cli import load_source
+from formation_control.core import metrics, report, scenario
+from formation_control.core.control import Controller
+from formation_control.ros import interface as itf
+from formation_control.ros.bag import STREAM_QOS
+from rosutil import BIN, CONFIG, interrupt, ros_environment, shm_clean
+
+SCENARIO = 'rigid_parallel_flow'
+DURATION = 12.0
+
+
+@pytest.fixture(scope='module')
+def recorded(tmp_path_factory):
+    """One lockstep fleet with its monitor, recorded to a bag and to the plant's .npz."""
+    tmp = tmp_path_factory.mktemp('recorded')
+    with domain_id() as did:
+        env = ros_environment(did)
+        try:
+            proc = subprocess.run(
+                [str(BIN / 'formation-control'), 'swarm', str(CONFIG / f'{SCENARIO}.yaml'),
+                 '--duration', str(DURATION), '--bag', str(tmp / 'bag'),
+                 '--out', str(tmp / 'run.npz'), '--summary', str(tmp / 'summary.json')],
+                env=env, capture_output=True, text=True, timeout=300,
+                stdin=subprocess.DEVNULL)
+        finally:
+            shm_clean(env)
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    return tmp, proc.stdout, json.loads((tmp / 'summary.json').read_text())
+
+
+def test_swarm_converges_and_ends_with_the_report(recorded):
+    _, stdout, out = recorded
+    assert out['converged']
+    assert 'quantity' in stdout and 'predicted' in stdout
+    assert re.search(r'converged\s+yes, from t = ', stdout)
+    row = re.search(r'crab_angle_inertial\s+(\S+)\s+(\S+)\s+\(8\.17\)', stdout)
+    assert row and float(row[1]) == pytest.approx(float(row[2]), abs=1e-4)
+
+
+def test_metrics_topic_agrees_with_the_core_on_the_recorded_run(recorded):
+    tmp = recorded[0]
+    run = bagfile.read_run(tmp / 'bag')
+    t, values = bagfile.metrics(tmp / 'bag')
+    assert len(t) >= 0.9 * len(run.t)
+    assert set(values) <= set(itf.METRIC_DOC)
+    ctrl = Controller(run.sc)
+    matched = 0
+    for i, ti in enumerate(t):
+        j = np.flatnonzero(abs(run.t - ti) < 1e-9)
+        if j.size == 0:
+            continue
+        expected = metrics.snapshot(ctrl, run.X[j[0]], run.U[j[0]]).values()
+        assert set(expected) == set(values)
+        for name, value in expected.items():
+            assert values[name][i] == pytest.approx(value, abs=1e-9), (name, ti)
+        matched += 1
+    assert matched >= 0.9 * len(run.t)
+    assert values['order_parameter'][-1] > metrics.ORDER_TOL
+
+
+def test_formation_status_turns_converged_with_the_time_it_took(recorded):
+    tmp, _, out = recorded
+    arrays = bagfile.diagnostics(tmp / 'bag')
+    formation = [(s, stats) for s, stats in arrays
+                 if stats[0][0] == 'formation_control/formation']
+    messages = [stats[0][2] for _, stats in formation]
+    assert any(m == 'converging' for m in messages)
+    done = [stats for _, stats in formation if stats[0][2].startswith('converged in')]
+    assert done, messages
+    first = done[0]
+    took = float(first[0][3]['convergence_time'])
+    assert took == pytest.approx(out['convergence_time'], abs=0.1)
+    assert first[0][1] == 0
+    vehicles = first[1:]
+    assert [name for name, *_ in vehicles] == [
+        f'formation_control/vehicle_{k}' for k in range(1, out['num_vehicles'] + 1)]
+    assert all(level == 0 and msg == 'ok' for _, level, msg, _ in vehicles), vehicles
+
+
+def test_plots_of_the_bag_and_the_npz_draw_the_same_data(recorded):
+    tmp = recorded[0]
+    for source in ('bag', 'run.npz'):
+        png = tmp / f'{source}.png'
+        proc = subprocess.run([str(BIN / 'formation-control'), 'plot', str(tmp / source),
+                               '--out', str(png)], capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        data = png.read_bytes()
+        assert data.startswith(b'\x89PNG\r\n\x1a\n') and len(data) > 20_000
+    from_bag = report.series(load_source(tmp / 'bag'))
+    from_npz = report.series(load_source(tmp / 'run.npz'))
+    assert from_bag['x'].shape == from_npz['x'].shape
+    for key in ('t', 'x', 'y', 'omega', 'u', 'speed', 'beta', 'beta_hat', 'lyapunov', 'order'):
+        np.testing.assert_allclose(from_bag[key], from_npz[key], rtol=0, atol=1e-9,
+                                   err_msg=key)
+    wrapped = np.angle(np.exp(1j * (from_bag['theta'] - from_npz['theta'])))
+    assert np.max(abs(wrapped)) < 1e-9
+
+
+def test_report_of_the_bag_matches_the_swarm_summary(recorded):
+    tmp, _, out = recorded
+    proc = subprocess.run([str(BIN / 'formation-control'), 'report', str(tmp / 'bag'),
+                           '--summary', str(tmp / 'bag.json')],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    again = json.loads((tmp / 'bag.json').read_text())
+    assert again['converged'] and again['convergence_time'] == out['convergence_time']
+    for name, value in out['final'].items():
+        assert again['final'][name] == pytest.approx(value, abs=1e-9), name
+    assert again['predicted'] == pytest.approx(out['predicted'])
+
+
+QOS_KEYS = {'history', 'depth', 'reliability', 'durability', 'deadline', 'lifespan',
+            'liveliness', 'liveliness_lease_duration', 'avoid_ros_namespace_conventions'}
+
+
+def test_bag_metadata_is_what_jazzy_ros2_bag_info_reads(recorded):
+    """The keys rosbag2_storage (Jazzy, metadata version 9) requires, with their types."""
+    bag = recorded[0] / 'bag'
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['version'] == 9 and info['storage_identifier'] == 'mcap'
+    for key in ('compression_format', 'compression_mode', 'ros_distro'):
+        assert isinstance(info[key], str)
+    assert 'custom_data' in info
+    files = info['relative_file_paths']
+    assert len(files) == 1 and (bag / files[0]).is_file()
+    assert info['files'][0]['path'] == files[0]
+    assert isinstance(info['duration']['nanoseconds'], int)
+    assert isinstance(info['starting_time']['nanoseconds_since_epoch'], int)
+    topics = info['topics_with_message_count']
+    assert info['message_count'] == sum(t['message_count'] for t in topics)
+    by_name = {t['topic_metadata']['name']: t for t in topics}
+    assert {'/formation/metrics', '/diagnostics', '/formation/scenario'} <= set(by_name)
+    assert by_name['/formation/metrics']['message_count'] > 0
+    for entry in topics:
+        meta = entry['topic_metadata']
+        assert re.fullmatch(r'\w+/msg/\w+', meta['type'])
+        assert meta['serialization_format'] == 'cdr'
+        assert re.fullmatch(r'RIHS01_[0-9a-f]{64}', meta['type_description_hash'])
+        (qos,) = meta['offered_qos_profiles']
+        assert set(qos) == QOS_KEYS
+        assert qos['reliability'] == 'reliable' and qos['history'] == 'keep_last'
+        assert qos['durability'] in ('volatile', 'transient_local')
+        assert isinstance(qos['depth'], int) and qos['depth'] >= 1
+    odom = by_name['/vehicle_1/odom']['topic_metadata']['offered_qos_profiles'][0]
+    assert (odom['durability'], odom['depth']) == ('transient_local', itf.STATE_QOS.depth)
+
+
+# ---- the monitor on its own, fed by a test publisher ---------------------------------------
+
+def _scenario(**values):
+    return scenario.load(CONFIG / 'particle_circular.yaml', [], **values)
+
+
+def _odom(k, ns, x, y, theta, frame='map'):
+    X = np.array([x, y, theta, 1.0, 1.0, 0.0])
+    msg = itf.odom_msg(k, ns, X, 0j)
+    msg.header.frame_id = frame
+    return msg
+
+
+def _start_monitor(ros, sc, *params):
+    args = ['--ros-args', '-p', 'stale_timeout:=0.5', '-p', 'diagnostics_period:=0.1',
+            '-p', 'markers_period:=0.1', '-p', 'period:=0.0']
+    for p in params:
+        args += ['-p', p]
+    proc = ros.procs.start('monitor', *args)
+    node = ros.probe.node
+    announce = node.create_publisher(String, itf.SCENARIO_TOPIC, itf.LATCHED_QOS)
+    announce.publish(itf.scenario_msg(sc))
+    odom = {k: node.create_publisher(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS)
+            for k in range(1, sc.num_vehicles + 1)}
+    assert ros.probe.spin_until(lambda: all(p.get_subscription_count() for p in odom.values()))
+    return proc, odom
+
+
+def _latest(box, name):
+    for msg in reversed(box):
+        for status in msg.status:
+            if status.name == 'formation_control/' + name:
+                return status
+    return None
+
+
+def test_vehicle_whose_odom_stops_goes_stale(ros):
+    sc = _scenario(num_vehicles=2)
+    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    monitor, odom = _start_monitor(ros, sc)
+
+    def feed(ks, ns):
+        for k in ks:
+            odom[k].publish(_odom(k, ns, k, 0.0, 0.5))
+
+    feed((1, 2), 0)
+    step = iter(range(1, 10_000))
+
+    def stale_2():
+        feed((1,), next(step) * 20_000_000)
+        status = _latest(diags, 'vehicle_2')
+        return status is not None and 'stale odom' in status.message
+    assert ros.probe.spin_until(stale_2, timeout=15)
+    assert _latest(diags, 'vehicle_2').level == DiagnosticStatus.ERROR
+    first = _latest(diags, 'vehicle_1')
+    assert 'stale odom' not in first.message
+    assert 'stale cmd' in first.message
+    assert interrupt(monitor) == 0
+
+
+def test_markers_show_each_vehicle_its_circle_centre_and_the_target(ros):
+    sc = _scenario(num_vehicles=2, c0=[1.0, -2.0], informed=[1])
+    markers = ros.probe.collect(MarkerArray, itf.MARKERS_TOPIC, STREAM_QOS)
+    _, odom = _start_monitor(ros, sc)
+    poses = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0)}
+    for k, (x, y, theta) in poses.items():
+        odom[k].publish(_odom(k, 0, x, y, theta))
+    assert ros.probe.spin_until(lambda: markers)
+    by_key = {(m.ns, m.id): m for m in markers[-1].markers}
+    for k, (x, y, theta) in poses.items():
+        arrow = by_key[('heading', k)]
+        assert arrow.type == Marker.ARROW and arrow.header.frame_id == 'map'
+        assert (arrow.pose.position.x, arrow.pose.position.y) == pytest.approx((x, y))
+        q = arrow.pose.orientation
+        assert 2 * math.atan2(q.z, q.w) == pytest.approx(theta)
+        assert [(p.x, p.y) for p in by_key[('trail', k)].points] == [(x, y)]
+    assert ('velocity', 1) not in by_key
+    centres = [complex(p.x, p.y) for p in by_key[('centres', 0)].points]
+    expected = [complex(x, y) + 1j * np.exp(1j * theta) / sc.omega0
+                for x, y, theta in poses.values()]
+    np.testing.assert_allclose(centres, expected, atol=1e-12)
+    target = by_key[('target_centre', 0)]
+    assert (target.pose.position.x, target.pose.position.y) == (1.0, -2.0)
+
+
+def test_monitor_drops_and_counts_bad_odometry(ros):
+    sc = _scenario(num_vehicles=2)
+    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    metrics_box = ros.probe.collect(JointState, itf.METRICS_TOPIC, STREAM_QOS)
+    monitor, odom = _start_monitor(ros, sc)
+    odom[1].publish(_odom(1, 0, math.nan, 0.0, 0.0))
+    odom[2].publish(_odom(2, 0, 0.0, 0.0, 0.0, frame='odom'))
+    odom[1].publish(_odom(1, 0, 0.0, 1.0, 0.0))
+    odom[2].publish(_odom(2, 0, 1.0, 0.0, 1.0))
+
+    def counted():
+        status = _latest(diags, 'formation')
+        return status is not None and {v.key: v.value for v in status.values}.get(
+            'rejected_messages') == '2' and metrics_box
+    assert ros.probe.spin_until(counted)
+    assert monitor.poll() is None
+    X = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 1.0], [0.0, 0.0]])
+    expected = metrics.snapshot(Controller(sc), X, np.zeros((2, 2))).values()
+    got = dict(zip(metrics_box[0].name, metrics_box[0].position))
+    assert got == pytest.approx(expected)
