@@ -30,8 +30,19 @@ def find_scenario(name):
     raise scenario.ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')
 
 
-def _load(args):
-    sc = scenario.load(find_scenario(args.scenario), args.param,
+def _split(overrides):
+    """(scenario overrides, node overrides): link parameters go to the ROS nodes only."""
+    from formation_control.core.links import PARAMETERS
+    node = [o for o in overrides if o.split(':=', 1)[0].strip() in PARAMETERS]
+    return [o for o in overrides if o not in node], node
+
+
+def _load(args, node_params_allowed=False):
+    overrides, node = _split(args.param)
+    if node and not node_params_allowed:
+        raise scenario.ScenarioError(
+            f"{', '.join(node)}: link parameters apply to the ROS nodes only (use swarm)")
+    sc = scenario.load(find_scenario(args.scenario), overrides,
                        duration=args.duration, seed=args.seed)
     for note in sc.warnings:
         print(f'warning: {note}', file=sys.stderr)
@@ -74,13 +85,13 @@ def cmd_sim(args):
 
 def cmd_swarm(args):
     from formation_control import swarm
-    sc = _load(args)
+    sc = _load(args, node_params_allowed=True)
     note = swarm.environment_note()
     if note:
         print(note, file=sys.stderr)
     try:
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
-                                   monitor=not args.no_monitor)
+                                   monitor=not args.no_monitor, node_params=_split(args.param)[1])
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -125,7 +136,9 @@ def _scenario_arguments(parser):
     parser.add_argument('--duration', type=float, help='override duration (s)')
     parser.add_argument('--seed', type=int, help='override the random seed')
     parser.add_argument('-p', '--param', action='append', default=[], metavar='NAME:=VALUE',
-                        help='override any scenario parameter (repeatable)')
+                        help='override any scenario parameter (repeatable); swarm also takes '
+                             'the link parameters of the nodes (neighbor_timeout, '
+                             'drop_probability, delay, ...)')
     parser.add_argument('--out', help='write the run to this .npz')
     parser.add_argument('--plot', help='write a figure to this .png')
 

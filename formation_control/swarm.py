@@ -55,13 +55,15 @@ class Swarm:
     """The processes of one run; use as a context manager so they are always stopped."""
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
-                 wait_for_start=False, monitor=True):
+                 wait_for_start=False, monitor=True, node_params=()):
         self.sc, self.mode = sc, mode
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
         params = write_params(sc, self.dir / 'scenario.yaml')
         common = ['--ros-args', '--params-file', params, '-p', f'mode:={mode}']
+        for p in node_params:
+            common += ['-p', p]
         if mode == 'lockstep':
             common += ['-p', 'use_sim_time:=true']
         self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
@@ -180,7 +182,7 @@ class Recording:
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
-              monitor=True):
+              monitor=True, node_params=()):
     """Run a fleet as processes; returns (run, summary). Every process is stopped on exit."""
     timeout = timeout or 60.0 + 20.0 * sc.duration
     recording = None
@@ -190,7 +192,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor)
     try:
         with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
-                   monitor) as swarm:
+                   monitor, node_params) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

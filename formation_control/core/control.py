@@ -5,6 +5,8 @@ From vehicle state to commands: particle views, flow transforms and the rigid-bo
 computes the view of itself (:meth:`Controller.view`), shares it, and turns the views of the
 vehicles it knows into its own command (:meth:`Controller.command`).
 """
+from dataclasses import replace
+
 import numpy as np
 
 from formation_control.core import laws
@@ -151,9 +153,16 @@ class Controller:
         U_applied = np.vstack([self.thrust(X), held])
         return rigid_view(X, U_applied, self.plant, self.use_heading, self.full)
 
-    def phase_accel(self, view, idx):
+    def formation_of(self, members=None):
+        """The formation law over the fleet vehicles ``members`` (bool mask; None = all)."""
+        f = self.formation
+        if members is None or not isinstance(f, laws.Circular):
+            return f
+        return replace(f, informed=np.asarray(f.informed)[members])
+
+    def phase_accel(self, view, idx, members=None):
         """Desired phase acceleration of the vehicles idx: (3.7), (3.14), (4.3), (4.8), (5.5), (8.24)."""
-        sc, f = self.sc, self.formation
+        sc, f = self.sc, self.formation_of(members)
         if sc.controller == 'backstepping':
             return laws.backstepping(f, view, sc.kappa, idx)
         if sc.controller == 'proportional':
@@ -164,15 +173,20 @@ class Controller:
         self.integral = self.integral + err * sc.dt_control
         return sc.K_P * err + sc.K_I * self.integral
 
-    def command(self, view, X, idx=slice(None)):
-        """Inputs U (2, n) for the vehicles idx of ``view`` whose own states are ``X`` (6, n)."""
+    def command(self, view, X, idx=slice(None), members=None):
+        """
+        Inputs U (2, n) for the vehicles idx of ``view`` whose own states are ``X`` (6, n).
+
+        ``members`` (bool mask over the fleet) names the vehicles the view holds when it is not
+        the whole fleet (a vehicle that hears only its live neighbours).
+        """
         sc = self.sc
         U_ = np.zeros((2, X.shape[1]))
         if sc.controller == 'first_order':
-            w = laws.first_order(self.formation, view, idx)
+            w = laws.first_order(self.formation_of(members), view, idx)
             U_[1] = body_rate_from_inertial(w, X[THETA], self.plant.flow)
             return self.saturate(U_)
-        lam = self.phase_accel(view, idx)
+        lam = self.phase_accel(view, idx, members)
         if self.rigid:
             U_[0] = self.thrust(X)
             U_[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)

@@ -8,7 +8,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 
-from formation_control.core import scenario
+from formation_control.core import links, scenario
 from formation_control.core.scenario import Scenario, ScenarioError
 
 MODES = ('lockstep', 'realtime')
@@ -106,7 +106,7 @@ def current(node):
 
 def reject_unknown(node, extra=()):
     """Refuse parameter names given to the node (YAML or -p) that it does not know."""
-    known = set(scenario.PARAMETER_NAMES) | set(extra) | {'use_sim_time'}
+    known = set(scenario.PARAMETER_NAMES) | set(links.PARAMETERS) | set(extra) | {'use_sim_time'}
     unknown = sorted(n for n in node._parameter_overrides
                      if n not in known and not n.startswith('qos_overrides.'))
     if unknown:
@@ -131,3 +131,23 @@ def validator(node):
             return SetParametersResult(successful=False, reason=str(err))
         return SetParametersResult(successful=True)
     return on_set
+
+
+def declare_links(node, names, n, own=0):
+    """Declare the link parameters ``names`` (:data:`links.PARAMETERS`); returns their values."""
+    values = {}
+    for name in names:
+        default, low, high, text = links.PARAMETERS[name]
+        d = ParameterDescriptor(description=text, read_only=True)
+        if isinstance(default, float):
+            d.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
+        elif isinstance(default, int):
+            d.integer_range = [IntegerRange(from_value=low, to_value=high, step=1)]
+        if default == ():
+            node.declare_parameter(name, Parameter.Type.INTEGER_ARRAY, d)
+            value = node.get_parameter_or(name, Parameter(name)).value
+            values[name] = tuple(value or ())
+        else:
+            node.declare_parameter(name, default, d)
+            values[name] = node.get_parameter(name).value
+    return links.check(values, n, own)

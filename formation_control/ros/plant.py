@@ -6,23 +6,33 @@ Lockstep (default): the plant owns ``/clock``; it publishes step n (clock, every
 waits for the command of every vehicle stamped with step n, records, integrates one control
 period, and publishes step n + 1. Real time: a wall timer advances one period every
 ``dt_control / real_time_factor`` seconds with the last command of each vehicle held.
+
+A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
+its command is zero, and lockstep stops waiting for it until it speaks again (a vehicle never
+heard is waited for). A vehicle whose state becomes non-finite is stopped (frozen, no more
+odometry) with an error naming it. Counts and status: ``/diagnostics``, ``formation_control/plant``.
 """
 import sys
 import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy.clock import Clock as WallClock, ClockType
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, String
 
-from formation_control.core import simulator
+from formation_control.core import links, simulator
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
+from formation_control.ros.bag import STREAM_QOS
 
-NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start')
+NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start',
+                   'command_timeout')
 START_TOPIC = '/formation/start'
 
 
@@ -51,6 +61,11 @@ class PlantNode(Node):
         self.mode = parameters.choice(self, 'mode', parameters.MODES)
         for note in sc.warnings:
             self.get_logger().warn(note)
+        timeout = parameters.declare_links(self, ('command_timeout',), sc.num_vehicles)
+        self.liveness = links.Liveness(sc.num_vehicles, timeout['command_timeout'])
+        self.wall = WallClock(clock_type=ClockType.STEADY_TIME)
+        self.stopped = np.zeros(sc.num_vehicles, bool)
+        self.counts = {'non_finite': 0, 'wrong_frame': 0, 'stale': 0}
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
         self.n = 0
@@ -76,6 +91,11 @@ class PlantNode(Node):
         self.scenario_pub.publish(itf.scenario_msg(sc))
         self.get_logger().info(f'plant: {n} x {sc.model}, {sc.formation} ({sc.controller}), '
                                f'{self.mode}, {sc.duration:g} s')
+        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
+        self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
+        if self.mode == 'lockstep':
+            self.create_timer(min(0.05, self.liveness.timeout / 4), self._try_advance,
+                              clock=self.wall)
         if self.get_parameter('wait_for_start').value:
             self.create_subscription(Empty, START_TOPIC, self._start, itf.LATCHED_QOS)
         else:
@@ -102,20 +122,38 @@ class PlantNode(Node):
             self.clock_pub.publish(msg)
         X = self.stepper.X
         for k, pub in enumerate(self.odom_pubs, start=1):
-            pub.publish(itf.odom_msg(k, ns, X[:, k - 1], self.sc.flow_c))
+            if not self.stopped[k - 1]:
+                pub.publish(itf.odom_msg(k, ns, X[:, k - 1], self.sc.flow_c))
+
+    def _now(self):
+        return self.wall.now().nanoseconds * 1e-9
+
+    def _reject(self, kind, what):
+        self.counts[kind] += 1
+        self.get_logger().warn(f'dropped {what} ({kind}; total dropped: '
+                               f'{sum(self.counts.values())})', throttle_duration_sec=2.0)
 
     def _on_cmd(self, k, msg):
         u = itf.input_from_cmd(msg, self.sc.model)
         if not np.all(np.isfinite(u)):
-            self.get_logger().warn(f'dropped a non-finite command of vehicle {k}',
-                                   throttle_duration_sec=2.0)
-            return
+            return self._reject('non_finite', f'a non-finite command of vehicle {k}')
+        if msg.header.frame_id != itf.base_link(k):
+            return self._reject('wrong_frame', f'a command on vehicle {k}\'s topic in frame '
+                                f'{msg.header.frame_id!r}')
+        self.liveness.heard(k - 1, self._now())
         if self.mode == 'lockstep':
             if not self.started or self.done or itf.stamp_ns(msg.header.stamp) != self._step_ns():
-                return
+                return self._reject('stale', f'a command of vehicle {k} for another step')
             self.got[k - 1] = True
         self.pending[:, k - 1] = u
-        if self.mode == 'lockstep' and self.got.all():
+        self._try_advance()
+
+    def _try_advance(self):
+        """Lockstep: advance once every vehicle still waited for has commanded this step."""
+        if self.mode != 'lockstep' or not self.started or self.done:
+            return
+        waited = ~self.liveness.gone(self._now()) & ~self.stopped
+        if waited.any() and np.all(self.got[waited]):
             self.got[:] = False
             self._advance()
 
@@ -126,13 +164,42 @@ class PlantNode(Node):
     def _advance(self):
         if self.wall_start is None:
             self.wall_start = time.perf_counter()
+        self.pending[:, self.liveness.gone(self._now()) | self.stopped] = 0.0
         U = self.stepper.hold(self.pending)
         self.recorder.record(self.n, self.stepper.X, U)
         if self.n >= self.recorder.steps:
             return self._finish()
-        self.stepper.advance()
+        before = self.stepper.X.copy()
+        X = self.stepper.advance()
+        self._stop_non_finite(before, X)
         self.n += 1
         self._publish_step()
+
+    def _stop_non_finite(self, before, X):
+        bad = ~np.all(np.isfinite(X), axis=0) & ~self.stopped
+        for i in np.flatnonzero(bad):
+            self.get_logger().error(f'vehicle {i + 1}: its state became non-finite at t = '
+                                    f'{(self.n + 1) * self.sc.dt_control:.3f} s (command '
+                                    f'{self.pending[:, i].tolist()}); vehicle {i + 1} is stopped')
+        self.stopped |= bad
+        X[:, self.stopped] = before[:, self.stopped]
+
+    def _publish_diagnostics(self):
+        now = self._now()
+        gone = [int(i) + 1 for i in np.flatnonzero(self.liveness.gone(now))]
+        stopped = [int(i) + 1 for i in np.flatnonzero(self.stopped)]
+        level, text = DiagnosticStatus.OK, f'step {self.n}'
+        if gone:
+            level, text = DiagnosticStatus.WARN, f'vehicles {gone} gone (zero command)'
+        if stopped:
+            level, text = DiagnosticStatus.ERROR, f'vehicles {stopped} stopped: non-finite state'
+        values = {'step': self.n, 'gone': gone, 'stopped': stopped, **self.counts}
+        status = DiagnosticStatus(level=level, name='formation_control/plant', message=text,
+                                  values=[KeyValue(key=k, value=str(v))
+                                          for k, v in values.items()])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.diag_pub.publish(msg)
 
     def _finish(self):
         wall = time.perf_counter() - self.wall_start

@@ -5,24 +5,37 @@ It hears its own odometry and flow, publishes its ``formation_state`` (pose, hea
 rate and the phase values of the law), hears the formation states of its neighbours, and
 publishes its own command. It knows nothing of the others but what it receives.
 
-Lockstep: the command for step t is computed once the vehicle holds its own odometry and every
-neighbour's state stamped t. Real time: a timer computes it from the latest states received.
+Lockstep: the command for step t is computed once the vehicle holds its own odometry and the
+state stamped t of every live neighbour. Real time: a timer computes it from the latest states
+of the live neighbours. A neighbour silent for ``neighbor_timeout`` wall seconds leaves the
+formation sums (N, the averages, the projector P) until it speaks again; one never heard is
+waited for (start-up, processes in any order). Faults can be injected on what it hears
+(:mod:`links`). Malformed, stale or foreign messages are dropped, logged and counted; the counts
+are in its ``/diagnostics`` status ``formation_control/vehicle_k/links``.
 """
+import heapq
 import math
 import sys
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 
-from formation_control.core import laws
+from formation_control.core import laws, links
 from formation_control.core.control import Controller
 from formation_control.core.scenario import ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
+from formation_control.ros.bag import STREAM_QOS
+
+LINK_PARAMETERS = ('neighbor_timeout', 'drop_probability', 'delay', 'delay_jitter', 'comm_range',
+                   'fault_links', 'fault_seed')
+REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
 
 
 class VehicleNode(Node):
@@ -37,12 +50,18 @@ class VehicleNode(Node):
             description='lockstep (event-driven, sim time) | realtime (own timer)',
             read_only=True))
         parameters.declare(self)
-        parameters.reject_unknown(self, ('vehicle_id', 'mode'))
+        parameters.reject_unknown(self, ('vehicle_id', 'mode', *LINK_PARAMETERS))
         self.sc = parameters.current(self)
         self.mode = parameters.choice(self, 'mode', parameters.MODES)
         if not 1 <= vehicle_id <= self.sc.num_vehicles:
             raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
                                 f'1..num_vehicles = {self.sc.num_vehicles}')
+        link = parameters.declare_links(self, LINK_PARAMETERS, self.sc.num_vehicles, vehicle_id)
+        self.liveness = links.Liveness(self.sc.num_vehicles, link.pop('neighbor_timeout'))
+        self.faults = links.Faults(**link, vehicle_id=vehicle_id)
+        self.wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.counts = dict.fromkeys(REJECTS + ('dropped', 'out_of_range', 'saturated'), 0)
+        self.queue = []
         self.ctrl = Controller(self.sc)
         n = self.sc.num_vehicles
         self.r = np.zeros(n, complex)
@@ -53,7 +72,6 @@ class VehicleNode(Node):
         self.odom_ns = self.commanded_ns = -1
         self.F_held = np.zeros(1)
         self.flow = self.sc.flow_c
-        self.rejected = 0
         self.state_pub = self.create_publisher(JointState, itf.topic(self.k, 'formation_state'),
                                                itf.STATE_QOS)
         self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(self.k, 'cmd'),
@@ -70,6 +88,13 @@ class VehicleNode(Node):
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'realtime':
             self.create_timer(self.sc.dt_control, self._on_timer)
+        else:
+            self.create_timer(min(0.05, self.liveness.timeout / 4), self._on_watchdog,
+                              clock=self.wall)
+        if self.faults.active:
+            self.create_timer(0.002, self._deliver, clock=self.wall)
+        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
+        self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
         self.get_logger().info(f'vehicle {self.k}/{n}: {self.sc.model} {self.sc.formation} '
                                f'({self.sc.controller}), {self.mode}')
 
@@ -79,22 +104,34 @@ class VehicleNode(Node):
         self.ctrl = Controller(self.sc)
         self.ctrl.integral = integral
 
-    def _reject(self, what):
-        self.rejected += 1
-        self.get_logger().warn(f'dropped {what} (total dropped: {self.rejected})',
+    def _now(self):
+        return self.wall.now().nanoseconds * 1e-9
+
+    def _reject(self, kind, what):
+        self.counts[kind] += 1
+        total = sum(self.counts[k] for k in REJECTS)
+        self.get_logger().warn(f'dropped {what} ({kind}; total dropped: {total})',
                                throttle_duration_sec=2.0)
 
     def _on_flow(self, msg):
         flow = complex(msg.vector.x, msg.vector.y)
         if not (math.isfinite(flow.real) and math.isfinite(flow.imag)):
-            return self._reject('a non-finite flow')
+            return self._reject('non_finite', 'a non-finite flow')
+        if msg.header.frame_id != itf.MAP_FRAME:
+            return self._reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
         self.flow = flow
 
     def _on_odom(self, msg):
+        if (msg.header.frame_id, msg.child_frame_id) != (itf.MAP_FRAME, itf.base_link(self.k)):
+            return self._reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
+                                f' -> {msg.child_frame_id!r}')
         X = itf.state_from_odom(msg, self.flow, self.sc.model)
         if not np.all(np.isfinite(X)):
-            return self._reject('a non-finite odometry')
+            return self._reject('non_finite', 'a non-finite odometry')
         ns = itf.stamp_ns(msg.header.stamp)
+        if ns < self.odom_ns:
+            return self._reject('stale', f'an odometry stamped {ns * 1e-9:.3f} s, older than '
+                                f'the last one')
         self.X, self.odom_ns = X[:, None], ns
         view = self.ctrl.view(self.X, self.F_held)
         row = (view.r[0], view.phase[0], view.rate[0], view.speed[0])
@@ -105,10 +142,38 @@ class VehicleNode(Node):
 
     def _on_state(self, j, msg):
         values = np.asarray(msg.position, float)
-        if len(values) != len(itf.STATE_FIELDS) or not np.all(np.isfinite(values)):
-            return self._reject(f'a malformed formation_state of vehicle {j}')
-        x, y, _, _, phase, rate, speed = values
+        if len(values) != len(itf.STATE_FIELDS) or list(msg.name) != list(itf.STATE_FIELDS):
+            return self._reject('malformed', f'a malformed formation_state of vehicle {j}')
+        if not np.all(np.isfinite(values)):
+            return self._reject('non_finite', f'a non-finite formation_state of vehicle {j}')
+        if msg.header.frame_id != itf.base_link(j):
+            kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
+            return self._reject(kind, f'a formation_state on vehicle {j}\'s topic from '
+                                f'{msg.header.frame_id!r}')
+        if self.faults.out_of_range(j, self.r[self.k - 1], complex(values[0], values[1])):
+            self.counts['out_of_range'] += 1
+            return
+        delay = self.faults.admit(j)
+        if delay is None:
+            self.counts['dropped'] += 1
+        elif delay > 0:
+            heapq.heappush(self.queue, (self._now() + delay, id(msg), j, msg))
+        else:
+            self._accept(j, msg, values)
+
+    def _deliver(self):
+        now = self._now()
+        while self.queue and self.queue[0][0] <= now:
+            _, _, j, msg = heapq.heappop(self.queue)
+            self._accept(j, msg, np.asarray(msg.position, float))
+
+    def _accept(self, j, msg, values):
         ns = itf.stamp_ns(msg.header.stamp)
+        if ns < self.stamp[j - 1]:
+            return self._reject('stale', f'a formation_state of vehicle {j} stamped '
+                                f'{ns * 1e-9:.3f} s, older than the last one')
+        x, y, _, _, phase, rate, speed = values
+        self.liveness.heard(j - 1, self._now())
         self._store(j, ns, (complex(x, y), phase, rate, speed))
         self._lockstep(ns)
 
@@ -118,14 +183,27 @@ class VehicleNode(Node):
         self.table[:, i] = row[1:]
         self.stamp[i] = ns
 
+    def _live(self):
+        """Neighbours in the formation sums, and the vehicle itself."""
+        live = self.liveness.alive(self._now())
+        live[self.k - 1] = True
+        return live
+
     def _lockstep(self, ns):
-        if (self.mode == 'lockstep' and ns == self.odom_ns and self.commanded_ns != ns
-                and np.all(self.stamp == ns)):
-            self._command(ns, np.ones(self.stamp.size, bool))
+        if self.mode != 'lockstep' or ns != self.odom_ns or self.commanded_ns == ns:
+            return
+        waiting = ~self.liveness.gone(self._now())
+        waiting[self.k - 1] = True
+        if np.all(self.stamp[waiting] == ns):
+            self._command(ns, self.stamp == ns)
+
+    def _on_watchdog(self):
+        if self.odom_ns >= 0:
+            self._lockstep(self.odom_ns)
 
     def _on_timer(self):
         if self.X is not None:
-            self._command(self.get_clock().now().nanoseconds, self.stamp >= 0)
+            self._command(self.get_clock().now().nanoseconds, self._live() & (self.stamp >= 0))
 
     def _command(self, ns, live):
         own = int(np.count_nonzero(live[:self.k - 1]))
@@ -133,10 +211,26 @@ class VehicleNode(Node):
         speed_dot[own] = self.speed_dot
         phase, rate, speed = self.table[:, live]
         view = laws.View(self.r[live], phase, rate, speed, speed_dot)
-        U = self.ctrl.command(view, self.X, [own])
+        U = self.ctrl.command(view, self.X, [own], members=live)
+        self.counts['saturated'] += int(self.ctrl.saturated(U)[0])
         self.F_held = U[1].copy()
         self.commanded_ns = ns
         self.cmd_pub.publish(itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model))
+
+    def _publish_diagnostics(self):
+        now = self._now()
+        gone = [j + 1 for j in np.flatnonzero(self.liveness.gone(now)) if j + 1 != self.k]
+        live = int(np.count_nonzero(self.liveness.alive(now))) - 1
+        values = {'live_neighbours': live, 'gone_neighbours': gone, **self.counts}
+        level = DiagnosticStatus.WARN if gone else DiagnosticStatus.OK
+        text = f'neighbours {gone} silent' if gone else f'{live} neighbours live'
+        status = DiagnosticStatus(
+            level=level, name=f'formation_control/vehicle_{self.k}/links', message=text,
+            hardware_id=f'vehicle_{self.k}',
+            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.diag_pub.publish(msg)
 
 
 def vehicle_id_from_args(context):

@@ -1,0 +1,98 @@
+"""
+Links between vehicles: who is alive, and the faults a study injects on what a vehicle hears.
+
+Node parameters (not scenario parameters: the offline simulator has no links), with their
+defaults, units and allowed ranges in :data:`PARAMETERS`.
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from formation_control.core.scenario import ScenarioError
+
+PARAMETERS = {
+    'neighbor_timeout': (2.0, 0.01, 3600.0,
+                         'wall seconds of silence after which a neighbour leaves the formation '
+                         'sums until it speaks again'),
+    'command_timeout': (2.0, 0.01, 3600.0,
+                        'plant: wall seconds without a command after which a vehicle that was '
+                        'heard is gone (lockstep: no longer waited for; both modes: zero command)'),
+    'drop_probability': (0.0, 0.0, 1.0, 'probability that a neighbour message is dropped'),
+    'delay': (0.0, 0.0, 10.0, 'fixed delay added to every neighbour message (s)'),
+    'delay_jitter': (0.0, 0.0, 10.0, 'random extra delay, uniform in [0, delay_jitter] (s)'),
+    'comm_range': (0.0, 0.0, 1e9, 'neighbours farther than this are not heard (m); 0 = no limit'),
+    'fault_links': ((), None, None, 'neighbour ids the faults apply to; empty = every neighbour'),
+    'fault_seed': (0, 0, 2 ** 31 - 1, 'seed of the drops and delays (with the vehicle id)'),
+}
+"""name -> (default, lowest, highest, description)."""
+
+
+def check(values, n, own):
+    """Validate link parameters of vehicle ``own`` in a fleet of n; returns the values."""
+    for name, value in values.items():
+        default, low, high, _ = PARAMETERS[name]
+        if low is not None and not (math.isfinite(value) and low <= value <= high):
+            raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: allowed range "
+                            f'[{low:g}, {high:g}]')
+    bad = [j for j in values.get('fault_links', ()) if not 1 <= j <= n or j == own]
+    if bad:
+        raise ScenarioError(f"parameter 'fault_links' = {list(values['fault_links'])} is invalid: "
+                        f'neighbour ids in 1..{n} other than {own}')
+    return values
+
+
+class Liveness:
+    """
+    When each of n peers was last heard (wall seconds). A peer never heard is ``waiting``
+    (start-up: it is waited for); one heard, then silent longer than ``timeout`` is ``gone``.
+    """
+
+    def __init__(self, n, timeout):
+        self.timeout = timeout
+        self.last = np.full(n, np.nan)
+
+    def heard(self, i, now):
+        self.last[i] = now
+
+    def gone(self, now):
+        return (now - self.last) > self.timeout
+
+    def alive(self, now):
+        return ~self.gone(now) & ~np.isnan(self.last)
+
+
+@dataclass
+class Faults:
+    """Seeded drops, delays and range limit on the messages one vehicle hears."""
+
+    drop_probability: float = 0.0
+    delay: float = 0.0
+    delay_jitter: float = 0.0
+    comm_range: float = 0.0
+    fault_links: tuple = ()
+    fault_seed: int = 0
+    vehicle_id: int = 1
+
+    def __post_init__(self):
+        self.rng = np.random.default_rng([self.fault_seed, self.vehicle_id])
+        self.links = set(self.fault_links)
+
+    @property
+    def active(self):
+        return bool(self.drop_probability or self.delay or self.delay_jitter or self.comm_range)
+
+    def applies(self, j):
+        return not self.links or j in self.links
+
+    def out_of_range(self, j, own_r, their_r):
+        return self.comm_range > 0 and self.applies(j) and abs(their_r - own_r) > self.comm_range
+
+    def admit(self, j):
+        """None: the message from j is dropped; else the delay (s) before it is delivered."""
+        if not self.applies(j):
+            return 0.0
+        if self.drop_probability and self.rng.random() < self.drop_probability:
+            return None
+        jitter = self.rng.uniform(0.0, self.delay_jitter) if self.delay_jitter else 0.0
+        return self.delay + jitter
