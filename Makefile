@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
-.PHONY: setup demo test clean
+.PHONY: setup demo test bench clean
 
 setup: $(STAMP)
 
@@ -25,6 +25,14 @@ demo: setup
 
 test: setup
 	$(PY) -m pytest -q
+
+bench: setup
+	$(PY) bench/sim_throughput.py
+	$(PY) bench/law_cost.py
+	$(PY) bench/fleet.py rtf --sizes 5 16 32
+	$(PY) bench/fleet.py rtf --sizes 64 128 --per-process 8 16 --repeat 1
+	$(PY) bench/fleet.py latency --sizes 16
+	$(PY) bench/fleet.py startup --sizes 16
 
 clean:
 	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png

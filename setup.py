@@ -25,6 +25,7 @@ setup(
             'formation-control = formation_control.cli:main',
             'plant = formation_control.ros.plant:main',
             'vehicle = formation_control.ros.vehicle:main',
+            'vehicles = formation_control.ros.vehicle:main_many',
             'monitor = formation_control.ros.monitor:main',
         ],
     },

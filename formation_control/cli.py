@@ -85,13 +85,17 @@ def cmd_sim(args):
 
 def cmd_swarm(args):
     from formation_control import swarm
+    if args.vehicles_per_process < 1:
+        raise scenario.ScenarioError(f'--vehicles-per-process {args.vehicles_per_process} is '
+                                     f'invalid: must be >= 1')
     sc = _load(args, node_params_allowed=True)
     note = swarm.environment_note()
     if note:
         print(note, file=sys.stderr)
     try:
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
-                                   monitor=not args.no_monitor, node_params=_split(args.param)[1])
+                                   monitor=not args.no_monitor, node_params=_split(args.param)[1],
+                                   per_process=args.vehicles_per_process)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -157,6 +161,9 @@ def build_parser():
     swarm.add_argument('--bag', help='record every topic to this new rosbag2 directory (MCAP)')
     swarm.add_argument('--timeout', type=float,
                        help='give up after this many wall seconds (default 60 + 20 x duration)')
+    swarm.add_argument('--vehicles-per-process', type=int, default=1, metavar='M',
+                       help='run M vehicle nodes per process (still one node per vehicle, '
+                            'talking through topics only)')
     swarm.add_argument('--no-monitor', action='store_true',
                        help='do not start the monitor node (no metrics or diagnostics)')
     swarm.set_defaults(func=cmd_swarm)

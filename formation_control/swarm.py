@@ -55,7 +55,7 @@ class Swarm:
     """The processes of one run; use as a context manager so they are always stopped."""
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
-                 wait_for_start=False, monitor=True, node_params=()):
+                 wait_for_start=False, monitor=True, node_params=(), per_process=1):
         self.sc, self.mode = sc, mode
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
@@ -64,14 +64,20 @@ class Swarm:
         common = ['--ros-args', '--params-file', params, '-p', f'mode:={mode}']
         for p in node_params:
             common += ['-p', p]
-        if mode == 'lockstep':
-            common += ['-p', 'use_sim_time:=true']
         self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
                           '-p', f'real_time_factor:={float(real_time_factor)}',
                           '-p', f'wait_for_start:={str(wait_for_start).lower()}']]
-        self.commands += [[executable('vehicle'), *common, '-p', f'vehicle_id:={k}']
-                          for k in range(1, sc.num_vehicles + 1)]
-        self.logs = ['plant.log'] + [f'vehicle_{k}.log' for k in range(1, sc.num_vehicles + 1)]
+        self.logs = ['plant.log']
+        ids = list(range(1, sc.num_vehicles + 1))
+        for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
+            if per_process == 1:
+                self.commands.append([executable('vehicle'), *common, '-p',
+                                      f'vehicle_id:={group[0]}'])
+                self.logs.append(f'vehicle_{group[0]}.log')
+            else:
+                self.commands.append([executable('vehicles'), *common, '-p',
+                                      f'vehicle_ids:={group}'])
+                self.logs.append(f'vehicles_{group[0]}-{group[-1]}.log')
         if monitor:
             self.commands.append([executable('monitor'), '--ros-args', '-p',
                                   f'use_sim_time:={str(mode == "lockstep").lower()}'])
@@ -182,7 +188,7 @@ class Recording:
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
-              monitor=True, node_params=()):
+              monitor=True, node_params=(), per_process=1):
     """Run a fleet as processes; returns (run, summary). Every process is stopped on exit."""
     timeout = timeout or 60.0 + 20.0 * sc.duration
     recording = None
@@ -192,7 +198,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor)
     try:
         with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
-                   monitor, node_params) as swarm:
+                   monitor, node_params, per_process) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

@@ -14,8 +14,21 @@ def test_liveness_waits_for_the_unheard_and_drops_the_silent():
     live.heard(1, 10.5)
     assert list(live.gone(11.2)) == [True, False, False]      # 2 never heard: waited for
     assert list(live.alive(11.2)) == [False, True, False]
+    assert live.gone(11.2, since=11.0)[0]                       # still gone: not heard since
     live.heard(0, 11.3)
     assert live.alive(11.4)[0]
+
+
+def test_lockstep_silence_counts_from_the_start_of_the_step():
+    """A peer that answered step n and waits for step n + 1 is not gone, however long n lasts."""
+    live = links.Liveness(2, timeout=1.0)
+    live.heard(0, 10.0)
+    assert not live.gone(15.0, since=14.5)[0]
+    assert live.gone(15.6, since=14.5)[0]
+    assert live.gone(15.7, since=15.65)[0]                 # gone until heard again
+    live.heard(0, 15.8)
+    assert not live.gone(15.9, since=15.85)[0]
+    assert not live.gone(25.0, since=15.85, answered=[True, False])[0]
 
 
 def test_faults_are_seeded_and_match_their_rates():

@@ -269,4 +269,4 @@ def test_vehicles_first_plant_last(ros, tmp_path):
     assert plant.returncode == 0, output(plant)
     fleet = simulator.load_run(record)
     offline = simulator.simulate(scenario.load(CONFIG / 'particle_circular.yaml', common))
-    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6, err_msg=output(plant))

@@ -12,12 +12,13 @@ import numpy as np
 from formation_control.core.scenario import ScenarioError
 
 PARAMETERS = {
-    'neighbor_timeout': (2.0, 0.01, 3600.0,
+    'neighbor_timeout': (1.0, 0.01, 3600.0,
                          'wall seconds of silence after which a neighbour leaves the formation '
                          'sums until it speaks again'),
     'command_timeout': (2.0, 0.01, 3600.0,
                         'plant: wall seconds without a command after which a vehicle that was '
-                        'heard is gone (lockstep: no longer waited for; both modes: zero command)'),
+                        'heard is gone (lockstep: no longer waited for; both modes: zero '
+                        'command); keep it above neighbor_timeout'),
     'drop_probability': (0.0, 0.0, 1.0, 'probability that a neighbour message is dropped'),
     'delay': (0.0, 0.0, 10.0, 'fixed delay added to every neighbour message (s)'),
     'delay_jitter': (0.0, 0.0, 10.0, 'random extra delay, uniform in [0, delay_jitter] (s)'),
@@ -44,22 +45,31 @@ def check(values, n, own):
 
 class Liveness:
     """
-    When each of n peers was last heard (wall seconds). A peer never heard is ``waiting``
-    (start-up: it is waited for); one heard, then silent longer than ``timeout`` is ``gone``.
+    When each of n peers was last heard (wall seconds). A peer never heard is waited for
+    (start-up); one heard, then silent for longer than ``timeout`` is ``gone`` until it is heard
+    again.
+
+    In lockstep a peer has nothing to say until the step it answers has begun, and nothing
+    more once it has answered: silence is counted from ``since``, the wall time the current
+    step began, when that is later, and only for the peers not ``answered`` yet.
     """
 
     def __init__(self, n, timeout):
         self.timeout = timeout
         self.last = np.full(n, np.nan)
+        self.out = np.zeros(n, bool)
 
     def heard(self, i, now):
         self.last[i] = now
+        self.out[i] = False
 
-    def gone(self, now):
-        return (now - self.last) > self.timeout
+    def gone(self, now, since=-np.inf, answered=False):
+        silent = (now - np.fmax(self.last, since)) > self.timeout
+        self.out |= ~np.isnan(self.last) & silent & ~np.asarray(answered)
+        return self.out.copy()
 
-    def alive(self, now):
-        return ~self.gone(now) & ~np.isnan(self.last)
+    def alive(self, now, since=-np.inf, answered=False):
+        return ~self.gone(now, since, answered) & ~np.isnan(self.last)
 
 
 @dataclass

@@ -65,6 +65,7 @@ class PlantNode(Node):
         self.liveness = links.Liveness(sc.num_vehicles, timeout['command_timeout'])
         self.wall = WallClock(clock_type=ClockType.STEADY_TIME)
         self.stopped = np.zeros(sc.num_vehicles, bool)
+        self.step_since = -np.inf
         self.counts = {'non_finite': 0, 'wrong_frame': 0, 'stale': 0}
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
@@ -114,8 +115,13 @@ class PlantNode(Node):
     def _step_ns(self):
         return self.t0_ns + int(round(self.n * self.sc.dt_control * 1e9))
 
+    def _gone(self):
+        return self.liveness.gone(self._now(), self.step_since, self.got)
+
     def _publish_step(self):
         ns = self._step_ns()
+        if self.mode == 'lockstep':
+            self.step_since = self._now()
         if self.clock_pub is not None:
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(ns, 1_000_000_000)
@@ -152,7 +158,7 @@ class PlantNode(Node):
         """Lockstep: advance once every vehicle still waited for has commanded this step."""
         if self.mode != 'lockstep' or not self.started or self.done:
             return
-        waited = ~self.liveness.gone(self._now()) & ~self.stopped
+        waited = ~self._gone() & ~self.stopped
         if waited.any() and np.all(self.got[waited]):
             self.got[:] = False
             self._advance()
@@ -164,7 +170,7 @@ class PlantNode(Node):
     def _advance(self):
         if self.wall_start is None:
             self.wall_start = time.perf_counter()
-        self.pending[:, self.liveness.gone(self._now()) | self.stopped] = 0.0
+        self.pending[:, self._gone() | self.stopped] = 0.0
         U = self.stepper.hold(self.pending)
         self.recorder.record(self.n, self.stepper.X, U)
         if self.n >= self.recorder.steps:
@@ -185,8 +191,7 @@ class PlantNode(Node):
         X[:, self.stopped] = before[:, self.stopped]
 
     def _publish_diagnostics(self):
-        now = self._now()
-        gone = [int(i) + 1 for i in np.flatnonzero(self.liveness.gone(now))]
+        gone = [int(i) + 1 for i in np.flatnonzero(self._gone())]
         stopped = [int(i) + 1 for i in np.flatnonzero(self.stopped)]
         level, text = DiagnosticStatus.OK, f'step {self.n}'
         if gone:

@@ -23,16 +23,22 @@ class _StopFlag:
 
 
 def run(make_node, args=None):
-    """Create the node with ``make_node(context)``; a bad scenario exits 2 with the reason."""
+    """
+    Create the node (or list of nodes) with ``make_node(context)`` and spin them on one events
+    executor; a bad scenario exits 2 with the reason.
+    """
     stop = _StopFlag()
     rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
     context = rclpy.get_default_context()
-    node = None
+    nodes = []
     try:
-        node = make_node(context)
+        made = make_node(context)
+        nodes = made if isinstance(made, list) else [made]
         executor = EventsExecutor(context=context)
-        executor.add_node(node)
-        while not stop.raised and context.ok() and not getattr(node, 'done', False):
+        for node in nodes:
+            executor.add_node(node)
+        while (not stop.raised and context.ok()
+               and not any(getattr(node, 'done', False) for node in nodes)):
             executor.spin_once(timeout_sec=0.1)
     except (ScenarioError, InvalidParameterTypeException, InvalidParameterValueException) as err:
         print(f'error: {err}', file=sys.stderr)
@@ -40,7 +46,7 @@ def run(make_node, args=None):
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if node is not None:
+        for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

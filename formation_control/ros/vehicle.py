@@ -6,13 +6,14 @@ rate and the phase values of the law), hears the formation states of its neighbo
 publishes its own command. It knows nothing of the others but what it receives.
 
 Lockstep: the command for step t is computed once the vehicle holds its own odometry and the
-state stamped t of every live neighbour. Real time: a timer computes it from the latest states
-of the live neighbours. A neighbour silent for ``neighbor_timeout`` wall seconds leaves the
+state stamped t of every live neighbour. Real time: it is computed as soon as the odometry of
+step t arrives, from the latest states of the live neighbours. A neighbour silent for ``neighbor_timeout`` wall seconds leaves the
 formation sums (N, the averages, the projector P) until it speaks again; one never heard is
 waited for (start-up, processes in any order). Faults can be injected on what it hears
 (:mod:`links`). Malformed, stale or foreign messages are dropped, logged and counted; the counts
 are in its ``/diagnostics`` status ``formation_control/vehicle_k/links``.
 """
+import collections
 import heapq
 import math
 import sys
@@ -47,10 +48,11 @@ class VehicleNode(Node):
         self.declare_parameter('vehicle_id', vehicle_id, ParameterDescriptor(
             description='this vehicle\'s id k, 1..num_vehicles', read_only=True))
         self.declare_parameter('mode', 'lockstep', ParameterDescriptor(
-            description='lockstep (event-driven, sim time) | realtime (own timer)',
+            description='lockstep (waits for every live neighbour at each step) | '
+                        'realtime (commands on each odometry from the latest states)',
             read_only=True))
         parameters.declare(self)
-        parameters.reject_unknown(self, ('vehicle_id', 'mode', *LINK_PARAMETERS))
+        parameters.reject_unknown(self, ('vehicle_id', 'vehicle_ids', 'mode', *LINK_PARAMETERS))
         self.sc = parameters.current(self)
         self.mode = parameters.choice(self, 'mode', parameters.MODES)
         if not 1 <= vehicle_id <= self.sc.num_vehicles:
@@ -62,6 +64,8 @@ class VehicleNode(Node):
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.counts = dict.fromkeys(REJECTS + ('dropped', 'out_of_range', 'saturated'), 0)
         self.queue = []
+        self.step_since = -math.inf
+        self.latency = collections.deque(maxlen=1000)
         self.ctrl = Controller(self.sc)
         n = self.sc.num_vehicles
         self.r = np.zeros(n, complex)
@@ -86,9 +90,7 @@ class VehicleNode(Node):
                                          lambda msg, j=j: self._on_state(j, msg), itf.STATE_QOS)
         self.add_on_set_parameters_callback(parameters.validator(self))
         self.add_post_set_parameters_callback(self._apply_parameters)
-        if self.mode == 'realtime':
-            self.create_timer(self.sc.dt_control, self._on_timer)
-        else:
+        if self.mode == 'lockstep':
             self.create_timer(min(0.05, self.liveness.timeout / 4), self._on_watchdog,
                               clock=self.wall)
         if self.faults.active:
@@ -132,13 +134,18 @@ class VehicleNode(Node):
         if ns < self.odom_ns:
             return self._reject('stale', f'an odometry stamped {ns * 1e-9:.3f} s, older than '
                                 f'the last one')
+        if self.mode == 'lockstep' and ns != self.odom_ns:
+            self.step_since = self._now()
         self.X, self.odom_ns = X[:, None], ns
         view = self.ctrl.view(self.X, self.F_held)
         row = (view.r[0], view.phase[0], view.rate[0], view.speed[0])
         self._store(self.k, ns, row)
         self.speed_dot = view.speed_dot[0]
         self.state_pub.publish(itf.state_msg(self.k, ns, X, row))
-        self._lockstep(ns)
+        if self.mode == 'realtime':
+            self._command(ns, self._live() & (self.stamp >= 0))
+        else:
+            self._lockstep(ns)
 
     def _on_state(self, j, msg):
         values = np.asarray(msg.position, float)
@@ -183,16 +190,20 @@ class VehicleNode(Node):
         self.table[:, i] = row[1:]
         self.stamp[i] = ns
 
+    def _step(self):
+        """(since, answered) of the current step for :class:`links.Liveness`."""
+        return self.step_since, self.stamp == self.odom_ns
+
     def _live(self):
         """Neighbours in the formation sums, and the vehicle itself."""
-        live = self.liveness.alive(self._now())
+        live = self.liveness.alive(self._now(), *self._step())
         live[self.k - 1] = True
         return live
 
     def _lockstep(self, ns):
         if self.mode != 'lockstep' or ns != self.odom_ns or self.commanded_ns == ns:
             return
-        waiting = ~self.liveness.gone(self._now())
+        waiting = ~self.liveness.gone(self._now(), *self._step())
         waiting[self.k - 1] = True
         if np.all(self.stamp[waiting] == ns):
             self._command(ns, self.stamp == ns)
@@ -200,10 +211,6 @@ class VehicleNode(Node):
     def _on_watchdog(self):
         if self.odom_ns >= 0:
             self._lockstep(self.odom_ns)
-
-    def _on_timer(self):
-        if self.X is not None:
-            self._command(self.get_clock().now().nanoseconds, self._live() & (self.stamp >= 0))
 
     def _command(self, ns, live):
         own = int(np.count_nonzero(live[:self.k - 1]))
@@ -214,14 +221,23 @@ class VehicleNode(Node):
         U = self.ctrl.command(view, self.X, [own], members=live)
         self.counts['saturated'] += int(self.ctrl.saturated(U)[0])
         self.F_held = U[1].copy()
+        if self.commanded_ns < 0:
+            self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.commanded_ns = ns
         self.cmd_pub.publish(itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model))
+        if self.mode == 'realtime':
+            self.latency.append(self.get_clock().now().nanoseconds - ns)
 
     def _publish_diagnostics(self):
         now = self._now()
-        gone = [j + 1 for j in np.flatnonzero(self.liveness.gone(now)) if j + 1 != self.k]
-        live = int(np.count_nonzero(self.liveness.alive(now))) - 1
+        gone = [j + 1 for j in np.flatnonzero(self.liveness.gone(now, *self._step()))
+                if j + 1 != self.k]
+        live = int(np.count_nonzero(self.liveness.alive(now, *self._step())))
         values = {'live_neighbours': live, 'gone_neighbours': gone, **self.counts}
+        if self.latency:
+            ms = 1e-6 * np.array(self.latency)
+            values.update(odom_to_command_ms_p50=f'{np.median(ms):.3f}',
+                          odom_to_command_ms_p99=f'{np.percentile(ms, 99):.3f}')
         level = DiagnosticStatus.WARN if gone else DiagnosticStatus.OK
         text = f'neighbours {gone} silent' if gone else f'{live} neighbours live'
         status = DiagnosticStatus(
@@ -233,26 +249,40 @@ class VehicleNode(Node):
         self.diag_pub.publish(msg)
 
 
-def vehicle_id_from_args(context):
-    """Read ``vehicle_id`` from the command line / parameter file before naming the node."""
+def _probe_parameter(context, name, default):
+    """Read ``name`` from the command line / parameter file before naming the node(s)."""
     probe = Node('vehicle', context=context, start_parameter_services=False,
                  enable_rosout=False)
     try:
-        probe.declare_parameter('vehicle_id', 0)
-        return probe.get_parameter('vehicle_id').value
+        probe.declare_parameter(name, default)
+        return probe.get_parameter(name).value
     finally:
         probe.destroy_node()
 
 
 def main(args=None):
+    """``vehicle``: one vehicle node, ``-p vehicle_id:=k``."""
     from formation_control.ros.runner import run
 
     def make(context):
-        k = vehicle_id_from_args(context)
+        k = _probe_parameter(context, 'vehicle_id', 0)
         if not isinstance(k, int) or k < 1:
             raise ScenarioError(f"parameter 'vehicle_id' = {k!r} is invalid: give the vehicle's "
                                 f'id, an integer in 1..num_vehicles (-p vehicle_id:=1)')
         return VehicleNode(k, context=context)
+    return run(make, args)
+
+
+def main_many(args=None):
+    """``vehicles``: several vehicle nodes in one process, ``-p vehicle_ids:=[1, 2, 3]``."""
+    from formation_control.ros.runner import run
+
+    def make(context):
+        ids = list(_probe_parameter(context, 'vehicle_ids', [0]))
+        if not ids or min(ids) < 1 or len(set(ids)) != len(ids):
+            raise ScenarioError(f"parameter 'vehicle_ids' = {ids!r} is invalid: give distinct "
+                                f'vehicle ids in 1..num_vehicles (-p vehicle_ids:=[1, 2])')
+        return [VehicleNode(k, context=context) for k in ids]
     return run(make, args)
 
 

@@ -1,0 +1,115 @@
+"""
+A fleet as ROS 2 processes (``formation-control swarm``), measured:
+
+- ``rtf``: lockstep real-time factor (simulated s per wall s) at a 50 Hz control rate and
+  500 Hz integration, for N vehicles and M vehicle nodes per process;
+- ``latency``: real-time mode, a vehicle's odometry stamp to its command (median and p99, from
+  the vehicles' diagnostics);
+- ``startup``: from starting ``swarm`` until every vehicle has published its first command.
+
+    .venv/bin/python bench/fleet.py rtf --sizes 5 16 32 --per-process 1 [--repeat 3]
+    .venv/bin/python bench/fleet.py latency --sizes 16
+    .venv/bin/python bench/fleet.py startup --sizes 16
+
+Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 88) and
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST.
+"""
+import argparse
+import json
+import os
+from pathlib import Path
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+BIN = Path(sys.executable).parent
+SCENARIO = 'particle_circular'
+
+
+def swarm(n, *args, domain, timeout=900):
+    """Run swarm; returns (summary dict, wall seconds from start, start time.time())."""
+    summary = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'summary.json'
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    start = time.time()
+    proc = subprocess.run([str(BIN / 'formation-control'), 'swarm', SCENARIO, '-p',
+                           f'num_vehicles:={n}', '--summary', str(summary), *map(str, args)],
+                          env=env, capture_output=True, text=True, timeout=timeout)
+    if proc.returncode != 0:
+        raise RuntimeError(proc.stderr + proc.stdout)
+    return json.loads(summary.read_text()), time.time() - start, start
+
+
+def rtf(args):
+    print(f'# lockstep, {SCENARIO}, dt_control 0.02 s, dt_integration 0.002 s, '
+          f'{os.cpu_count()} cores, median of {args.repeat}')
+    print(f"{'N':>4s} {'per process':>11s} {'RTF':>7s} {'ms/step':>8s} {'deliveries/step':>16s}"
+          f" {'us/delivery':>12s}")
+    for n in args.sizes:
+        for m in args.per_process:
+            runs = [swarm(n, '--duration', args.duration, '--no-monitor',
+                          '--vehicles-per-process', m, domain=args.domain)[0]['real_time_factor']
+                    for _ in range(args.repeat)]
+            factor = statistics.median(runs)
+            step_ms = 20.0 / factor
+            deliveries = n * (n - 1) + 2 * n
+            print(f'{n:4d} {m:11d} {factor:7.3f} {step_ms:8.2f} {deliveries:16d} '
+                  f'{1e3 * step_ms / deliveries:12.1f}', flush=True)
+
+
+def latency(args):
+    print(f'# realtime, {SCENARIO}, real_time_factor 1, {os.cpu_count()} cores')
+    for n in args.sizes:
+        bag = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'bag'
+        swarm(n, '--mode', 'realtime', '--duration', args.duration, '--bag', bag,
+              '--no-monitor', domain=args.domain)
+        from formation_control.bagfile import diagnostics
+        last = {}
+        for _, statuses in diagnostics(bag):
+            for name, _, _, values in statuses:
+                if 'odom_to_command_ms_p50' in values:
+                    last[name] = values
+        p50 = [float(v['odom_to_command_ms_p50']) for v in last.values()]
+        p99 = [float(v['odom_to_command_ms_p99']) for v in last.values()]
+        print(f'N={n}: {len(last)} vehicles; odometry stamp -> command: median of medians '
+              f'{np.median(p50):.2f} ms, worst median {max(p50):.2f} ms, median p99 '
+              f'{np.median(p99):.2f} ms, worst p99 {max(p99):.2f} ms', flush=True)
+
+
+STAMP = re.compile(r'\[(\d+\.\d+)\] \[vehicle_\d+\]: first command')
+
+
+def startup(args):
+    print(f'# lockstep, {SCENARIO}, {os.cpu_count()} cores, median of {args.repeat}')
+    for n in args.sizes:
+        times = []
+        for _ in range(args.repeat):
+            out, _, start = swarm(n, '--duration', 1.0, '--no-monitor', domain=args.domain)
+            firsts = []
+            for log in Path(out['logs']).glob('vehicle*.log'):
+                firsts += [float(m[1]) for m in STAMP.finditer(log.read_text())]
+            assert len(firsts) == n, (len(firsts), n)
+            times.append(max(firsts) - start)
+        print(f'N={n}: every vehicle commanding {statistics.median(times):.2f} s after swarm '
+              f'started (runs: {", ".join(f"{t:.2f}" for t in times)})', flush=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('what', choices=('rtf', 'latency', 'startup'))
+    parser.add_argument('--sizes', type=int, nargs='+', default=[5, 16, 32])
+    parser.add_argument('--per-process', type=int, nargs='+', default=[1])
+    parser.add_argument('--duration', type=float, default=10.0)
+    parser.add_argument('--repeat', type=int, default=3)
+    parser.add_argument('--domain', type=int, default=int(os.environ.get('ROS_DOMAIN_ID', 88)))
+    args = parser.parse_args()
+    {'rtf': rtf, 'latency': latency, 'startup': startup}[args.what](args)
+
+
+if __name__ == '__main__':
+    main()
