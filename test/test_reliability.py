@@ -270,3 +270,22 @@ def test_vehicles_first_plant_last(ros, tmp_path):
     fleet = simulator.load_run(record)
     offline = simulator.simulate(scenario.load(CONFIG / 'particle_circular.yaml', common))
     np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6, err_msg=output(plant))
+
+
+def test_vehicles_that_answered_are_not_gone_while_a_slow_one_is_awaited(ros, tmp_path):
+    """Step 0: vehicle 3 hears its neighbours 2.5 s late (beyond command_timeout); the plant
+    waits for it (never heard before) and keeps the commands the others sent long before."""
+    record = tmp_path / 'run.npz'
+    common = ['num_vehicles:=3', 'duration:=0.02', 'record_dt:=0.02']
+    cfg = CONFIG / 'particle_circular.yaml'
+    plant = ros.procs.start('plant', *_args(cfg, *common, f'record_path:={record}'))
+    for k in (1, 2):
+        ros.procs.start('vehicle', *_args(cfg, *common, f'vehicle_id:={k}'))
+    ros.procs.start('vehicle', *_args(cfg, *common, 'vehicle_id:=3', 'delay:=2.5',
+                                      'neighbor_timeout:=10.0'))
+    plant.wait(timeout=60)
+    assert plant.returncode == 0, output(plant)
+    fleet = simulator.load_run(record)
+    offline = simulator.simulate(scenario.load(cfg, common))
+    np.testing.assert_allclose(fleet.U[0], offline.U[0], rtol=0, atol=1e-12)
+    assert np.all(fleet.U[0, 1] != 0)

@@ -99,3 +99,14 @@ def test_swarm_stops_every_process_on_ctrl_c(ros):
     swarm.send_signal(2)
     assert swarm.wait(timeout=30) == 0
     assert not [pid for pid in fleet if Path(f'/proc/{pid}').exists()]
+
+
+def test_several_vehicle_nodes_per_process_equal_the_offline_simulator(ros, tmp_path):
+    overrides = ['num_vehicles:=6', 'duration:=10.0']
+    out, _ = _swarm(ros, tmp_path, 'particle_circular', '-p', overrides[0], '-p', overrides[1],
+                    '--vehicles-per-process', '4', '--no-monitor')
+    logs = sorted(p.name for p in Path(out['logs']).glob('*.log'))
+    assert logs == ['plant.log', 'vehicles_1-4.log', 'vehicles_5-6.log']
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    offline = simulator.simulate(scenario.load(CONFIG / 'particle_circular.yaml', overrides))
+    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6)

@@ -158,19 +158,20 @@ class PlantNode(Node):
         """Lockstep: advance once every vehicle still waited for has commanded this step."""
         if self.mode != 'lockstep' or not self.started or self.done:
             return
-        waited = ~self._gone() & ~self.stopped
+        gone = self._gone()
+        waited = ~gone & ~self.stopped
         if waited.any() and np.all(self.got[waited]):
             self.got[:] = False
-            self._advance()
+            self._advance(gone)
 
     def _on_timer(self):
         if not self.done:
-            self._advance()
+            self._advance(self._gone())
 
-    def _advance(self):
+    def _advance(self, gone):
         if self.wall_start is None:
             self.wall_start = time.perf_counter()
-        self.pending[:, self._gone() | self.stopped] = 0.0
+        self.pending[:, gone | self.stopped] = 0.0
         U = self.stepper.hold(self.pending)
         self.recorder.record(self.n, self.stepper.X, U)
         if self.n >= self.recorder.steps:
