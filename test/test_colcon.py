@@ -27,7 +27,7 @@ def install(tmp_path_factory):
 
 
 def test_installed_layout(install):
-    for exe in ('plant', 'vehicle', 'monitor', 'formation-control'):
+    for exe in ('plant', 'vehicle', 'vehicles', 'monitor', 'formation-control'):
         assert os.access(install / 'lib' / 'formation_control' / exe, os.X_OK), exe
     share = install / 'share' / 'formation_control'
     assert (share / 'package.xml').is_file()
