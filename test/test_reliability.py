@@ -289,3 +289,24 @@ def test_vehicles_that_answered_are_not_gone_while_a_slow_one_is_awaited(ros, tm
     offline = simulator.simulate(scenario.load(cfg, common))
     np.testing.assert_allclose(fleet.U[0], offline.U[0], rtol=0, atol=1e-12)
     assert np.all(fleet.U[0, 1] != 0)
+
+
+def test_a_neighbour_heard_before_the_first_odometry_is_still_waited_for(ros):
+    """Lockstep: silence counts only once a step has begun for this vehicle."""
+    ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=2', 'vehicle_id:=1'))
+    node = ros.probe.node
+    odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
+    state = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
+    cmds = ros.probe.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    assert ros.probe.spin_until(lambda: odom.get_subscription_count()
+                                and state.get_subscription_count())
+    state.publish(_state(2, 0))
+    ros.probe.spin_until(lambda: False, timeout=2.5)          # beyond neighbor_timeout (1 s)
+    odom.publish(_odom(1, 0))
+    assert ros.probe.spin_until(lambda: cmds)
+    odom.publish(_odom(1, 20_000_000))
+    ros.probe.spin_until(lambda: len(cmds) > 1, timeout=0.5)
+    assert len(cmds) == 1, 'commanded step 1 without waiting for vehicle 2'
+    state.publish(_state(2, 20_000_000))
+    assert ros.probe.spin_until(lambda: len(cmds) > 1)
+    assert itf.stamp_ns(cmds[1].header.stamp) == 20_000_000

@@ -65,7 +65,7 @@ class PlantNode(Node):
         self.liveness = links.Liveness(sc.num_vehicles, timeout['command_timeout'])
         self.wall = WallClock(clock_type=ClockType.STEADY_TIME)
         self.stopped = np.zeros(sc.num_vehicles, bool)
-        self.step_since = -np.inf
+        self.step_since = np.inf if self.mode == 'lockstep' else -np.inf
         self.counts = {'non_finite': 0, 'wrong_frame': 0, 'stale': 0}
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)

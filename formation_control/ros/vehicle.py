@@ -64,7 +64,7 @@ class VehicleNode(Node):
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.counts = dict.fromkeys(REJECTS + ('dropped', 'out_of_range', 'saturated'), 0)
         self.queue = []
-        self.step_since = -math.inf
+        self.step_since = math.inf if self.mode == 'lockstep' else -math.inf
         self.latency = collections.deque(maxlen=1000)
         self.ctrl = Controller(self.sc)
         n = self.sc.num_vehicles
