@@ -26,9 +26,9 @@ def write_params(sc, path):
 
 
 def executable(name):
-    """A console script beside the running one (venv, colcon lib/), else on PATH."""
-    here = Path(sys.argv[0]).resolve().parent / name
-    found = str(here) if here.exists() else shutil.which(name)
+    """A console script beside the running one (colcon lib/), the interpreter (venv) or on PATH."""
+    near = [Path(sys.argv[0]).resolve().parent / name, Path(sys.executable).parent / name]
+    found = next((str(p) for p in near if p.exists()), None) or shutil.which(name)
     if found is None:
         raise FileNotFoundError(f'executable {name!r} not found beside {sys.argv[0]} or on PATH')
     return found
@@ -55,8 +55,10 @@ class Swarm:
     """The processes of one run; use as a context manager so they are always stopped."""
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
-                 wait_for_start=False, monitor=True, node_params=(), per_process=1):
+                 wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
+                 env=None):
         self.sc, self.mode = sc, mode
+        self.place, self.env = place or (lambda name: []), env
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
@@ -87,7 +89,8 @@ class Swarm:
     def __enter__(self):
         for cmd, name in zip(self.commands, self.logs):
             log = open(self.dir / name, 'w')
-            self.procs.append(subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+            self.procs.append(subprocess.Popen(self.place(name[:-4]) + cmd, stdout=log,
+                                               stderr=subprocess.STDOUT, env=self.env,
                                                stdin=subprocess.DEVNULL))
             log.close()
         return self
@@ -188,8 +191,13 @@ class Recording:
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
-              monitor=True, node_params=(), per_process=1):
-    """Run a fleet as processes; returns (run, summary). Every process is stopped on exit."""
+              monitor=True, node_params=(), per_process=1, place=None, env=None):
+    """
+    Run a fleet as processes; returns (run, summary). Every process is stopped on exit.
+    ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
+    ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
+    ``env`` replaces the environment of every process.
+    """
     timeout = timeout or 60.0 + 20.0 * sc.duration
     recording = None
     if bag is not None:
@@ -198,7 +206,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor)
     try:
         with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
-                   monitor, node_params, per_process) as swarm:
+                   monitor, node_params, per_process, place, env) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

@@ -18,10 +18,8 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 @pytest.fixture
 def ros(monkeypatch):
     """A private ROS_DOMAIN_ID, the processes the test starts, and a probe node."""
-    from domain_coordinator import domain_id
-
-    from rosutil import Probe, Processes, ros_environment, shm_clean
-    with domain_id() as did:
+    from rosutil import domains, Probe, Processes, ros_environment, shm_clean
+    with domains() as (did,):
         env = ros_environment(did)
         monkeypatch.setenv('ROS_DOMAIN_ID', str(did))
         procs = Processes(env)

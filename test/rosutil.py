@@ -1,4 +1,5 @@
 """Test harness for real ROS 2 processes: a private domain, probe nodes, clean shutdown."""
+import contextlib
 import os
 from pathlib import Path
 import subprocess
@@ -96,3 +97,21 @@ def ros_environment(domain_id):
                PYTHONUNBUFFERED='1')
     env.pop('RMW_IMPLEMENTATION', None)
     return env
+
+
+@contextlib.contextmanager
+def domains(count=1):
+    """
+    ``count`` ROS_DOMAIN_IDs reserved for the block. domain_coordinator's own context swallows
+    an OSError (TimeoutError, FileNotFoundError ...) raised in its block; it is carried past.
+    """
+    from domain_coordinator import domain_id
+    error = None
+    with contextlib.ExitStack() as stack:
+        ids = [stack.enter_context(domain_id()) for _ in range(count)]
+        try:
+            yield ids
+        except OSError as err:
+            error = err
+    if error is not None:
+        raise error

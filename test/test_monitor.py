@@ -8,7 +8,6 @@ import re
 import subprocess
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from domain_coordinator import domain_id
 import numpy as np
 from nav_msgs.msg import Odometry
 import pytest
@@ -23,7 +22,7 @@ from formation_control.core import metrics, report, scenario
 from formation_control.core.control import Controller
 from formation_control.ros import interface as itf
 from formation_control.ros.bag import STREAM_QOS
-from rosutil import BIN, CONFIG, interrupt, ros_environment, shm_clean
+from rosutil import BIN, CONFIG, domains, interrupt, ros_environment, shm_clean
 
 SCENARIO = 'rigid_parallel_flow'
 DURATION = 12.0
@@ -33,7 +32,7 @@ DURATION = 12.0
 def recorded(tmp_path_factory):
     """One lockstep fleet with its monitor, recorded to a bag and to the plant's .npz."""
     tmp = tmp_path_factory.mktemp('recorded')
-    with domain_id() as did:
+    with domains() as (did,):
         env = ros_environment(did)
         try:
             proc = subprocess.run(
