@@ -310,3 +310,22 @@ def test_a_neighbour_heard_before_the_first_odometry_is_still_waited_for(ros):
     state.publish(_state(2, 20_000_000))
     assert ros.probe.spin_until(lambda: len(cmds) > 1)
     assert itf.stamp_ns(cmds[1].header.stamp) == 20_000_000
+
+
+def test_formation_states_best_effort_through_qos_overrides(ros, tmp_path):
+    """ROS 2's qos_overrides parameters make the neighbour links best effort (depth 1)."""
+    from rclpy.qos import ReliabilityPolicy
+
+    from formation_control.swarm import Swarm, wait_plant
+    sc = scenario.load(RIGID, ['num_vehicles:=4', 'duration:=15.0'])
+    overrides = [f'qos_overrides./vehicle_{k}/formation_state.{end}.{policy}:={value}'
+                 for k in range(1, 5) for end in ('publisher', 'subscription')
+                 for policy, value in (('reliability', 'best_effort'), ('depth', 1))]
+    with Swarm(sc, 'realtime', workdir=tmp_path, monitor=False, node_params=overrides) as swarm:
+        def offered():
+            return ros.probe.node.get_publishers_info_by_topic('/vehicle_3/formation_state')
+        assert ros.probe.spin_until(lambda: offered(), timeout=30)
+        assert offered()[0].qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+        wait_plant(swarm, 120)
+    run, out = swarm.result()
+    assert out['converged'], out

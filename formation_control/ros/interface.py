@@ -23,12 +23,14 @@ in ``position``), ``/diagnostics`` and ``/formation/markers`` (from the ``monito
 
 Every stamp is the time of the state it carries; in lockstep it names the step.
 """
+import copy
 import math
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
@@ -59,6 +61,17 @@ STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """Odometry, formation states and commands: every sample of a lockstep step must arrive, and a
 node that joins late gets the latest ones (transient local)."""
+
+OVERRIDABLE = QoSOverridingOptions([QoSPolicyKind.RELIABILITY, QoSPolicyKind.HISTORY,
+                                    QoSPolicyKind.DEPTH, QoSPolicyKind.DURABILITY])
+"""Odometry, formation states and commands take ROS 2's ``qos_overrides.<topic>.publisher|
+subscription.<policy>`` parameters (lossy radio links: docs/deployment.md)."""
+
+
+def state():
+    """Keyword arguments of a state publisher or subscription: a fresh :data:`STATE_QOS` (rclpy
+    writes the overrides into the profile it is given) that ``qos_overrides`` may change."""
+    return {'qos_profile': copy.copy(STATE_QOS), 'qos_overriding_options': OVERRIDABLE}
 
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,

@@ -122,12 +122,12 @@ class MonitorNode(Node):
         self.values = {}
         for k in range(1, n + 1):
             self.create_subscription(Odometry, itf.topic(k, 'odom'),
-                                     lambda m, k=k: self._on_odom(k, m), itf.STATE_QOS)
+                                     lambda m, k=k: self._on_odom(k, m), **itf.state())
             self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
-                                     lambda m, k=k: self._on_cmd(k, m), itf.STATE_QOS)
+                                     lambda m, k=k: self._on_cmd(k, m), **itf.state())
             self.create_subscription(JointState, itf.topic(k, 'formation_state'),
-                                     lambda _, k=k: self._heard('state', k), itf.STATE_QOS,
-                                     raw=True)
+                                     lambda _, k=k: self._heard('state', k), raw=True,
+                                     **itf.state())
         self.metrics_pub = self.create_publisher(JointState, itf.METRICS_TOPIC, STREAM_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, itf.MARKERS_TOPIC, STREAM_QOS)
         self.create_timer(self.p['markers_period'], self.publish_markers, clock=self.wall)

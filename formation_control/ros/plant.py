@@ -76,13 +76,13 @@ class PlantNode(Node):
         n = sc.num_vehicles
         self.pending = np.zeros((2, n))
         self.got = np.zeros(n, bool)
-        self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS)
+        self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'), **itf.state())
                           for k in range(1, n + 1)]
         self.flow_pubs = [self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
                                                 itf.LATCHED_QOS) for k in range(1, n + 1)]
         for k in range(1, n + 1):
             self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
-                                     lambda msg, k=k: self._on_cmd(k, msg), itf.STATE_QOS)
+                                     lambda msg, k=k: self._on_cmd(k, msg), **itf.state())
         self.clock_pub = None
         if self.mode == 'lockstep':
             self.clock_pub = self.create_publisher(Clock, '/clock', itf.LATCHED_QOS)

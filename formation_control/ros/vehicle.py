@@ -77,17 +77,17 @@ class VehicleNode(Node):
         self.F_held = np.zeros(1)
         self.flow = self.sc.flow_c
         self.state_pub = self.create_publisher(JointState, itf.topic(self.k, 'formation_state'),
-                                               itf.STATE_QOS)
+                                               **itf.state())
         self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(self.k, 'cmd'),
-                                             itf.STATE_QOS)
+                                             **itf.state())
         self.create_subscription(Odometry, itf.topic(self.k, 'odom'), self._on_odom,
-                                 itf.STATE_QOS)
+                                 **itf.state())
         self.create_subscription(Vector3Stamped, itf.topic(self.k, 'flow'), self._on_flow,
                                  itf.LATCHED_QOS)
         for j in range(1, n + 1):
             if j != self.k:
                 self.create_subscription(JointState, itf.topic(j, 'formation_state'),
-                                         lambda msg, j=j: self._on_state(j, msg), itf.STATE_QOS)
+                                         lambda msg, j=j: self._on_state(j, msg), **itf.state())
         self.add_on_set_parameters_callback(parameters.validator(self))
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'lockstep':
