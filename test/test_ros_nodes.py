@@ -145,3 +145,19 @@ def test_bad_parameter_at_start_up_exits_non_zero_naming_it(ros, exe, params, na
     result = ros.procs.run(exe, *_args(CONFIG / 'first_order_parallel.yaml', *params))
     assert result.returncode != 0
     assert named in result.stderr + result.stdout
+
+
+@pytest.mark.parametrize('k', [1, 9, 12, 345])
+def test_state_wire_bytes_are_the_formation_state_message(k):
+    """The vehicles' hand-written CDR is what rclpy makes of the same JointState, and back."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    X = np.array([1.5, -2.0, 0.3, -0.2, 1.1, 0.05])
+    row = (1.5 - 2.0j, 0.7, -0.1, 1.1)
+    ns = 1_795_000_123_456_789_012
+    wire = itf.StateWire(k)
+    data = wire.encode(ns, itf.state_values(X, row))
+    assert deserialize_message(data, JointState) == itf.state_msg(k, ns, X, row)
+    assert wire.decode(data) == (ns, itf.state_values(X, row))
+    assert wire.decode(serialize_message(itf.state_msg(k, ns, X, row))) in (None, wire.decode(data))
+    assert itf.StateWire(k + 1).decode(data) is None
+    assert wire.decode(data[:-20]) is None

@@ -25,6 +25,7 @@ Every stamp is the time of the state it carries; in lockstep it names the step.
 """
 import copy
 import math
+import struct
 
 import numpy as np
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
@@ -156,9 +157,59 @@ def state_msg(k, ns, X, view_row):
     set_stamp(msg.header, ns)
     msg.header.frame_id = base_link(k)
     msg.name = list(STATE_FIELDS)
-    r, phase, rate, speed = view_row
-    msg.position = [r.real, r.imag, float(X[THETA]), float(X[OMEGA]), phase, rate, speed]
+    msg.position = list(state_values(X, view_row))
     return msg
+
+
+def state_values(X, view_row):
+    """The :data:`STATE_FIELDS` values of one vehicle."""
+    r, phase, rate, speed = view_row
+    return (r.real, r.imag, float(X[THETA]), float(X[OMEGA]), phase, rate, speed)
+
+
+class StateWire:
+    """
+    Vehicle k's formation_state as serialized bytes (sensor_msgs/JointState, little-endian CDR)
+    without message objects: every vehicle sends one and hears N - 1 of them each step.
+    ``encode`` writes the canonical layout (zero padding, empty velocity and effort), which
+    ``decode`` reads in place; it returns None for any other bytes, which the caller then
+    deserializes and checks as a message.
+    """
+
+    HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
+
+    def __init__(self, k):
+        body = bytearray()
+
+        def put(raw, align=4):
+            body.extend(bytes(-(8 + len(body)) % align) + raw)  # body starts at 12 = 8 past origin
+        put(_cdr_string(base_link(k)))
+        put(struct.pack('<I', len(STATE_FIELDS)))
+        for name in STATE_FIELDS:
+            put(_cdr_string(name))
+        put(struct.pack('<I', len(STATE_FIELDS)))
+        put(b'', align=8)
+        self.middle = bytes(body)
+        self.values_at = 12 + len(body)
+        self.tail = bytes(8)                              # velocity and effort: empty
+
+    def encode(self, ns, values):
+        sec, nanosec = divmod(ns, 1_000_000_000)
+        return b''.join((self.HEADER, struct.pack('<iI', sec, nanosec), self.middle,
+                         struct.pack('<7d', *values), self.tail))
+
+    def decode(self, data):
+        """(stamp in ns, the 7 values) of canonical bytes, else None."""
+        if (len(data) < self.values_at + 56 or data[:4] != self.HEADER
+                or data[12:self.values_at] != self.middle):
+            return None
+        sec, nanosec = struct.unpack_from('<iI', data, 4)
+        return sec * 1_000_000_000 + nanosec, struct.unpack_from('<7d', data, self.values_at)
+
+
+def _cdr_string(text):
+    raw = text.encode() + b'\x00'
+    return struct.pack('<I', len(raw)) + raw
 
 
 def scenario_msg(sc):

@@ -15,6 +15,7 @@ are in its ``/diagnostics`` status ``formation_control/vehicle_k/links``.
 """
 import collections
 import heapq
+import itertools
 import math
 import sys
 
@@ -23,6 +24,7 @@ import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
@@ -64,6 +66,7 @@ class VehicleNode(Node):
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
         self.counts = dict.fromkeys(REJECTS + ('dropped', 'out_of_range', 'saturated'), 0)
         self.queue = []
+        self.arrivals = itertools.count()
         self.step_since = math.inf if self.mode == 'lockstep' else -math.inf
         self.latency = collections.deque(maxlen=1000)
         self.ctrl = Controller(self.sc)
@@ -76,6 +79,7 @@ class VehicleNode(Node):
         self.odom_ns = self.commanded_ns = -1
         self.F_held = np.zeros(1)
         self.flow = self.sc.flow_c
+        self.wires = [itf.StateWire(j) for j in range(1, n + 1)]
         self.state_pub = self.create_publisher(JointState, itf.topic(self.k, 'formation_state'),
                                                **itf.state())
         self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(self.k, 'cmd'),
@@ -87,7 +91,8 @@ class VehicleNode(Node):
         for j in range(1, n + 1):
             if j != self.k:
                 self.create_subscription(JointState, itf.topic(j, 'formation_state'),
-                                         lambda msg, j=j: self._on_state(j, msg), **itf.state())
+                                         lambda data, j=j: self._on_state(j, data), raw=True,
+                                         **itf.state())
         self.add_on_set_parameters_callback(parameters.validator(self))
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'lockstep':
@@ -141,22 +146,20 @@ class VehicleNode(Node):
         row = (view.r[0], view.phase[0], view.rate[0], view.speed[0])
         self._store(self.k, ns, row)
         self.speed_dot = view.speed_dot[0]
-        self.state_pub.publish(itf.state_msg(self.k, ns, X, row))
+        self.state_pub.publish(self.wires[self.k - 1].encode(ns, itf.state_values(X, row)))
         if self.mode == 'realtime':
             self._command(ns, self._live() & (self.stamp >= 0))
         else:
             self._lockstep(ns)
 
-    def _on_state(self, j, msg):
-        values = np.asarray(msg.position, float)
-        if len(values) != len(itf.STATE_FIELDS) or list(msg.name) != list(itf.STATE_FIELDS):
-            return self._reject('malformed', f'a malformed formation_state of vehicle {j}')
-        if not np.all(np.isfinite(values)):
+    def _on_state(self, j, data):
+        """A neighbour's formation_state, as bytes: read in place when in the canonical layout."""
+        got = self.wires[j - 1].decode(data) or self._checked_state(j, data)
+        if got is None:
+            return
+        ns, values = got
+        if not all(map(math.isfinite, values)):
             return self._reject('non_finite', f'a non-finite formation_state of vehicle {j}')
-        if msg.header.frame_id != itf.base_link(j):
-            kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
-            return self._reject(kind, f'a formation_state on vehicle {j}\'s topic from '
-                                f'{msg.header.frame_id!r}')
         if self.faults.out_of_range(j, self.r[self.k - 1], complex(values[0], values[1])):
             self.counts['out_of_range'] += 1
             return
@@ -164,18 +167,31 @@ class VehicleNode(Node):
         if delay is None:
             self.counts['dropped'] += 1
         elif delay > 0:
-            heapq.heappush(self.queue, (self._now() + delay, id(msg), j, msg))
+            heapq.heappush(self.queue, (self._now() + delay, next(self.arrivals), j, ns, values))
         else:
-            self._accept(j, msg, values)
+            self._accept(j, ns, values)
+
+    def _checked_state(self, j, data):
+        """(stamp, values) of a formation_state in another layout, or None once rejected."""
+        try:
+            msg = deserialize_message(data, JointState)
+        except Exception:
+            return self._reject('malformed', f'undecodable formation_state bytes of vehicle {j}')
+        if len(msg.position) != len(itf.STATE_FIELDS) or list(msg.name) != list(itf.STATE_FIELDS):
+            return self._reject('malformed', f'a malformed formation_state of vehicle {j}')
+        if msg.header.frame_id != itf.base_link(j):
+            kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
+            return self._reject(kind, f'a formation_state on vehicle {j}\'s topic from '
+                                f'{msg.header.frame_id!r}')
+        return itf.stamp_ns(msg.header.stamp), tuple(msg.position)
 
     def _deliver(self):
         now = self._now()
         while self.queue and self.queue[0][0] <= now:
-            _, _, j, msg = heapq.heappop(self.queue)
-            self._accept(j, msg, np.asarray(msg.position, float))
+            _, _, j, ns, values = heapq.heappop(self.queue)
+            self._accept(j, ns, values)
 
-    def _accept(self, j, msg, values):
-        ns = itf.stamp_ns(msg.header.stamp)
+    def _accept(self, j, ns, values):
         if ns < self.stamp[j - 1]:
             return self._reject('stale', f'a formation_state of vehicle {j} stamped '
                                 f'{ns * 1e-9:.3f} s, older than the last one')
