@@ -26,6 +26,8 @@ def messages(path, topics):
     store = get_typestore(Stores.ROS2_JAZZY)
     with Reader(path) as reader:
         conns = [c for c in reader.connections if c.topic in topics]
+        if not conns:                                    # rosbags reads every topic then
+            return
         for conn, _, data in reader.messages(connections=conns):
             yield conn.topic, store.deserialize_cdr(data, conn.msgtype)
 

@@ -15,7 +15,7 @@ import yaml
 
 from formation_control.core import simulator
 
-MONITOR_TOPICS = ('/formation/metrics', '/diagnostics')
+MONITOR_TOPICS = ('/formation/metrics',)
 
 
 def write_params(sc, path):

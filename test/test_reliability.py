@@ -329,3 +329,34 @@ def test_formation_states_best_effort_through_qos_overrides(ros, tmp_path):
         wait_plant(swarm, 120)
     run, out = swarm.result()
     assert out['converged'], out
+
+
+# ---- a step asked again ------------------------------------------------------------------------
+
+def test_plant_asks_again_a_vehicle_that_has_not_answered(ros):
+    """A vehicle that never got (or never handled) its odometry is sent the step again."""
+    ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=1', 'duration:=1.0'))
+    node = ros.probe.node
+    odom = ros.probe.collect(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
+    cmd = node.create_publisher(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    assert ros.probe.spin_until(lambda: odom and cmd.get_subscription_count())
+    assert ros.probe.spin_until(lambda: len(odom) > 1, timeout=5.0)
+    assert [itf.stamp_ns(m.header.stamp) for m in odom[:2]] == [0, 0]
+    assert odom[0].pose == odom[1].pose
+    cmd.publish(itf.cmd_msg(1, 0, np.zeros(2), 'second_order'))
+    assert ros.probe.spin_until(
+        lambda: any(itf.stamp_ns(m.header.stamp) == 20_000_000 for m in odom))
+
+
+def test_vehicle_answers_a_repeated_step_with_the_same_state_and_command(ros):
+    ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=1', 'vehicle_id:=1'))
+    node = ros.probe.node
+    odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
+    states = ros.probe.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = ros.probe.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    assert ros.probe.spin_until(lambda: odom.get_subscription_count())
+    odom.publish(_odom(1, 0))
+    assert ros.probe.spin_until(lambda: cmds and states)
+    odom.publish(_odom(1, 0, x=7.0))                 # the same step: answered as before
+    assert ros.probe.spin_until(lambda: len(cmds) > 1 and len(states) > 1)
+    assert states[1] == states[0] and cmds[1] == cmds[0]

@@ -41,6 +41,8 @@ MAP_FRAME = 'map'
 SCENARIO_TOPIC = '/formation/scenario'
 METRICS_TOPIC = '/formation/metrics'
 MARKERS_TOPIC = '/formation/markers'
+STALL = 3.0
+"""Lockstep: after this many wall seconds without progress, a node says what it waits for."""
 METRIC_DOC = {
     'order_parameter': '|p|, modulus of the mean phase vector (1.10); 1 = parallel',
     'potential': 'formation potential V (1.11), (1.14), (7.18)',

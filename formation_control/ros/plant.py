@@ -34,6 +34,7 @@ from formation_control.ros.bag import STREAM_QOS
 NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start',
                    'command_timeout')
 START_TOPIC = '/formation/start'
+NUDGE_AFTER = 4.0
 
 
 class PlantNode(Node):
@@ -67,6 +68,7 @@ class PlantNode(Node):
         self.stopped = np.zeros(sc.num_vehicles, bool)
         self.step_since = np.inf if self.mode == 'lockstep' else -np.inf
         self.counts = {'non_finite': 0, 'wrong_frame': 0, 'stale': 0}
+        self.step_wall, self.nudged, self.nudges = 0.0, -np.inf, 0
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
         self.n = 0
@@ -121,15 +123,33 @@ class PlantNode(Node):
     def _publish_step(self):
         ns = self._step_ns()
         if self.mode == 'lockstep':
-            self.step_since = self._now()
+            now = self._now()
+            self.step_wall, self.step_since = now - self.step_since, now
+            self.nudged = now
         if self.clock_pub is not None:
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(ns, 1_000_000_000)
             self.clock_pub.publish(msg)
-        X = self.stepper.X
-        for k, pub in enumerate(self.odom_pubs, start=1):
-            if not self.stopped[k - 1]:
-                pub.publish(itf.odom_msg(k, ns, X[:, k - 1], self.sc.flow_c))
+        self._publish_odom(~self.stopped)
+
+    def _publish_odom(self, which):
+        ns, X = self._step_ns(), self.stepper.X
+        for i in np.flatnonzero(which):
+            self.odom_pubs[i].publish(itf.odom_msg(i + 1, ns, X[:, i], self.sc.flow_c))
+
+    def _nudge(self, waited):
+        """
+        Lockstep: send this step's odometry again to the vehicles that have not answered, once
+        the step has lasted NUDGE_AFTER times the last one (at least a second), and again as
+        long as it lasts. A vehicle that hears the same step twice sends its state (and command)
+        again, so a sample that DDS took but the executor never handed over (seen at start-up
+        with many processes) cannot stall the fleet. Counted in ``/diagnostics``.
+        """
+        now = self._now()
+        if now - self.nudged > max(1.0, NUDGE_AFTER * self.step_wall):
+            self.nudged = now
+            self.nudges += 1
+            self._publish_odom(waited & ~self.got)
 
     def _now(self):
         return self.wall.now().nanoseconds * 1e-9
@@ -163,6 +183,8 @@ class PlantNode(Node):
         if waited.any() and np.all(self.got[waited]):
             self.got[:] = False
             self._advance(gone)
+        else:
+            self._nudge(waited)
 
     def _on_timer(self):
         if not self.done:
@@ -191,7 +213,16 @@ class PlantNode(Node):
         self.stopped |= bad
         X[:, self.stopped] = before[:, self.stopped]
 
+    def _report_waiting(self):
+        """Say which commands a lockstep step has waited for more than itf.STALL seconds."""
+        waited = self._now() - self.step_since
+        if self.mode == 'lockstep' and not self.done and waited > itf.STALL:
+            missing = np.flatnonzero(~self._gone() & ~self.stopped & ~self.got) + 1
+            self.get_logger().warn(f'step {self.n}: waiting {waited:.1f} s for the commands of '
+                                   f'vehicles {missing.tolist()}', throttle_duration_sec=5.0)
+
     def _publish_diagnostics(self):
+        self._report_waiting()
         gone = [int(i) + 1 for i in np.flatnonzero(self._gone())]
         stopped = [int(i) + 1 for i in np.flatnonzero(self.stopped)]
         level, text = DiagnosticStatus.OK, f'step {self.n}'
@@ -199,7 +230,8 @@ class PlantNode(Node):
             level, text = DiagnosticStatus.WARN, f'vehicles {gone} gone (zero command)'
         if stopped:
             level, text = DiagnosticStatus.ERROR, f'vehicles {stopped} stopped: non-finite state'
-        values = {'step': self.n, 'gone': gone, 'stopped': stopped, **self.counts}
+        values = {'step': self.n, 'gone': gone, 'stopped': stopped, **self.counts,
+                  'nudges': self.nudges}
         status = DiagnosticStatus(level=level, name='formation_control/plant', message=text,
                                   values=[KeyValue(key=k, value=str(v))
                                           for k, v in values.items()])

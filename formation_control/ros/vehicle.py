@@ -64,6 +64,7 @@ class VehicleNode(Node):
         self.liveness = links.Liveness(self.sc.num_vehicles, link.pop('neighbor_timeout'))
         self.faults = links.Faults(**link, vehicle_id=vehicle_id)
         self.wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.born = self._now()
         self.counts = dict.fromkeys(REJECTS + ('dropped', 'out_of_range', 'saturated'), 0)
         self.queue = []
         self.arrivals = itertools.count()
@@ -139,18 +140,26 @@ class VehicleNode(Node):
         if ns < self.odom_ns:
             return self._reject('stale', f'an odometry stamped {ns * 1e-9:.3f} s, older than '
                                 f'the last one')
-        if self.mode == 'lockstep' and ns != self.odom_ns:
+        if self.mode == 'lockstep':
+            if ns == self.odom_ns:                        # the plant asks again: same answers
+                return self._answer_again()
             self.step_since = self._now()
         self.X, self.odom_ns = X[:, None], ns
         view = self.ctrl.view(self.X, self.F_held)
         row = (view.r[0], view.phase[0], view.rate[0], view.speed[0])
         self._store(self.k, ns, row)
         self.speed_dot = view.speed_dot[0]
-        self.state_pub.publish(self.wires[self.k - 1].encode(ns, itf.state_values(X, row)))
+        self.last_state = self.wires[self.k - 1].encode(ns, itf.state_values(X, row))
+        self.state_pub.publish(self.last_state)
         if self.mode == 'realtime':
             self._command(ns, self._live() & (self.stamp >= 0))
         else:
             self._lockstep(ns)
+
+    def _answer_again(self):
+        self.state_pub.publish(self.last_state)
+        if self.commanded_ns == self.odom_ns:
+            self.cmd_pub.publish(self.last_cmd)
 
     def _on_state(self, j, data):
         """A neighbour's formation_state, as bytes: read in place when in the canonical layout."""
@@ -240,12 +249,30 @@ class VehicleNode(Node):
         if self.commanded_ns < 0:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.commanded_ns = ns
-        self.cmd_pub.publish(itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model))
+        self.last_cmd = itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model)
+        self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
             self.latency.append(self.get_clock().now().nanoseconds - ns)
 
+    def _report_waiting(self, now):
+        """Say what a lockstep vehicle has waited for more than itf.STALL seconds."""
+        if self.mode != 'lockstep':
+            return
+        if self.odom_ns < 0 and now - self.born > itf.STALL:
+            topic = itf.topic(self.k, 'odom')
+            self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
+                                   f'publishers matched)', throttle_duration_sec=5.0)
+        elif self.odom_ns >= 0 and self.commanded_ns != self.odom_ns and \
+                now - self.step_since > itf.STALL:
+            waiting = ~self.liveness.gone(now, *self._step()) & (self.stamp != self.odom_ns)
+            self.get_logger().warn(
+                f'step t = {self.odom_ns * 1e-9:.3f} s: waiting {now - self.step_since:.1f} s '
+                f'for the states of vehicles {[int(j) + 1 for j in np.flatnonzero(waiting)]}',
+                throttle_duration_sec=5.0)
+
     def _publish_diagnostics(self):
         now = self._now()
+        self._report_waiting(now)
         gone = [j + 1 for j in np.flatnonzero(self.liveness.gone(now, *self._step()))
                 if j + 1 != self.k]
         live = int(np.count_nonzero(self.liveness.alive(now, *self._step())))
