@@ -29,8 +29,10 @@ test: setup
 bench: setup
 	$(PY) bench/sim_throughput.py
 	$(PY) bench/law_cost.py
-	$(PY) bench/fleet.py rtf --sizes 5 16 32
-	$(PY) bench/fleet.py rtf --sizes 64 128 --per-process 8 16 --repeat 1
+	$(PY) bench/fleet.py rtf --sizes 5 16
+	$(PY) bench/fleet.py rtf --sizes 32 --per-process 2 4 --repeat 1 --duration 4
+	$(PY) bench/fleet.py rtf --sizes 64 --per-process 8 --repeat 1 --duration 2
+	$(PY) bench/fleet.py rtf --sizes 128 --per-process 16 --repeat 1 --duration 1
 	$(PY) bench/fleet.py latency --sizes 16
 	$(PY) bench/fleet.py startup --sizes 16
 

@@ -3,8 +3,9 @@ A fleet as ROS 2 processes (``formation-control swarm``), measured:
 
 - ``rtf``: lockstep real-time factor (simulated s per wall s) at a 50 Hz control rate and
   500 Hz integration, for N vehicles and M vehicle nodes per process;
-- ``latency``: real-time mode, a vehicle's odometry stamp to its command (median and p99, from
-  the vehicles' diagnostics);
+- ``latency``: real-time mode, from the vehicles' diagnostics (median and p99): odometry handed
+  to the node -> command sent (the node's latency), and odometry stamp -> command sent (adds
+  transport, queueing and any lag of the plant behind the wall clock);
 - ``startup``: from starting ``swarm`` until every vehicle has published its first command.
 
     .venv/bin/python bench/fleet.py rtf --sizes 5 16 32 --per-process 1 [--repeat 3]
@@ -37,7 +38,8 @@ def swarm(n, *args, domain, timeout=900):
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     start = time.time()
     proc = subprocess.run([str(BIN / 'formation-control'), 'swarm', SCENARIO, '-p',
-                           f'num_vehicles:={n}', '--summary', str(summary), *map(str, args)],
+                           f'num_vehicles:={n}', '--summary', str(summary),
+                           '--timeout', str(timeout - 30), *map(str, args)],
                           env=env, capture_output=True, text=True, timeout=timeout)
     if proc.returncode != 0:
         raise RuntimeError(proc.stderr + proc.stdout)
@@ -62,22 +64,26 @@ def rtf(args):
 
 
 def latency(args):
-    print(f'# realtime, {SCENARIO}, real_time_factor 1, {os.cpu_count()} cores')
+    print(f'# realtime, {SCENARIO}, real_time_factor {args.real_time_factor:g} (control at '
+          f'{50 * args.real_time_factor:g} Hz of wall time), {os.cpu_count()} cores')
     for n in args.sizes:
         bag = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'bag'
         swarm(n, '--mode', 'realtime', '--duration', args.duration, '--bag', bag,
-              '--no-monitor', domain=args.domain)
+              '--real-time-factor', args.real_time_factor,
+              '--no-monitor', '--vehicles-per-process', args.per_process[0], domain=args.domain)
         from formation_control.bagfile import diagnostics
         last = {}
         for _, statuses in diagnostics(bag):
             for name, _, _, values in statuses:
                 if 'odom_to_command_ms_p50' in values:
                     last[name] = values
-        p50 = [float(v['odom_to_command_ms_p50']) for v in last.values()]
-        p99 = [float(v['odom_to_command_ms_p99']) for v in last.values()]
-        print(f'N={n}: {len(last)} vehicles; odometry stamp -> command: median of medians '
-              f'{np.median(p50):.2f} ms, worst median {max(p50):.2f} ms, median p99 '
-              f'{np.median(p99):.2f} ms, worst p99 {max(p99):.2f} ms', flush=True)
+        for name, what in (('odom_to_command', 'odometry handed over -> command sent'),
+                           ('stamp_to_command', 'odometry stamp -> command sent')):
+            p50 = [float(v[f'{name}_ms_p50']) for v in last.values()]
+            p99 = [float(v[f'{name}_ms_p99']) for v in last.values()]
+            print(f'N={n}, {args.per_process[0]} per process: {len(last)} vehicles; {what}: '
+                  f'median of medians {np.median(p50):.2f} ms, worst median {max(p50):.2f} ms, '
+                  f'median p99 {np.median(p99):.2f} ms, worst p99 {max(p99):.2f} ms', flush=True)
 
 
 STAMP = re.compile(r'\[(\d+\.\d+)\] \[vehicle_\d+\]: first command')
@@ -88,13 +94,14 @@ def startup(args):
     for n in args.sizes:
         times = []
         for _ in range(args.repeat):
-            out, _, start = swarm(n, '--duration', 1.0, '--no-monitor', domain=args.domain)
+            out, _, start = swarm(n, '--duration', 1.0, '--no-monitor', '--vehicles-per-process',
+                                  args.per_process[0], domain=args.domain)
             firsts = []
             for log in Path(out['logs']).glob('vehicle*.log'):
                 firsts += [float(m[1]) for m in STAMP.finditer(log.read_text())]
             assert len(firsts) == n, (len(firsts), n)
             times.append(max(firsts) - start)
-        print(f'N={n}: every vehicle commanding {statistics.median(times):.2f} s after swarm '
+        print(f'N={n}, {args.per_process[0]} per process: every vehicle commanding {statistics.median(times):.2f} s after swarm '
               f'started (runs: {", ".join(f"{t:.2f}" for t in times)})', flush=True)
 
 
@@ -106,6 +113,7 @@ def main():
     parser.add_argument('--per-process', type=int, nargs='+', default=[1])
     parser.add_argument('--duration', type=float, default=10.0)
     parser.add_argument('--repeat', type=int, default=3)
+    parser.add_argument('--real-time-factor', type=float, default=1.0)
     parser.add_argument('--domain', type=int, default=int(os.environ.get('ROS_DOMAIN_ID', 88)))
     args = parser.parse_args()
     {'rtf': rtf, 'latency': latency, 'startup': startup}[args.what](args)

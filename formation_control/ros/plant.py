@@ -68,7 +68,7 @@ class PlantNode(Node):
         self.stopped = np.zeros(sc.num_vehicles, bool)
         self.step_since = np.inf if self.mode == 'lockstep' else -np.inf
         self.counts = {'non_finite': 0, 'wrong_frame': 0, 'stale': 0}
-        self.step_wall, self.nudged, self.nudges = 0.0, -np.inf, 0
+        self.step_wall, self.nudged, self.nudges, self.step_nudges = 0.0, -np.inf, 0, 0
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
         self.n = 0
@@ -125,7 +125,7 @@ class PlantNode(Node):
         if self.mode == 'lockstep':
             now = self._now()
             self.step_wall, self.step_since = now - self.step_since, now
-            self.nudged = now
+            self.nudged, self.step_nudges = now, 0
         if self.clock_pub is not None:
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(ns, 1_000_000_000)
@@ -140,15 +140,18 @@ class PlantNode(Node):
     def _nudge(self, waited):
         """
         Lockstep: send this step's odometry again to the vehicles that have not answered, once
-        the step has lasted NUDGE_AFTER times the last one (at least a second), and again as
-        long as it lasts. A vehicle that hears the same step twice sends its state (and command)
-        again, so a sample that DDS took but the executor never handed over (seen at start-up
-        with many processes) cannot stall the fleet. Counted in ``/diagnostics``.
+        the step has lasted NUDGE_AFTER times the last one (at least a second), then after
+        twice that wait, and so on (a slow start-up of a large fleet is not flooded). A vehicle
+        that hears the same step twice sends its state (and command) again, so a sample that DDS
+        matched but never handed over (seen at start-up with many processes) cannot stall the
+        fleet. Counted in ``/diagnostics``.
         """
         now = self._now()
-        if now - self.nudged > max(1.0, NUDGE_AFTER * self.step_wall):
+        wait = max(1.0, NUDGE_AFTER * self.step_wall) * 2.0 ** self.step_nudges
+        if now - self.nudged > wait:
             self.nudged = now
             self.nudges += 1
+            self.step_nudges += 1
             self._publish_odom(waited & ~self.got)
 
     def _now(self):

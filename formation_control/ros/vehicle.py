@@ -18,6 +18,7 @@ import heapq
 import itertools
 import math
 import sys
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import numpy as np
@@ -39,6 +40,10 @@ from formation_control.ros.bag import STREAM_QOS
 LINK_PARAMETERS = ('neighbor_timeout', 'drop_probability', 'delay', 'delay_jitter', 'comm_range',
                    'fault_links', 'fault_seed')
 REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
+LATENCIES = ('odom_to_command', 'stamp_to_command')
+"""Real time, last 1000 commands: odometry handed to the node -> command sent (the node's own
+latency), and odometry stamp -> command sent (adds the transport, the queue and any lag of the
+plant behind the wall clock)."""
 
 
 class VehicleNode(Node):
@@ -130,6 +135,7 @@ class VehicleNode(Node):
         self.flow = flow
 
     def _on_odom(self, msg):
+        self.odom_in = time.perf_counter_ns()
         if (msg.header.frame_id, msg.child_frame_id) != (itf.MAP_FRAME, itf.base_link(self.k)):
             return self._reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
                                 f' -> {msg.child_frame_id!r}')
@@ -252,7 +258,8 @@ class VehicleNode(Node):
         self.last_cmd = itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model)
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
-            self.latency.append(self.get_clock().now().nanoseconds - ns)
+            self.latency.append((time.perf_counter_ns() - self.odom_in,
+                                 self.get_clock().now().nanoseconds - ns))
 
     def _report_waiting(self, now):
         """Say what a lockstep vehicle has waited for more than itf.STALL seconds."""
@@ -278,9 +285,9 @@ class VehicleNode(Node):
         live = int(np.count_nonzero(self.liveness.alive(now, *self._step())))
         values = {'live_neighbours': live, 'gone_neighbours': gone, **self.counts}
         if self.latency:
-            ms = 1e-6 * np.array(self.latency)
-            values.update(odom_to_command_ms_p50=f'{np.median(ms):.3f}',
-                          odom_to_command_ms_p99=f'{np.percentile(ms, 99):.3f}')
+            for name, ms in zip(LATENCIES, 1e-6 * np.array(self.latency).T):
+                values.update({f'{name}_ms_p50': f'{np.median(ms):.3f}',
+                               f'{name}_ms_p99': f'{np.percentile(ms, 99):.3f}'})
         level = DiagnosticStatus.WARN if gone else DiagnosticStatus.OK
         text = f'neighbours {gone} silent' if gone else f'{live} neighbours live'
         status = DiagnosticStatus(
