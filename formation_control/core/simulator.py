@@ -77,10 +77,11 @@ class Stepper:
         """Compute and hold every vehicle's command from the current state."""
         return self.hold(self.ctrl.command(self.ctrl.view(self.X, self.U[1]), self.X))
 
-    def advance(self):
-        """Integrate one control period with the held command."""
+    def advance(self, steps=None):
+        """Integrate one control period (or ``steps`` integration steps) with the held command."""
         sc = self.sc
-        self.X = integrate(self.X, self.U, sc.dt_integration, sc.substeps, self.ctrl.plant)
+        self.X = integrate(self.X, self.U, sc.dt_integration, steps or sc.substeps,
+                           self.ctrl.plant)
         return self.X
 
 

@@ -5,7 +5,8 @@ It learns the scenario from the plant's latched ``/formation/scenario``, hears e
 odometry, command and formation state, and publishes
 
 - ``/formation/metrics`` (sensor_msgs/JointState, names in :data:`interface.METRIC_DOC`), every
-  ``period`` seconds of the fleet's time, when it holds the odometry of every vehicle at one step;
+  ``period`` seconds of the fleet's time, once it holds an odometry of every vehicle from the
+  current period (lockstep: of one step; real time: sampled within one control period);
 - ``/diagnostics``: one status per vehicle (stale odometry, command or formation state, saturated
   command, not converging) and one for the formation ("converged" with the time it took),
   every ``diagnostics_period`` wall seconds and whenever the formation's status changes;
@@ -83,6 +84,7 @@ class MonitorNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
+        self.get_logger().info(f'waiting for the fleet\'s scenario on {itf.SCENARIO_TOPIC}')
 
     def _now(self):
         return self.wall.now().nanoseconds * 1e-9
@@ -153,7 +155,8 @@ class MonitorNode(Node):
         self.X[:, k - 1] = x
         self.odom_ns[k - 1] = ns
         self._heard('odom', k)
-        if np.all(self.odom_ns == ns) and (self.next_ns is None or ns >= self.next_ns):
+        oldest = self.odom_ns.min()
+        if oldest >= 0 and (self.next_ns is None or oldest >= self.next_ns):
             self._sample(ns)
 
     def _sample(self, ns):

@@ -4,8 +4,11 @@ simulator (:class:`simulator.Stepper`) and broadcasts their state.
 
 Lockstep (default): the plant owns ``/clock``; it publishes step n (clock, every odometry),
 waits for the command of every vehicle stamped with step n, records, integrates one control
-period, and publishes step n + 1. Real time: a wall timer advances one period every
-``dt_control / real_time_factor`` seconds with the last command of each vehicle held.
+period, and publishes step n + 1. Real time: a wall timer advances one integration step every
+``dt_integration / real_time_factor`` seconds with the last command of each vehicle held, and
+vehicle k's odometry is sampled and sent at integration step (k - 1) mod substeps of each control
+period, as unsynchronised sensors would: the vehicles' control callbacks are spread over the
+period instead of all waking at once (docs/benchmarks.md, section 4).
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again (a vehicle never
@@ -68,6 +71,7 @@ class PlantNode(Node):
         self.stopped = np.zeros(sc.num_vehicles, bool)
         self.step_since = np.inf if self.mode == 'lockstep' else -np.inf
         self.counts = {'non_finite': 0, 'wrong_frame': 0, 'stale': 0}
+        self.repeated = 0
         self.step_wall, self.nudged, self.nudges, self.step_nudges = 0.0, -np.inf, 0, 0
         self.stepper = simulator.Stepper(sc)
         self.recorder = simulator.Recorder(sc)
@@ -78,6 +82,7 @@ class PlantNode(Node):
         n = sc.num_vehicles
         self.pending = np.zeros((2, n))
         self.got = np.zeros(n, bool)
+        self.cmd_ns = np.full(n, -1, np.int64)
         self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'), **itf.state())
                           for k in range(1, n + 1)]
         self.flow_pubs = [self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
@@ -110,8 +115,11 @@ class PlantNode(Node):
         self.started = True
         if self.mode == 'realtime':
             self.t0_ns = self.get_clock().now().nanoseconds
-            period = self.sc.dt_control / self.get_parameter('real_time_factor').value
-            self.create_timer(period, self._on_timer)
+            period = self.sc.dt_integration / self.get_parameter('real_time_factor').value
+            self.create_timer(period, self._on_tick)
+            self.slot = np.arange(self.sc.num_vehicles) % self.sc.substeps
+            self.tick = 0
+            return self._publish_odom((self.slot == 0) & ~self.stopped, self.t0_ns)
         self._publish_step()
 
     def _step_ns(self):
@@ -130,10 +138,10 @@ class PlantNode(Node):
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(ns, 1_000_000_000)
             self.clock_pub.publish(msg)
-        self._publish_odom(~self.stopped)
+        self._publish_odom(~self.stopped, ns)
 
-    def _publish_odom(self, which):
-        ns, X = self._step_ns(), self.stepper.X
+    def _publish_odom(self, which, ns):
+        X = self.stepper.X
         for i in np.flatnonzero(which):
             self.odom_pubs[i].publish(itf.odom_msg(i + 1, ns, X[:, i], self.sc.flow_c))
 
@@ -144,7 +152,7 @@ class PlantNode(Node):
         twice that wait, and so on (a slow start-up of a large fleet is not flooded). A vehicle
         that hears the same step twice sends its state (and command) again, so a sample that DDS
         matched but never handed over (seen at start-up with many processes) cannot stall the
-        fleet. Counted in ``/diagnostics``.
+        fleet. Counted in ``/diagnostics``: ``nudges``, and the second answers as ``repeated_commands``.
         """
         now = self._now()
         wait = max(1.0, NUDGE_AFTER * self.step_wall) * 2.0 ** self.step_nudges
@@ -152,7 +160,7 @@ class PlantNode(Node):
             self.nudged = now
             self.nudges += 1
             self.step_nudges += 1
-            self._publish_odom(waited & ~self.got)
+            self._publish_odom(waited & ~self.got, self._step_ns())
 
     def _now(self):
         return self.wall.now().nanoseconds * 1e-9
@@ -171,9 +179,13 @@ class PlantNode(Node):
                                 f'{msg.header.frame_id!r}')
         self.liveness.heard(k - 1, self._now())
         if self.mode == 'lockstep':
-            if not self.started or self.done or itf.stamp_ns(msg.header.stamp) != self._step_ns():
+            ns = itf.stamp_ns(msg.header.stamp)
+            if ns == self.cmd_ns[k - 1]:                  # the answer to a step asked again
+                self.repeated += 1
+                return
+            if not self.started or self.done or ns != self._step_ns():
                 return self._reject('stale', f'a command of vehicle {k} for another step')
-            self.got[k - 1] = True
+            self.got[k - 1], self.cmd_ns[k - 1] = True, ns
         self.pending[:, k - 1] = u
         self._try_advance()
 
@@ -189,29 +201,45 @@ class PlantNode(Node):
         else:
             self._nudge(waited)
 
-    def _on_timer(self):
-        if not self.done:
-            self._advance(self._gone())
+    def _on_tick(self):
+        """Real time: one integration step, then the odometry of the vehicles sampled now."""
+        substeps = self.sc.substeps
+        if self.done or not self._hold(self._gone(), self.tick % substeps == 0):
+            return
+        self._integrate(1)
+        self.tick += 1
+        self.n = self.tick // substeps
+        ns = self.t0_ns + int(round(self.tick * self.sc.dt_integration * 1e9))
+        self._publish_odom((self.slot == self.tick % substeps) & ~self.stopped, ns)
 
     def _advance(self, gone):
+        if self._hold(gone, True):
+            self._integrate()
+            self.n += 1
+            self._publish_step()
+
+    def _hold(self, gone, boundary):
+        """Hold the commands; at a period boundary record, and finish after the last one."""
         if self.wall_start is None:
             self.wall_start = time.perf_counter()
         self.pending[:, gone | self.stopped] = 0.0
         U = self.stepper.hold(self.pending)
-        self.recorder.record(self.n, self.stepper.X, U)
-        if self.n >= self.recorder.steps:
-            return self._finish()
+        if boundary:
+            self.recorder.record(self.n, self.stepper.X, U)
+            if self.n >= self.recorder.steps:
+                self._finish()
+                return False
+        return True
+
+    def _integrate(self, steps=None):
         before = self.stepper.X.copy()
-        X = self.stepper.advance()
-        self._stop_non_finite(before, X)
-        self.n += 1
-        self._publish_step()
+        self._stop_non_finite(before, self.stepper.advance(steps))
 
     def _stop_non_finite(self, before, X):
         bad = ~np.all(np.isfinite(X), axis=0) & ~self.stopped
         for i in np.flatnonzero(bad):
-            self.get_logger().error(f'vehicle {i + 1}: its state became non-finite at t = '
-                                    f'{(self.n + 1) * self.sc.dt_control:.3f} s (command '
+            self.get_logger().error(f'vehicle {i + 1}: its state became non-finite after t = '
+                                    f'{self.n * self.sc.dt_control:.3f} s (command '
                                     f'{self.pending[:, i].tolist()}); vehicle {i + 1} is stopped')
         self.stopped |= bad
         X[:, self.stopped] = before[:, self.stopped]
@@ -234,7 +262,7 @@ class PlantNode(Node):
         if stopped:
             level, text = DiagnosticStatus.ERROR, f'vehicles {stopped} stopped: non-finite state'
         values = {'step': self.n, 'gone': gone, 'stopped': stopped, **self.counts,
-                  'nudges': self.nudges}
+                  'nudges': self.nudges, 'repeated_commands': self.repeated}
         status = DiagnosticStatus(level=level, name='formation_control/plant', message=text,
                                   values=[KeyValue(key=k, value=str(v))
                                           for k, v in values.items()])

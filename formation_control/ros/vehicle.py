@@ -6,8 +6,8 @@ rate and the phase values of the law), hears the formation states of its neighbo
 publishes its own command. It knows nothing of the others but what it receives.
 
 Lockstep: the command for step t is computed once the vehicle holds its own odometry and the
-state stamped t of every live neighbour. Real time: it is computed as soon as the odometry of
-step t arrives, from the latest states of the live neighbours. A neighbour silent for ``neighbor_timeout`` wall seconds leaves the
+state stamped t of every live neighbour. Real time: it is computed and sent as soon as an
+odometry arrives, from the latest states of the live neighbours, and the state follows. A neighbour silent for ``neighbor_timeout`` wall seconds leaves the
 formation sums (N, the averages, the projector P) until it speaks again; one never heard is
 waited for (start-up, processes in any order). Faults can be injected on what it hears
 (:mod:`links`). Malformed, stale or foreign messages are dropped, logged and counted; the counts
@@ -156,11 +156,10 @@ class VehicleNode(Node):
         self._store(self.k, ns, row)
         self.speed_dot = view.speed_dot[0]
         self.last_state = self.wires[self.k - 1].encode(ns, itf.state_values(X, row))
-        self.state_pub.publish(self.last_state)
-        if self.mode == 'realtime':
+        if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._command(ns, self._live() & (self.stamp >= 0))
-        else:
-            self._lockstep(ns)
+        self.state_pub.publish(self.last_state)
+        self._lockstep(ns)
 
     def _answer_again(self):
         self.state_pub.publish(self.last_state)
