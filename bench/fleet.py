@@ -4,12 +4,12 @@ A fleet as ROS 2 processes (``formation-control swarm``), measured:
 - ``rtf``: lockstep real-time factor (simulated s per wall s) at a 50 Hz control rate and
   500 Hz integration, for N vehicles and M vehicle nodes per process;
 - ``latency``: real-time mode, from the vehicles' diagnostics (median and p99): odometry handed
-  to the node -> command sent (the node's latency), and odometry stamp -> command sent (adds
-  transport, queueing and any lag of the plant behind the wall clock);
+  to the node -> command sent (the node's latency), and, at real-time factor 1, odometry stamp
+  -> command sent (adds transport, queueing and any lag of the plant behind the wall clock);
 - ``startup``: from starting ``swarm`` until every vehicle has published its first command.
 
     .venv/bin/python bench/fleet.py rtf --sizes 5 16 32 --per-process 1 [--repeat 3]
-    .venv/bin/python bench/fleet.py latency --sizes 16
+    .venv/bin/python bench/fleet.py latency --sizes 16 --per-process 4 --real-time-factor 0.25
     .venv/bin/python bench/fleet.py startup --sizes 16
 
 Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 88) and
@@ -65,25 +65,44 @@ def rtf(args):
 
 def latency(args):
     print(f'# realtime, {SCENARIO}, real_time_factor {args.real_time_factor:g} (control at '
-          f'{50 * args.real_time_factor:g} Hz of wall time), {os.cpu_count()} cores')
+          f'{50 * args.real_time_factor:g} Hz of wall time), {os.cpu_count()} cores; per run: '
+          f'median over the vehicles of their median and p99 (ms), and the worst p99')
+    names = ['odom_to_command'] + (['stamp_to_command'] if args.real_time_factor == 1 else [])
     for n in args.sizes:
-        bag = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'bag'
-        swarm(n, '--mode', 'realtime', '--duration', args.duration, '--bag', bag,
-              '--real-time-factor', args.real_time_factor,
-              '--no-monitor', '--vehicles-per-process', args.per_process[0], domain=args.domain)
-        from formation_control.bagfile import diagnostics
-        last = {}
-        for _, statuses in diagnostics(bag):
-            for name, _, _, values in statuses:
-                if 'odom_to_command_ms_p50' in values:
-                    last[name] = values
-        for name, what in (('odom_to_command', 'odometry handed over -> command sent'),
-                           ('stamp_to_command', 'odometry stamp -> command sent')):
-            p50 = [float(v[f'{name}_ms_p50']) for v in last.values()]
-            p99 = [float(v[f'{name}_ms_p99']) for v in last.values()]
-            print(f'N={n}, {args.per_process[0]} per process: {len(last)} vehicles; {what}: '
-                  f'median of medians {np.median(p50):.2f} ms, worst median {max(p50):.2f} ms, '
-                  f'median p99 {np.median(p99):.2f} ms, worst p99 {max(p99):.2f} ms', flush=True)
+        runs = {name: [] for name in names}
+        for _ in range(args.repeat):
+            for name, figures in _latency_run(n, args).items():
+                if name in runs:
+                    runs[name].append(figures)
+        for name, figures in runs.items():
+            for p50, p99, worst in figures:
+                print(f'N={n}, {args.per_process[0]} per process, {name}: median {p50:.2f}, '
+                      f'p99 {p99:.2f}, worst p99 {worst:.2f}')
+            p50, p99, worst = np.median(figures, axis=0)
+            print(f'N={n}, {args.per_process[0]} per process, {name}, median of '
+                  f'{len(figures)} runs: median {p50:.2f} ms, p99 {p99:.2f} ms, worst p99 '
+                  f'{worst:.2f} ms', flush=True)
+
+
+def _latency_run(n, args):
+    """{latency name: (median of the vehicles' medians, median p99, worst p99)} of one run."""
+    from formation_control.bagfile import diagnostics
+    bag = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'bag'
+    swarm(n, '--mode', 'realtime', '--duration', args.duration, '--bag', bag,
+          '--real-time-factor', args.real_time_factor,
+          '--no-monitor', '--vehicles-per-process', args.per_process[0], domain=args.domain)
+    last = {}
+    for _, statuses in diagnostics(bag):
+        for name, _, _, values in statuses:
+            if 'odom_to_command_ms_p50' in values:
+                last[name] = values
+    assert len(last) == n, f'{len(last)} of {n} vehicles reported their latency'
+    out = {}
+    for name in ('odom_to_command', 'stamp_to_command'):
+        p50 = [float(v[f'{name}_ms_p50']) for v in last.values()]
+        p99 = [float(v[f'{name}_ms_p99']) for v in last.values()]
+        out[name] = (np.median(p50), np.median(p99), max(p99))
+    return out
 
 
 STAMP = re.compile(r'\[(\d+\.\d+)\] \[vehicle_\d+\]: first command')

@@ -16,8 +16,6 @@ import yaml
 from formation_control.core import simulator
 
 MONITOR_TOPICS = ('/formation/metrics',)
-START_TIMEOUT = 10.0
-"""Seconds a process may take to come up (its first log line) before the next one starts."""
 
 
 def write_params(sc, path):
@@ -89,29 +87,16 @@ class Swarm:
         self.procs = []
 
     def __enter__(self):
-        """
-        Start the processes one after the other, each once the previous one is up: Fast DDS
-        2.14.3 processes that create their participants at the same instant on one host can
-        claim the same shared-memory port, and a reader whose port another process owns is
-        matched but never receives a sample (docs/benchmarks.md, section 3).
-        """
         try:
             for cmd, name in zip(self.commands, self.logs):
                 with open(self.dir / name, 'w') as log:
                     self.procs.append(subprocess.Popen(self.place(name[:-4]) + cmd, stdout=log,
                                                        stderr=subprocess.STDOUT, env=self.env,
                                                        stdin=subprocess.DEVNULL))
-                self._wait_up(self.procs[-1], self.dir / name)
         except BaseException:
             stop(self.procs)
             raise
         return self
-
-    @staticmethod
-    def _wait_up(proc, log):
-        end = time.monotonic() + START_TIMEOUT
-        while proc.poll() is None and not log.stat().st_size and time.monotonic() < end:
-            time.sleep(0.01)
 
     def __exit__(self, *exc):
         stop(self.procs)

@@ -57,6 +57,23 @@ def test_plant_owns_clock_in_lockstep(ros):
     assert clock[0].clock.sec == 0 and clock[0].clock.nanosec == 0
 
 
+def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(ros):
+    """Vehicle k's odometry comes every period, (k - 1) mod substeps integration steps in."""
+    ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=12', 'mode:=realtime',
+                                    'exit_when_done:=false'))
+    ids = (1, 2, 10, 11, 12)
+    odom = {k: ros.probe.collect(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS) for k in ids}
+    assert ros.probe.spin_until(lambda: all(len(msgs) > 5 for msgs in odom.values()))
+    sc = scenario.load(PARTICLE)
+    period, step = (round(dt * 1e9) for dt in (sc.dt_control, sc.dt_integration))
+    assert sc.substeps == 10
+    stamps = {k: np.array([itf.stamp_ns(m.header.stamp) for m in msgs]) for k, msgs in odom.items()}
+    start = stamps[1][0]
+    for k in ids:
+        assert np.all(np.diff(stamps[k]) == period), k
+        assert (stamps[k][0] - start) % period == ((k - 1) % sc.substeps) * step, k
+
+
 def test_vehicle_answers_its_neighbours_with_state_and_command(ros):
     """Vehicle 1 of 2 gets its odometry and vehicle 2's state for t = 0.4 s, and commands."""
     vehicle = ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=2', 'vehicle_id:=1'))

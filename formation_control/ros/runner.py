@@ -1,6 +1,10 @@
 """The main loop every node shares: spin_once until done or asked to stop, exit 0 on SIGINT."""
+import contextlib
+import fcntl
+import os
 import signal
 import sys
+import tempfile
 
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -22,17 +26,36 @@ class _StopFlag:
         self.raised = True
 
 
+@contextlib.contextmanager
+def one_participant_at_a_time():
+    """
+    Hold a lock file while this process creates its DDS participant (rmw_fastrtps does so with
+    the context's first node). Fast DDS participants
+    created at the same instant on one host race for shared-memory ports (2.14.5 here), and a
+    reader can be left matched but never handed a sample (docs/benchmarks.md, section 3); the
+    lock lets fleets of processes start together, in any order, from any launcher.
+    """
+    path = os.path.join(tempfile.gettempdir(), f'formation_control_participant_{os.getuid()}.lock')
+    with open(path, 'a') as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
 def run(make_node, args=None):
     """
     Create the node (or list of nodes) with ``make_node(context)`` and spin them on one events
     executor; a bad scenario exits 2 with the reason.
     """
     stop = _StopFlag()
-    rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
-    context = rclpy.get_default_context()
     nodes = []
     try:
-        made = make_node(context)
+        with one_participant_at_a_time():                 # rmw creates it with the first node
+            rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+            context = rclpy.get_default_context()
+            made = make_node(context)
         nodes = made if isinstance(made, list) else [made]
         executor = EventsExecutor(context=context)
         for node in nodes:
