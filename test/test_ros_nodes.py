@@ -57,6 +57,19 @@ def test_plant_owns_clock_in_lockstep(ros):
     assert clock[0].clock.sec == 0 and clock[0].clock.nanosec == 0
 
 
+def test_a_node_waits_for_the_participant_lock_before_joining(ros):
+    """Participants are created one at a time (a Fast DDS start-up race, docs/benchmarks.md)."""
+    from formation_control.ros.runner import one_participant_at_a_time
+    odom = ros.probe.collect(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
+    with one_participant_at_a_time():
+        plant = ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=1',
+                                                'exit_when_done:=false'))
+        assert not ros.probe.spin_until(lambda: odom, timeout=4.0)
+        assert plant.poll() is None
+    assert ros.probe.spin_until(lambda: odom)
+    assert interrupt(plant) == 0
+
+
 def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(ros):
     """Vehicle k's odometry comes every period, (k - 1) mod substeps integration steps in."""
     ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=12', 'mode:=realtime',

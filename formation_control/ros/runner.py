@@ -10,6 +10,7 @@ import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
 
 from formation_control.core.scenario import ScenarioError
 
@@ -29,8 +30,7 @@ class _StopFlag:
 @contextlib.contextmanager
 def one_participant_at_a_time():
     """
-    Hold a lock file while this process creates its DDS participant (rmw_fastrtps does so with
-    the context's first node). Fast DDS participants
+    Hold a lock file while this process creates its DDS participant. Fast DDS participants
     created at the same instant on one host race for shared-memory ports (2.14.5 here), and a
     reader can be left matched but never handed a sample (docs/benchmarks.md, section 3); the
     lock lets fleets of processes start together, in any order, from any launcher.
@@ -44,6 +44,15 @@ def one_participant_at_a_time():
             fcntl.flock(lock, fcntl.LOCK_UN)
 
 
+def _participant(context):
+    """
+    A hidden node that creates the context's DDS participant (rmw_fastrtps creates it with the
+    first node and destroys it with the last), kept until the real nodes exist.
+    """
+    return Node(f'_participant_{os.getpid()}', context=context,
+                start_parameter_services=False, enable_rosout=False)
+
+
 def run(make_node, args=None):
     """
     Create the node (or list of nodes) with ``make_node(context)`` and spin them on one events
@@ -52,10 +61,14 @@ def run(make_node, args=None):
     stop = _StopFlag()
     nodes = []
     try:
-        with one_participant_at_a_time():                 # rmw creates it with the first node
+        with one_participant_at_a_time():
             rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
             context = rclpy.get_default_context()
+            anchor = _participant(context)
+        try:
             made = make_node(context)
+        finally:
+            anchor.destroy_node()
         nodes = made if isinstance(made, list) else [made]
         executor = EventsExecutor(context=context)
         for node in nodes:
