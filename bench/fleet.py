@@ -120,8 +120,9 @@ def startup(args):
                 firsts += [float(m[1]) for m in STAMP.finditer(log.read_text())]
             assert len(firsts) == n, (len(firsts), n)
             times.append(max(firsts) - start)
-        print(f'N={n}, {args.per_process[0]} per process: every vehicle commanding {statistics.median(times):.2f} s after swarm '
-              f'started (runs: {", ".join(f"{t:.2f}" for t in times)})', flush=True)
+        print(f'N={n}, {args.per_process[0]} per process: every vehicle commanding '
+              f'{statistics.median(times):.2f} s after swarm started '
+              f'(runs: {", ".join(f"{t:.2f}" for t in times)})', flush=True)
 
 
 def main():

@@ -152,7 +152,8 @@ class PlantNode(Node):
         twice that wait, and so on (a slow start-up of a large fleet is not flooded). A vehicle
         that hears the same step twice sends its state (and command) again, so a sample that DDS
         matched but never handed over (seen at start-up with many processes) cannot stall the
-        fleet. Counted in ``/diagnostics``: ``nudges``, and the second answers as ``repeated_commands``.
+        fleet. Counted in ``/diagnostics``: ``nudges``, and the second answers as
+        ``repeated_commands``.
         """
         now = self._now()
         wait = max(1.0, NUDGE_AFTER * self.step_wall) * 2.0 ** self.step_nudges

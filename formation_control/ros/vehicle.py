@@ -7,9 +7,10 @@ publishes its own command. It knows nothing of the others but what it receives.
 
 Lockstep: the command for step t is computed once the vehicle holds its own odometry and the
 state stamped t of every live neighbour. Real time: it is computed and sent as soon as an
-odometry arrives, from the latest states of the live neighbours, and the state follows. A neighbour silent for ``neighbor_timeout`` wall seconds leaves the
-formation sums (N, the averages, the projector P) until it speaks again; one never heard is
-waited for (start-up, processes in any order). Faults can be injected on what it hears
+odometry arrives, from the latest states of the live neighbours, and the state follows. A
+neighbour silent for ``neighbor_timeout`` wall seconds leaves the formation sums (N, the
+averages, the projector P) until it speaks again; one never heard is waited for (start-up,
+processes in any order). Faults can be injected on what it hears
 (:mod:`links`). Malformed, stale or foreign messages are dropped, logged and counted; the counts
 are in its ``/diagnostics`` status ``formation_control/vehicle_k/links``.
 """
