@@ -210,9 +210,10 @@ def _swarm(ros, tmp_path, name, *args, timeout=400):
     return json.loads(summary.read_text())
 
 
-@pytest.mark.parametrize('name, duration', [('rigid_parallel', 20), ('rigid_circular', 40),
+@pytest.mark.parametrize('name, duration', [('rigid_parallel', 20), ('rigid_circular', 60),
                                             ('rigid_parallel_flow', 20)])
 def test_rigid_scenarios_converge_with_lossy_late_links(ros, tmp_path, name, duration):
+    """rigid_circular converges at 27 s offline and in real time; 60 s leave room under load."""
     out = _swarm(ros, tmp_path, name, '--mode', 'realtime', '--duration', str(duration),
                  '-p', 'drop_probability:=0.2', '-p', 'delay:=0.05', '-p', 'delay_jitter:=0.1',
                  '-p', 'fault_seed:=5')

@@ -78,7 +78,7 @@ class PlantNode(Node):
         self.n = 0
         self.wall_start = None
         self.t0_ns = 0
-        self.started = self.done = False
+        self.started = self.finished = self.done = False
         n = sc.num_vehicles
         self.pending = np.zeros((2, n))
         self.got = np.zeros(n, bool)
@@ -115,8 +115,9 @@ class PlantNode(Node):
         self.started = True
         if self.mode == 'realtime':
             self.t0_ns = self.get_clock().now().nanoseconds
-            period = self.sc.dt_integration / self.get_parameter('real_time_factor').value
-            self.create_timer(period, self._on_tick)
+            self.t0_wall = self._now()
+            self.tick_rate = self.get_parameter('real_time_factor').value / self.sc.dt_integration
+            self.create_timer(1.0 / self.tick_rate, self._on_tick, clock=self.wall)
             self.slot = np.arange(self.sc.num_vehicles) % self.sc.substeps
             self.tick = 0
             return self._publish_odom((self.slot == 0) & ~self.stopped, self.t0_ns)
@@ -184,7 +185,7 @@ class PlantNode(Node):
             if ns == self.cmd_ns[k - 1]:                  # the answer to a step asked again
                 self.repeated += 1
                 return
-            if not self.started or self.done or ns != self._step_ns():
+            if not self.started or self.finished or ns != self._step_ns():
                 return self._reject('stale', f'a command of vehicle {k} for another step')
             self.got[k - 1], self.cmd_ns[k - 1] = True, ns
         self.pending[:, k - 1] = u
@@ -192,7 +193,7 @@ class PlantNode(Node):
 
     def _try_advance(self):
         """Lockstep: advance once every vehicle still waited for has commanded this step."""
-        if self.mode != 'lockstep' or not self.started or self.done:
+        if self.mode != 'lockstep' or not self.started or self.finished:
             return
         gone = self._gone()
         waited = ~gone & ~self.stopped
@@ -203,9 +204,17 @@ class PlantNode(Node):
             self._nudge(waited)
 
     def _on_tick(self):
-        """Real time: one integration step, then the odometry of the vehicles sampled now."""
+        """
+        Real time: the integration steps the wall clock has reached (a late timer skips its
+        missed periods, so count them), each followed by the odometry of the vehicles it samples.
+        """
+        due = int((self._now() - self.t0_wall) * self.tick_rate)
+        while self.tick < due and not self.finished:
+            self._step_once()
+
+    def _step_once(self):
         substeps = self.sc.substeps
-        if self.done or not self._hold(self._gone(), self.tick % substeps == 0):
+        if not self._hold(self._gone(), self.tick % substeps == 0):
             return
         self._integrate(1)
         self.tick += 1
@@ -248,7 +257,7 @@ class PlantNode(Node):
     def _report_waiting(self):
         """Say which commands a lockstep step has waited for more than itf.STALL seconds."""
         waited = self._now() - self.step_since
-        if self.mode == 'lockstep' and not self.done and waited > itf.STALL:
+        if self.mode == 'lockstep' and not self.finished and waited > itf.STALL:
             missing = np.flatnonzero(~self._gone() & ~self.stopped & ~self.got) + 1
             self.get_logger().warn(f'step {self.n}: waiting {waited:.1f} s for the commands of '
                                    f'vehicles {missing.tolist()}', throttle_duration_sec=5.0)
@@ -281,6 +290,7 @@ class PlantNode(Node):
             run.save(path)
         self.get_logger().info(f'plant: {simulated:g} s simulated in {wall:.3g} s of wall time '
                                f'(real-time factor {simulated / max(wall, 1e-9):.3g})')
+        self.finished = True
         self.done = self.get_parameter('exit_when_done').value
 
 
