@@ -124,7 +124,11 @@ class PlantNode(Node):
         self._publish_step()
 
     def _step_ns(self):
-        return self.t0_ns + int(round(self.n * self.sc.dt_control * 1e9))
+        return self._stamp_ns(self.n * self.sc.dt_control)
+
+    def _stamp_ns(self, t):
+        """The stamp of simulated time ``t`` (s)."""
+        return self.t0_ns + int(round(t * 1e9))
 
     def _gone(self):
         return self.liveness.gone(self._now(), self.step_since, self.got)
@@ -225,8 +229,8 @@ class PlantNode(Node):
         self._integrate(1)
         self.tick += 1
         self.n = self.tick // substeps
-        ns = self.t0_ns + int(round(self.tick * self.sc.dt_integration * 1e9))
-        self._publish_odom((self.slot == self.tick % substeps) & ~self.stopped, ns)
+        self._publish_odom((self.slot == self.tick % substeps) & ~self.stopped,
+                           self._stamp_ns(self.tick * self.sc.dt_integration))
 
     def _advance(self, gone):
         if self._hold(gone, True):
@@ -248,7 +252,7 @@ class PlantNode(Node):
         return True
 
     def _integrate(self, steps=None):
-        before = self.stepper.X.copy()
+        before = self.stepper.X                             # advance returns a new array
         self._stop_non_finite(before, self.stepper.advance(steps))
 
     def _stop_non_finite(self, before, X):
