@@ -32,8 +32,17 @@ class Processes:
         return proc
 
     def run(self, exe, *args, timeout=60):
-        return subprocess.run([str(BIN / exe), *map(str, args)], env=self.env, text=True,
-                              capture_output=True, timeout=timeout, stdin=subprocess.DEVNULL)
+        """Run to the end; past ``timeout``, stop it with INT first (a swarm stops its fleet)."""
+        proc = subprocess.Popen([str(BIN / exe), *map(str, args)], env=self.env, text=True,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                stdin=subprocess.DEVNULL)
+        try:
+            out, err = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            stop([proc], grace=(12.0, 5.0))
+            proc.communicate()
+            raise
+        return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
     def stop_all(self):
         codes = stop(self.procs)

