@@ -11,6 +11,7 @@ from rosbags.highlevel import AnyReader
 import yaml
 
 from formation_control.core import scenario, simulator
+from formation_control.ros import interface as itf
 from rosutil import CONFIG
 
 
@@ -61,7 +62,7 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
         for k in (1, 2, 3):
             for name in ('odom', 'cmd', 'formation_state'):
                 msgs = read(f'/vehicle_{k}/{name}')
-                stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs]
+                stamps = [itf.stamp_ns(m.header.stamp) for m in msgs]
                 assert stamps == sorted(stamps)
                 assert sorted(set(stamps)) == [n * 20_000_000 for n in range(steps)]
                 for m, before, s, s_before in zip(msgs[1:], msgs, stamps[1:], stamps):
