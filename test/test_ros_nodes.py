@@ -93,9 +93,9 @@ def test_realtime_plant_starts_the_clock_once_every_vehicle_is_up(ros):
                                             'exit_when_done:=false'))
     odom = ros.probe.collect(Odometry, itf.topic(1, 'odom'), itf.STATE_QOS)
     cmd = [ros.probe.node.create_publisher(WrenchStamped, itf.topic(1, 'cmd'), itf.STATE_QOS)]
-    assert ros.probe.spin_until(lambda: cmd[0].get_subscription_count())
+    assert ros.probe.spin_until(lambda: 'real time starts once vehicles [2] are up'
+                                in output(plant))
     assert not ros.probe.spin_until(lambda: odom, timeout=3.0)
-    assert 'real time starts once vehicles [2] are up' in output(plant)
     cmd.append(ros.probe.node.create_publisher(WrenchStamped, itf.topic(2, 'cmd'), itf.STATE_QOS))
     assert ros.probe.spin_until(lambda: len(odom) > 2)
     sc = scenario.load(PARTICLE)

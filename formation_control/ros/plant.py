@@ -122,6 +122,7 @@ class PlantNode(Node):
         if self.mode == 'lockstep':
             return self._publish_step()
         if self.get_parameter('wait_for_fleet').value:
+            self.missing = None
             self.fleet_timer = self.create_timer(0.05, self._start_when_fleet_is_up,
                                                  clock=self.wall)
         else:
@@ -130,9 +131,12 @@ class PlantNode(Node):
     def _start_when_fleet_is_up(self):
         missing = [k for k, sub in enumerate(self.cmd_subs, start=1)
                    if sub.get_publisher_count() == 0]
+        if missing != self.missing:
+            self.missing = missing
+            self.get_logger().info(f'real time starts once vehicles {missing} are up'
+                                   if missing else 'every vehicle is up: real time starts')
         if missing:
-            return self.get_logger().info(f'real time starts once vehicles {missing} are up',
-                                          throttle_duration_sec=5.0)
+            return
         self.destroy_timer(self.fleet_timer)
         self._start_clock()
 
