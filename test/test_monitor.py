@@ -21,7 +21,6 @@ from formation_control.cli import load_source
 from formation_control.core import metrics, report, scenario
 from formation_control.core.control import Controller
 from formation_control.ros import interface as itf
-from formation_control.ros.bag import STREAM_QOS
 from rosutil import BIN, CONFIG, domains, interrupt, ros_environment, shm_clean
 
 SCENARIO = 'rigid_parallel_flow'
@@ -203,7 +202,7 @@ def _latest(box, name):
 
 def test_vehicle_whose_odom_stops_goes_stale(ros):
     sc = _scenario(num_vehicles=2)
-    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     monitor, odom = _start_monitor(ros, sc)
 
     def feed(ks, ns):
@@ -227,7 +226,7 @@ def test_vehicle_whose_odom_stops_goes_stale(ros):
 
 def test_markers_show_each_vehicle_its_circle_centre_and_the_target(ros):
     sc = _scenario(num_vehicles=2, c0=[1.0, -2.0], informed=[1])
-    markers = ros.probe.collect(MarkerArray, itf.MARKERS_TOPIC, STREAM_QOS)
+    markers = ros.probe.collect(MarkerArray, itf.MARKERS_TOPIC, itf.STREAM_QOS)
     _, odom = _start_monitor(ros, sc)
     poses = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0)}
     for k, (x, y, theta) in poses.items():
@@ -252,8 +251,8 @@ def test_markers_show_each_vehicle_its_circle_centre_and_the_target(ros):
 
 def test_monitor_drops_and_counts_bad_odometry(ros):
     sc = _scenario(num_vehicles=2)
-    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
-    metrics_box = ros.probe.collect(JointState, itf.METRICS_TOPIC, STREAM_QOS)
+    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+    metrics_box = ros.probe.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
     monitor, odom = _start_monitor(ros, sc)
     odom[1].publish(_odom(1, 0, math.nan, 0.0, 0.0))
     odom[2].publish(_odom(2, 0, 0.0, 0.0, 0.0, frame='odom'))

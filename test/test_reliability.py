@@ -17,7 +17,6 @@ from formation_control import bagfile
 from formation_control.core import metrics, scenario, simulator
 from formation_control.core.control import Controller
 from formation_control.ros import interface as itf
-from formation_control.ros.bag import STREAM_QOS
 from rosutil import CONFIG, output
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
@@ -80,7 +79,7 @@ def test_vehicle_drops_counts_and_survives_bad_input(ros, case):
             'state': node.create_publisher(JointState, '/vehicle_2/formation_state',
                                            itf.STATE_QOS)}
     cmds = ros.probe.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
-    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     assert ros.probe.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values()))
     if kind == 'stale':
         pubs['state'].publish(_state(2, 400_000_000))
@@ -104,7 +103,7 @@ def test_plant_drops_and_counts_bad_commands(ros):
     node = ros.probe.node
     cmd = {k: node.create_publisher(WrenchStamped, itf.topic(k, 'cmd'), itf.STATE_QOS)
            for k in (1, 2)}
-    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     clock = ros.probe.collect(Clock, '/clock', itf.LATCHED_QOS)
     assert ros.probe.spin_until(lambda: clock and all(p.get_subscription_count()
                                                       for p in cmd.values()))
@@ -131,7 +130,7 @@ def test_plant_stops_a_vehicle_whose_state_turns_non_finite(ros):
     cmd = {k: node.create_publisher(WrenchStamped, itf.topic(k, 'cmd'), itf.STATE_QOS)
            for k in (1, 2)}
     odom = {k: ros.probe.collect(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS) for k in (1, 2)}
-    diags = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     assert ros.probe.spin_until(lambda: odom[1] and odom[2] and all(
         p.get_subscription_count() for p in cmd.values()))
     cmd[1].publish(itf.cmd_msg(1, 0, (5.0, 0.0), 'rigid'))

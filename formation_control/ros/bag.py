@@ -4,7 +4,7 @@ Record topics of a run into a rosbag2 bag (MCAP storage, metadata version 9, wha
 as received (CDR bytes), each topic with the QoS its publishers offer.
 """
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import HistoryPolicy, QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability
 from rosbags.interfaces import QosTime
 from rosbags.rosbag2 import StoragePlugin, Writer
@@ -12,18 +12,14 @@ from rosbags.typesys import get_typestore, Stores
 
 from formation_control.ros import interface as itf
 
-STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
-                        reliability=ReliabilityPolicy.RELIABLE,
-                        durability=DurabilityPolicy.VOLATILE)
-"""``/formation/metrics``, ``/formation/markers`` and ``/diagnostics``."""
 
 
 def fleet_topics(n):
     """(topic, ROS type name, QoS) of every topic a fleet of n vehicles uses."""
     topics = [('/clock', 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
-              (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', STREAM_QOS),
-              ('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', STREAM_QOS)]
+              (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
+              (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS)]
     for k in range(1, n + 1):
         topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
                    (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),

@@ -38,6 +38,7 @@ from std_msgs.msg import String
 from formation_control.core.models import OMEGA, PARTICLE_MODELS, THETA, U, V
 
 MAP_FRAME = 'map'
+DIAGNOSTICS_TOPIC = '/diagnostics'
 SCENARIO_TOPIC = '/formation/scenario'
 METRICS_TOPIC = '/formation/metrics'
 MARKERS_TOPIC = '/formation/markers'
@@ -71,15 +72,31 @@ OVERRIDABLE = QoSOverridingOptions([QoSPolicyKind.RELIABILITY, QoSPolicyKind.HIS
 subscription.<policy>`` parameters (lossy radio links: docs/deployment.md)."""
 
 
-def state():
-    """Keyword arguments of a state publisher or subscription: a fresh :data:`STATE_QOS` (rclpy
-    writes the overrides into the profile it is given) that ``qos_overrides`` may change."""
+def state_qos_kwargs():
+    """
+    Keyword arguments of a state publisher or subscription.
+
+    A fresh :data:`STATE_QOS` (rclpy writes the overrides into the profile it is given) that
+    the ``qos_overrides`` parameters may change.
+    """
     return {'qos_profile': copy.copy(STATE_QOS), 'qos_overriding_options': OVERRIDABLE}
+
 
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """The flow: published when it changes, kept for late joiners."""
+
+STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.VOLATILE)
+"""``/formation/metrics``, ``/formation/markers`` and ``/diagnostics``."""
+
+
+def yaw_quaternion(orientation, theta):
+    """Write the quaternion of a rotation by yaw ``theta`` (rad, CCW about z) into ``orientation``."""
+    orientation.z = math.sin(0.5 * theta)
+    orientation.w = math.cos(0.5 * theta)
 
 
 def topic(k, name):
@@ -106,8 +123,7 @@ def odom_msg(k, ns, X, flow):
     msg.child_frame_id = base_link(k)
     theta = float(X[THETA])
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(X[0]), float(X[1])
-    msg.pose.pose.orientation.z = math.sin(0.5 * theta)
-    msg.pose.pose.orientation.w = math.cos(0.5 * theta)
+    yaw_quaternion(msg.pose.pose.orientation, theta)
     body = complex(X[U], X[V]) + flow * complex(math.cos(theta), -math.sin(theta))
     msg.twist.twist.linear.x, msg.twist.twist.linear.y = body.real, body.imag
     msg.twist.twist.angular.z = float(X[OMEGA])

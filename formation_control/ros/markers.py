@@ -3,8 +3,6 @@ RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``): each vehicl
 arrow, its ground-velocity arrow in a flow, its trail, the circle centres c_k and the
 prescribed centre c0.
 """
-import math
-
 from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
@@ -35,8 +33,7 @@ def vehicle_markers(ns, k, position, heading, ground_velocity, trail):
     """Heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
     arrow = _marker(ns, 'heading', k, Marker.ARROW, HEADING)
     arrow.pose.position = _point(position)
-    arrow.pose.orientation.z = math.sin(0.5 * heading)
-    arrow.pose.orientation.w = math.cos(0.5 * heading)
+    itf.yaw_quaternion(arrow.pose.orientation, heading)
     arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.6, 0.12, 0.12
     out = [arrow]
     if ground_velocity is not None:

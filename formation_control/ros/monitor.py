@@ -34,7 +34,6 @@ from formation_control.core.models import THETA, U, V
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import markers, parameters
-from formation_control.ros.bag import STREAM_QOS
 
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 PREFIX = 'formation_control/'
@@ -81,7 +80,7 @@ class MonitorNode(Node):
         self.sc = None
         self.rejected = 0
         self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
         self.get_logger().info(f'waiting for the fleet\'s scenario on {itf.SCENARIO_TOPIC}')
@@ -124,14 +123,14 @@ class MonitorNode(Node):
         self.values = {}
         for k in range(1, n + 1):
             self.create_subscription(Odometry, itf.topic(k, 'odom'),
-                                     lambda m, k=k: self._on_odom(k, m), **itf.state())
+                                     lambda m, k=k: self._on_odom(k, m), **itf.state_qos_kwargs())
             self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
-                                     lambda m, k=k: self._on_cmd(k, m), **itf.state())
+                                     lambda m, k=k: self._on_cmd(k, m), **itf.state_qos_kwargs())
             self.create_subscription(JointState, itf.topic(k, 'formation_state'),
                                      lambda _, k=k: self._heard('state', k), raw=True,
-                                     **itf.state())
-        self.metrics_pub = self.create_publisher(JointState, itf.METRICS_TOPIC, STREAM_QOS)
-        self.markers_pub = self.create_publisher(MarkerArray, itf.MARKERS_TOPIC, STREAM_QOS)
+                                     **itf.state_qos_kwargs())
+        self.metrics_pub = self.create_publisher(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
+        self.markers_pub = self.create_publisher(MarkerArray, itf.MARKERS_TOPIC, itf.STREAM_QOS)
         self.create_timer(self.p['markers_period'], self.publish_markers, clock=self.wall)
         self.get_logger().info(f'monitoring {n} x {sc.model}, {sc.formation}')
 

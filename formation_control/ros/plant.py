@@ -34,7 +34,6 @@ from std_msgs.msg import Empty, String
 from formation_control.core import links, simulator
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
-from formation_control.ros.bag import STREAM_QOS
 
 NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start',
                    'wait_for_fleet', 'command_timeout')
@@ -88,13 +87,13 @@ class PlantNode(Node):
         self.pending = np.zeros((2, n))
         self.got = np.zeros(n, bool)
         self.cmd_ns = np.full(n, -1, np.int64)
-        self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'), **itf.state())
+        self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'), **itf.state_qos_kwargs())
                           for k in range(1, n + 1)]
         self.flow_pubs = [self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
                                                 itf.LATCHED_QOS) for k in range(1, n + 1)]
         self.cmd_subs = [self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
                                                   lambda msg, k=k: self._on_cmd(k, msg),
-                                                  **itf.state())
+                                                  **itf.state_qos_kwargs())
                          for k in range(1, n + 1)]
         self.clock_pub = None
         if self.mode == 'lockstep':
@@ -105,7 +104,7 @@ class PlantNode(Node):
         self.scenario_pub.publish(itf.scenario_msg(sc))
         self.get_logger().info(f'plant: {n} x {sc.model}, {sc.formation} ({sc.controller}), '
                                f'{self.mode}, {sc.duration:g} s')
-        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
         self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
         if self.mode == 'lockstep':
             self.create_timer(min(0.05, self.liveness.timeout / 4), self._try_advance,

@@ -36,7 +36,6 @@ from formation_control.core.control import Controller
 from formation_control.core.scenario import ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import parameters
-from formation_control.ros.bag import STREAM_QOS
 
 LINK_PARAMETERS = ('neighbor_timeout', 'drop_probability', 'delay', 'delay_jitter', 'comm_range',
                    'fault_links', 'fault_seed')
@@ -88,18 +87,18 @@ class VehicleNode(Node):
         self.flow = self.sc.flow_c
         self.wires = [itf.StateWire(j) for j in range(1, n + 1)]
         self.state_pub = self.create_publisher(JointState, itf.topic(self.k, 'formation_state'),
-                                               **itf.state())
+                                               **itf.state_qos_kwargs())
         self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(self.k, 'cmd'),
-                                             **itf.state())
+                                             **itf.state_qos_kwargs())
         self.create_subscription(Odometry, itf.topic(self.k, 'odom'), self._on_odom,
-                                 **itf.state())
+                                 **itf.state_qos_kwargs())
         self.create_subscription(Vector3Stamped, itf.topic(self.k, 'flow'), self._on_flow,
                                  itf.LATCHED_QOS)
         for j in range(1, n + 1):
             if j != self.k:
                 self.create_subscription(JointState, itf.topic(j, 'formation_state'),
                                          lambda data, j=j: self._on_state(j, data), raw=True,
-                                         **itf.state())
+                                         **itf.state_qos_kwargs())
         self.add_on_set_parameters_callback(parameters.validator(self))
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'lockstep':
@@ -107,7 +106,7 @@ class VehicleNode(Node):
                               clock=self.wall)
         if self.faults.active:
             self.create_timer(0.002, self._deliver, clock=self.wall)
-        self.diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STREAM_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
         self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
         self.get_logger().info(f'vehicle {self.k}/{n}: {self.sc.model} {self.sc.formation} '
                                f'({self.sc.controller}), {self.mode}')
