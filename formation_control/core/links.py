@@ -5,6 +5,8 @@ Node parameters (not scenario parameters: the offline simulator has no links), w
 defaults, units and allowed ranges in :data:`PARAMETERS`.
 """
 from dataclasses import dataclass
+import heapq
+import itertools
 import math
 
 import numpy as np
@@ -106,3 +108,65 @@ class Faults:
             return None
         jitter = self.rng.uniform(0.0, self.delay_jitter) if self.delay_jitter else 0.0
         return self.delay + jitter
+
+
+OUT_OF_RANGE, DROPPED, DELAYED, NOW = 'out_of_range', 'dropped', 'delayed', 'now'
+"""What :meth:`Inbox.receive` did with a message."""
+
+
+class Inbox:
+    """
+    The neighbour messages of one vehicle through its injected faults.
+
+    A message is out of range, dropped, delayed (held until :meth:`due` releases it) or
+    delivered now. Counts of each outcome, and the sum of the delays, are in ``counts`` and
+    ``delay_total`` (s).
+
+    Parameters
+    ----------
+    faults : Faults
+        The faults of the vehicle.
+    clock : callable
+        Returns the wall time (s), monotonic.
+    """
+
+    def __init__(self, faults, clock):
+        self.faults = faults
+        self.clock = clock
+        self.queue = []
+        self.arrivals = itertools.count()
+        self.counts = dict.fromkeys((OUT_OF_RANGE, DROPPED, DELAYED), 0)
+        self.delay_total = 0.0
+
+    def receive(self, j, message, own_r, their_r):
+        """
+        Route ``message`` of neighbour ``j`` (positions ``own_r``, ``their_r``, complex, m).
+
+        Returns
+        -------
+        str
+            :data:`NOW` (deliver it), :data:`DELAYED`, :data:`DROPPED` or :data:`OUT_OF_RANGE`.
+        """
+        if self.faults.out_of_range(j, own_r, their_r):
+            outcome = OUT_OF_RANGE
+        else:
+            delay = self.faults.admit(j)
+            if delay is None:
+                outcome = DROPPED
+            elif delay > 0:
+                heapq.heappush(self.queue, (self.clock() + delay, next(self.arrivals), j,
+                                            message))
+                self.delay_total += delay
+                outcome = DELAYED
+            else:
+                return NOW
+        self.counts[outcome] += 1
+        return outcome
+
+    def due(self):
+        """The delayed ``(j, message)`` whose time has come, in the order they fall due."""
+        now, out = self.clock(), []
+        while self.queue and self.queue[0][0] <= now:
+            _, _, j, message = heapq.heappop(self.queue)
+            out.append((j, message))
+        return out

@@ -1,3 +1,17 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 ``vehicle``: one vehicle's decentralised controller (a node per vehicle).
 
@@ -5,37 +19,31 @@ It hears its own odometry and flow, publishes its ``formation_state`` (pose, hea
 rate and the phase values of the law), hears the formation states of its neighbours, and
 publishes its own command. It knows nothing of the others but what it receives.
 
-Lockstep: the command for step t is computed once the vehicle holds its own odometry and the
-state stamped t of every live neighbour. Real time: it is computed and sent as soon as an
-odometry arrives, from the latest states of the live neighbours, and the state follows. A
-neighbour silent for ``neighbor_timeout`` wall seconds leaves the formation sums (N, the
-averages, the projector P) until it speaks again; one never heard is waited for (start-up,
-processes in any order). Faults can be injected on what it hears
-(:mod:`links`). Malformed, stale or foreign messages are dropped, logged and counted; the counts
-are in its ``/diagnostics`` status ``formation_control/vehicle_k/links``.
+When it commands, and from which neighbours, is :class:`neighbours.NeighbourTable`; the faults
+injected on what it hears are :class:`links.Inbox`; the law is :class:`control.Controller`:
+this node converts messages and publishes. Malformed, stale or foreign messages are dropped,
+logged and counted; the counts are in its ``/diagnostics`` status
+``formation_control/vehicle_k/links``.
 """
 import collections
-import heapq
-import itertools
 import math
 import sys
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
-from rclpy.serialization import deserialize_message
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
+import numpy as np
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from formation_control.core import laws, links
+from formation_control.core import links, lockstep
 from formation_control.core.control import Controller
+from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.scenario import ScenarioError
-from formation_control.ros import interface as itf
-from formation_control.ros import parameters
+from formation_control.ros import common, interface as itf, parameters
 
 LINK_PARAMETERS = ('neighbor_timeout', 'drop_probability', 'delay', 'delay_jitter', 'comm_range',
                    'fault_links', 'fault_seed')
@@ -52,6 +60,40 @@ class VehicleNode(Node):
     def __init__(self, vehicle_id, **kwargs):
         super().__init__(f'vehicle_{vehicle_id}', **kwargs)
         self.k = vehicle_id
+        self._declare(vehicle_id)
+        sc = self.sc = parameters.current(self)
+        self.mode = parameters.choice(self, 'mode', parameters.MODES)
+        if not 1 <= vehicle_id <= sc.num_vehicles:
+            raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
+                                f'1..num_vehicles = {sc.num_vehicles}')
+        link = parameters.declare_links(self, LINK_PARAMETERS, sc.num_vehicles, vehicle_id)
+        self.wall, self.now = common.wall_clock()
+        self.born = self.now()
+        self.known = NeighbourTable(sc.num_vehicles, vehicle_id, link.pop('neighbor_timeout'),
+                                    self.now, self.mode == 'lockstep')
+        self.inbox = links.Inbox(links.Faults(**link, vehicle_id=vehicle_id), self.now)
+        self.reject = common.Rejections(self.get_logger(), REJECTS)
+        self.saturated = 0
+        self.latency = collections.deque(maxlen=1000)
+        self.ctrl = Controller(sc)
+        self.speed_dot = 0.0
+        self.X = None
+        self.F_held = np.zeros(1)
+        self.flow = sc.flow_c
+        self.wires = [itf.StateWire(j) for j in range(1, sc.num_vehicles + 1)]
+        self._create_topics()
+        self.add_on_set_parameters_callback(parameters.validator(self))
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        if self.mode == 'lockstep':
+            self.create_timer(min(0.05, self.known.liveness.timeout / 4), self._try_command,
+                              clock=self.wall)
+        if self.inbox.faults.active:
+            self.create_timer(0.002, self._deliver, clock=self.wall)
+        self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
+        self.get_logger().info(f'vehicle {self.k}/{sc.num_vehicles}: {sc.model} {sc.formation} '
+                               f'({sc.controller}), {self.mode}')
+
+    def _declare(self, vehicle_id):
         self.declare_parameter('vehicle_id', vehicle_id, ParameterDescriptor(
             description='this vehicle\'s id k, 1..num_vehicles', read_only=True))
         self.declare_parameter('mode', 'lockstep', ParameterDescriptor(
@@ -60,56 +102,21 @@ class VehicleNode(Node):
             read_only=True))
         parameters.declare(self)
         parameters.reject_unknown(self, ('vehicle_id', 'vehicle_ids', 'mode', *LINK_PARAMETERS))
-        self.sc = parameters.current(self)
-        self.mode = parameters.choice(self, 'mode', parameters.MODES)
-        if not 1 <= vehicle_id <= self.sc.num_vehicles:
-            raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
-                                f'1..num_vehicles = {self.sc.num_vehicles}')
-        link = parameters.declare_links(self, LINK_PARAMETERS, self.sc.num_vehicles, vehicle_id)
-        self.liveness = links.Liveness(self.sc.num_vehicles, link.pop('neighbor_timeout'))
-        self.faults = links.Faults(**link, vehicle_id=vehicle_id)
-        self.wall = Clock(clock_type=ClockType.STEADY_TIME)
-        self.born = self._now()
-        self.counts = dict.fromkeys(REJECTS + ('dropped', 'out_of_range', 'saturated'), 0)
-        self.queue = []
-        self.arrivals = itertools.count()
-        self.step_since = math.inf if self.mode == 'lockstep' else -math.inf
-        self.latency = collections.deque(maxlen=1000)
-        self.ctrl = Controller(self.sc)
-        n = self.sc.num_vehicles
-        self.r = np.zeros(n, complex)
-        self.table = np.zeros((3, n))                     # phase, rate, speed
-        self.stamp = np.full(n, -1, np.int64)
-        self.speed_dot = 0.0
-        self.X = None
-        self.odom_ns = self.commanded_ns = -1
-        self.F_held = np.zeros(1)
-        self.flow = self.sc.flow_c
-        self.wires = [itf.StateWire(j) for j in range(1, n + 1)]
-        self.state_pub = self.create_publisher(JointState, itf.topic(self.k, 'formation_state'),
-                                               **itf.state_qos_kwargs())
-        self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(self.k, 'cmd'),
-                                             **itf.state_qos_kwargs())
-        self.create_subscription(Odometry, itf.topic(self.k, 'odom'), self._on_odom,
-                                 **itf.state_qos_kwargs())
-        self.create_subscription(Vector3Stamped, itf.topic(self.k, 'flow'), self._on_flow,
+
+    def _create_topics(self):
+        k, qos = self.k, itf.state_qos_kwargs
+        self.state_pub = self.create_publisher(JointState, itf.topic(k, 'formation_state'),
+                                               **qos())
+        self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(k, 'cmd'), **qos())
+        self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, **qos())
+        self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
                                  itf.LATCHED_QOS)
-        for j in range(1, n + 1):
-            if j != self.k:
+        for j in range(1, self.sc.num_vehicles + 1):
+            if j != k:
                 self.create_subscription(JointState, itf.topic(j, 'formation_state'),
                                          lambda data, j=j: self._on_state(j, data), raw=True,
-                                         **itf.state_qos_kwargs())
-        self.add_on_set_parameters_callback(parameters.validator(self))
-        self.add_post_set_parameters_callback(self._apply_parameters)
-        if self.mode == 'lockstep':
-            self.create_timer(min(0.05, self.liveness.timeout / 4), self._on_watchdog,
-                              clock=self.wall)
-        if self.faults.active:
-            self.create_timer(0.002, self._deliver, clock=self.wall)
-        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
-        self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
-        self.get_logger().info(f'vehicle {self.k}/{n}: {self.sc.model} {self.sc.formation} '
-                               f'({self.sc.controller}), {self.mode}')
+                                         **qos())
+        self.diag_pub = common.diagnostics_publisher(self)
 
     def _apply_parameters(self, _params):
         integral = self.ctrl.integral
@@ -117,53 +124,45 @@ class VehicleNode(Node):
         self.ctrl = Controller(self.sc)
         self.ctrl.integral = integral
 
-    def _now(self):
-        return self.wall.now().nanoseconds * 1e-9
-
-    def _reject(self, kind, what):
-        self.counts[kind] += 1
-        total = sum(self.counts[k] for k in REJECTS)
-        self.get_logger().warn(f'dropped {what} ({kind}; total dropped: {total})',
-                               throttle_duration_sec=2.0)
-
     def _on_flow(self, msg):
         flow = complex(msg.vector.x, msg.vector.y)
         if not (math.isfinite(flow.real) and math.isfinite(flow.imag)):
-            return self._reject('non_finite', 'a non-finite flow')
+            return self.reject('non_finite', 'a non-finite flow')
         if msg.header.frame_id != itf.MAP_FRAME:
-            return self._reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
+            return self.reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
         self.flow = flow
 
     def _on_odom(self, msg):
         self.odom_in = time.perf_counter_ns()
         if (msg.header.frame_id, msg.child_frame_id) != (itf.MAP_FRAME, itf.base_link(self.k)):
-            return self._reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
-                                f' -> {msg.child_frame_id!r}')
+            return self.reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
+                               f' -> {msg.child_frame_id!r}')
         X = itf.state_from_odom(msg, self.flow, self.sc.model)
         if not np.all(np.isfinite(X)):
-            return self._reject('non_finite', 'a non-finite odometry')
+            return self.reject('non_finite', 'a non-finite odometry')
         ns = itf.stamp_ns(msg.header.stamp)
-        if ns < self.odom_ns:
-            return self._reject('stale', f'an odometry stamped {ns * 1e-9:.3f} s, older than '
-                                f'the last one')
-        if self.mode == 'lockstep':
-            if ns == self.odom_ns:                        # the plant asks again: same answers
-                return self._answer_again()
-            self.step_since = self._now()
-        self.X, self.odom_ns = X[:, None], ns
+        kind = self.known.odometry(ns)
+        if kind == lockstep.STALE:
+            return self.reject('stale', f'an odometry stamped {ns * 1e-9:.3f} s, older than '
+                               f'the last one')
+        if kind == lockstep.REPEATED:
+            return self._answer_again()
+        self.X = X[:, None]
         view = self.ctrl.view(self.X, self.F_held)
         row = (view.r[0], view.phase[0], view.rate[0], view.speed[0])
-        self._store(self.k, ns, row)
+        self.known.store(self.k, ns, row)
         self.speed_dot = view.speed_dot[0]
         self.last_state = self.wires[self.k - 1].encode(ns, itf.state_values(X, row))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
-            self._command(ns, self._live() & (self.stamp >= 0))
+            self._try_command()
         self.state_pub.publish(self.last_state)
-        self._lockstep(ns)
+        if self.mode == 'lockstep':
+            self._try_command()
 
     def _answer_again(self):
+        """The plant asks the same step again: send the same state (and command, if sent)."""
         self.state_pub.publish(self.last_state)
-        if self.commanded_ns == self.odom_ns:
+        if self.known.commanded_ns == self.known.odom_ns:
             self.cmd_pub.publish(self.last_cmd)
 
     def _on_state(self, j, data):
@@ -173,16 +172,9 @@ class VehicleNode(Node):
             return
         ns, values = got
         if not all(map(math.isfinite, values)):
-            return self._reject('non_finite', f'a non-finite formation_state of vehicle {j}')
-        if self.faults.out_of_range(j, self.r[self.k - 1], complex(values[0], values[1])):
-            self.counts['out_of_range'] += 1
-            return
-        delay = self.faults.admit(j)
-        if delay is None:
-            self.counts['dropped'] += 1
-        elif delay > 0:
-            heapq.heappush(self.queue, (self._now() + delay, next(self.arrivals), j, ns, values))
-        else:
+            return self.reject('non_finite', f'a non-finite formation_state of vehicle {j}')
+        own = self.known.r[self.k - 1]
+        if self.inbox.receive(j, got, own, complex(values[0], values[1])) == links.NOW:
             self._accept(j, ns, values)
 
     def _checked_state(self, j, data):
@@ -190,70 +182,41 @@ class VehicleNode(Node):
         try:
             msg = deserialize_message(data, JointState)
         except Exception:
-            return self._reject('malformed', f'undecodable formation_state bytes of vehicle {j}')
+            return self.reject('malformed', f'undecodable formation_state bytes of vehicle {j}')
         if len(msg.position) != len(itf.STATE_FIELDS) or list(msg.name) != list(itf.STATE_FIELDS):
-            return self._reject('malformed', f'a malformed formation_state of vehicle {j}')
+            return self.reject('malformed', f'a malformed formation_state of vehicle {j}')
         if msg.header.frame_id != itf.base_link(j):
             kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
-            return self._reject(kind, f'a formation_state on vehicle {j}\'s topic from '
-                                f'{msg.header.frame_id!r}')
+            return self.reject(kind, f'a formation_state on vehicle {j}\'s topic from '
+                               f'{msg.header.frame_id!r}')
         return itf.stamp_ns(msg.header.stamp), tuple(msg.position)
 
     def _deliver(self):
-        now = self._now()
-        while self.queue and self.queue[0][0] <= now:
-            _, _, j, ns, values = heapq.heappop(self.queue)
+        for j, (ns, values) in self.inbox.due():
             self._accept(j, ns, values)
 
     def _accept(self, j, ns, values):
-        if ns < self.stamp[j - 1]:
-            return self._reject('stale', f'a formation_state of vehicle {j} stamped '
-                                f'{ns * 1e-9:.3f} s, older than the last one')
         x, y, _, _, phase, rate, speed = values
-        self.liveness.heard(j - 1, self._now())
-        self._store(j, ns, (complex(x, y), phase, rate, speed))
-        self._lockstep(ns)
+        if not self.known.hear(j, ns, (complex(x, y), phase, rate, speed)):
+            return self.reject('stale', f'a formation_state of vehicle {j} stamped '
+                               f'{ns * 1e-9:.3f} s, older than the last one')
+        if self.mode == 'lockstep':
+            self._try_command()
 
-    def _store(self, j, ns, row):
-        i = j - 1
-        self.r[i] = row[0]
-        self.table[:, i] = row[1:]
-        self.stamp[i] = ns
+    def _try_command(self):
+        members = self.known.ready()
+        if members is not None:
+            self._command(members)
 
-    def _step(self):
-        """(since, answered) of the current step for :class:`links.Liveness`."""
-        return self.step_since, self.stamp == self.odom_ns
-
-    def _live(self):
-        """Neighbours in the formation sums, and the vehicle itself."""
-        live = self.liveness.alive(self._now(), *self._step())
-        live[self.k - 1] = True
-        return live
-
-    def _lockstep(self, ns):
-        if self.mode != 'lockstep' or ns != self.odom_ns or self.commanded_ns == ns:
-            return
-        waiting = ~self.liveness.gone(self._now(), *self._step())
-        waiting[self.k - 1] = True
-        if np.all(self.stamp[waiting] == ns):
-            self._command(ns, self.stamp == ns)
-
-    def _on_watchdog(self):
-        if self.odom_ns >= 0:
-            self._lockstep(self.odom_ns)
-
-    def _command(self, ns, live):
-        own = int(np.count_nonzero(live[:self.k - 1]))
-        speed_dot = np.zeros(np.count_nonzero(live))
-        speed_dot[own] = self.speed_dot
-        phase, rate, speed = self.table[:, live]
-        view = laws.View(self.r[live], phase, rate, speed, speed_dot)
-        U = self.ctrl.command(view, self.X, [own], members=live)
-        self.counts['saturated'] += int(self.ctrl.saturated(U)[0])
+    def _command(self, members):
+        ns = self.known.odom_ns
+        view, own = self.known.view(members, self.speed_dot)
+        U = self.ctrl.command(view, self.X, [own], members=members)
+        self.saturated += int(self.ctrl.saturated(U)[0])
         self.F_held = U[1].copy()
-        if self.commanded_ns < 0:
+        if self.known.commanded_ns < 0:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
-        self.commanded_ns = ns
+        self.known.commanded()
         self.last_cmd = itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model)
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
@@ -262,40 +225,37 @@ class VehicleNode(Node):
 
     def _report_waiting(self, now):
         """Say what a lockstep vehicle has waited for more than itf.STALL seconds."""
+        known = self.known
         if self.mode != 'lockstep':
             return
-        if self.odom_ns < 0 and now - self.born > itf.STALL:
+        if known.odom_ns < 0 and now - self.born > itf.STALL:
             topic = itf.topic(self.k, 'odom')
             self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
                                    f'publishers matched)', throttle_duration_sec=5.0)
-        elif self.odom_ns >= 0 and self.commanded_ns != self.odom_ns and \
-                now - self.step_since > itf.STALL:
-            waiting = ~self.liveness.gone(now, *self._step()) & (self.stamp != self.odom_ns)
+        elif known.odom_ns >= 0 and known.commanded_ns != known.odom_ns and \
+                now - known.since > itf.STALL:
+            waiting = (np.flatnonzero(known.waiting()) + 1).tolist()
             self.get_logger().warn(
-                f'step t = {self.odom_ns * 1e-9:.3f} s: waiting {now - self.step_since:.1f} s '
-                f'for the states of vehicles {[int(j) + 1 for j in np.flatnonzero(waiting)]}',
-                throttle_duration_sec=5.0)
+                f'step t = {known.odom_ns * 1e-9:.3f} s: waiting {now - known.since:.1f} s '
+                f'for the states of vehicles {waiting}', throttle_duration_sec=5.0)
 
     def _publish_diagnostics(self):
-        now = self._now()
-        self._report_waiting(now)
-        gone = [j + 1 for j in np.flatnonzero(self.liveness.gone(now, *self._step()))
-                if j + 1 != self.k]
-        live = int(np.count_nonzero(self.liveness.alive(now, *self._step())))
-        values = {'live_neighbours': live, 'gone_neighbours': gone, **self.counts}
+        self._report_waiting(self.now())
+        gone = (np.flatnonzero(self.known.gone()) + 1).tolist()
+        live = int(np.count_nonzero(self.known.live())) - 1
+        delayed = self.inbox.counts[links.DELAYED]
+        values = {'live_neighbours': live, 'gone_neighbours': gone, **self.reject.counts,
+                  **self.inbox.counts, 'saturated': self.saturated,
+                  'mean_delay': f'{self.inbox.delay_total / max(1, delayed):.4f}'}
         if self.latency:
             for name, ms in zip(LATENCIES, 1e-6 * np.array(self.latency).T):
                 values.update({f'{name}_ms_p50': f'{np.median(ms):.3f}',
                                f'{name}_ms_p99': f'{np.percentile(ms, 99):.3f}'})
         level = DiagnosticStatus.WARN if gone else DiagnosticStatus.OK
         text = f'neighbours {gone} silent' if gone else f'{live} neighbours live'
-        status = DiagnosticStatus(
-            level=level, name=f'formation_control/vehicle_{self.k}/links', message=text,
-            hardware_id=f'vehicle_{self.k}',
-            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
-        msg = DiagnosticArray(status=[status])
-        msg.header.stamp = self.get_clock().now().to_msg()
-        self.diag_pub.publish(msg)
+        common.publish_diagnostics(self, self.diag_pub, [common.status(
+            f'formation_control/vehicle_{self.k}/links', level, text, values,
+            hardware_id=f'vehicle_{self.k}')])
 
 
 def _probe_parameter(context, name, default):

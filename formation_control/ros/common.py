@@ -1,0 +1,75 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""What every node of the package does alike: wall time, dropped input, diagnostics."""
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.clock import Clock, ClockType
+
+from formation_control.ros import interface as itf
+
+
+def wall_clock():
+    """
+    The steady wall clock of this process, for timers, and a callable reading it in seconds.
+
+    Returns
+    -------
+    (rclpy.clock.Clock, callable)
+    """
+    clock = Clock(clock_type=ClockType.STEADY_TIME)
+    return clock, lambda: clock.now().nanoseconds * 1e-9
+
+
+class Rejections:
+    """
+    Counts of dropped input by kind, each drop logged (rate-limited) with the running total.
+
+    Parameters
+    ----------
+    logger : rclpy logger
+    kinds : iterable of str
+        The kinds of rejected input that are counted.
+    """
+
+    def __init__(self, logger, kinds):
+        self.logger = logger
+        self.counts = dict.fromkeys(kinds, 0)
+
+    def __call__(self, kind, what):
+        """Count a dropped ``what`` (text) of ``kind`` and log it; returns None."""
+        self.counts[kind] += 1
+        self.logger.warn(f'dropped {what} ({kind}; total dropped: {self.total})',
+                         throttle_duration_sec=2.0)
+
+    @property
+    def total(self):
+        return sum(self.counts.values())
+
+
+def status(name, level, message, values, hardware_id=''):
+    """A DiagnosticStatus with ``values`` (dict) as its key/value pairs."""
+    return DiagnosticStatus(level=level, name=name, message=message, hardware_id=hardware_id,
+                            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+
+
+def diagnostics_publisher(node):
+    """The node's publisher on ``/diagnostics``."""
+    return node.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+
+
+def publish_diagnostics(node, publisher, statuses):
+    """Publish ``statuses`` as one DiagnosticArray stamped with the node's clock."""
+    msg = DiagnosticArray(status=list(statuses))
+    msg.header.stamp = node.get_clock().now().to_msg()
+    publisher.publish(msg)
