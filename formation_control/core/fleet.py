@@ -97,7 +97,8 @@ class FleetPlant:
             are stopped at their last finite state.
         """
         before = self.stepper.X
-        after = self.stepper.advance(steps)              # a new array
+        with np.errstate(invalid='ignore', over='ignore'):  # a vehicle turning non-finite
+            after = self.stepper.advance(steps)              # a new array
         bad = ~np.all(np.isfinite(after), axis=0) & ~self.stopped
         self.stopped |= bad
         after[:, self.stopped] = before[:, self.stopped]

@@ -128,15 +128,21 @@ class NeighbourTable:
         """(n,) bool: vehicles whose state answers the step under way."""
         return self.stamp == self.odom_ns
 
+    def _step(self):
+        """Lockstep: silence counts from the step's start and only for who has not answered."""
+        if self.lockstep:
+            return self.since, self.answered()
+        return -math.inf, False
+
     def gone(self):
         """(n,) bool: neighbours out of the formation sums (heard, then silent)."""
-        gone = self.liveness.gone(self.clock(), self.since, self.answered())
+        gone = self.liveness.gone(self.clock(), *self._step())
         gone[self.own] = False
         return gone
 
     def live(self):
         """(n,) bool: the live neighbours, and the vehicle itself."""
-        live = self.liveness.alive(self.clock(), self.since, self.answered())
+        live = self.liveness.alive(self.clock(), *self._step())
         live[self.own] = True
         return live
 
