@@ -21,6 +21,7 @@ from formation_control.core.control import Controller
 from formation_control.core.fleet import FleetPlant
 from formation_control.core.lockstep import FRESH, REPEATED, STALE
 from formation_control.core.neighbours import NeighbourTable
+from formation_control.core.onboard import Onboard
 from runs import CONFIG
 
 
@@ -290,3 +291,27 @@ def test_the_fleet_run_ends_after_its_last_period():
         periods += 1
     assert periods == 5 and fleet.time == pytest.approx(0.1)
     assert fleet.run({'mode': 'x'}).t.tolist() == pytest.approx([0.0, 0.1])
+
+
+@pytest.mark.parametrize('name', ['rigid_circular_flow_center', 'rigid_circular'])
+def test_onboard_controller_commands_as_the_fleet_controller_does(name, clock):
+    """A vehicle's Onboard, fed its own state and its neighbours' rows, equals the simulator."""
+    sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=4', 'informed:=[2]'], seed=5)
+    X = scenario.initial_state(sc)
+    fleet = Controller(sc)
+    expected = fleet.command(fleet.view(X), X)
+    table = NeighbourTable(4, own=3, timeout=1.0, clock=clock)
+    onboards = [Onboard(sc) for _ in range(4)]
+    for j, onboard in enumerate(onboards, start=1):
+        table.store(j, 0, onboard.observe(X[:, j - 1]))
+    table.odometry(0)
+    members = table.ready()
+    view, own = table.view(members, onboards[2].speed_dot)
+    u, saturated = onboards[2].command(view, own, members)
+    np.testing.assert_allclose(u, expected[:, 2], rtol=0, atol=1e-12)
+    assert not saturated
+    if sc.controller == 'pi':
+        integral = onboards[2].ctrl.integral.copy()
+        onboards[2].retune(scenario.resolve({**sc.to_dict(), 'K_P': 12.0}))
+        assert onboards[2].ctrl.sc.K_P == 12.0
+        np.testing.assert_array_equal(onboards[2].ctrl.integral, integral)

@@ -13,7 +13,10 @@
 # limitations under the License.
 
 """What every node of the package does alike: wall time, dropped input, diagnostics."""
+import collections
+
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+import numpy as np
 from rclpy.clock import Clock, ClockType
 
 from formation_control.ros import interface as itf
@@ -73,3 +76,31 @@ def publish_diagnostics(node, publisher, statuses):
     msg = DiagnosticArray(status=list(statuses))
     msg.header.stamp = node.get_clock().now().to_msg()
     publisher.publish(msg)
+
+
+class Latencies:
+    """
+    The last ``size`` samples of named latencies (ns), summarised in ms for diagnostics.
+
+    Parameters
+    ----------
+    names : tuple of str
+        One name per latency of a sample.
+    """
+
+    def __init__(self, names, size=1000):
+        self.names = names
+        self.samples = collections.deque(maxlen=size)
+
+    def add(self, *ns):
+        """One sample: a latency (ns) per name."""
+        self.samples.append(ns)
+
+    def summary(self):
+        """``{name}_ms_p50`` and ``{name}_ms_p99`` of each latency; empty before a sample."""
+        out = {}
+        if self.samples:
+            for name, ms in zip(self.names, 1e-6 * np.array(self.samples).T):
+                out[f'{name}_ms_p50'] = f'{np.median(ms):.3f}'
+                out[f'{name}_ms_p99'] = f'{np.percentile(ms, 99):.3f}'
+        return out

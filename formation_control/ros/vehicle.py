@@ -25,7 +25,6 @@ this node converts messages and publishes. Malformed, stale or foreign messages 
 logged and counted; the counts are in its ``/diagnostics`` status
 ``formation_control/vehicle_k/links``.
 """
-import collections
 import math
 import sys
 import time
@@ -40,7 +39,7 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from formation_control.core import links, lockstep
-from formation_control.core.control import Controller
+from formation_control.core.onboard import Onboard
 from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.scenario import ScenarioError
 from formation_control.ros import common, interface as itf, parameters
@@ -74,11 +73,8 @@ class VehicleNode(Node):
         self.inbox = links.Inbox(links.Faults(**link, vehicle_id=vehicle_id), self.now)
         self.reject = common.Rejections(self.get_logger(), REJECTS)
         self.saturated = 0
-        self.latency = collections.deque(maxlen=1000)
-        self.ctrl = Controller(sc)
-        self.speed_dot = 0.0
-        self.X = None
-        self.F_held = np.zeros(1)
+        self.latency = common.Latencies(LATENCIES)
+        self.onboard = Onboard(sc)
         self.flow = sc.flow_c
         self.wires = [itf.StateWire(j) for j in range(1, sc.num_vehicles + 1)]
         self._create_topics()
@@ -119,10 +115,8 @@ class VehicleNode(Node):
         self.diag_pub = common.diagnostics_publisher(self)
 
     def _apply_parameters(self, _params):
-        integral = self.ctrl.integral
         self.sc = parameters.current(self)
-        self.ctrl = Controller(self.sc)
-        self.ctrl.integral = integral
+        self.onboard.retune(self.sc)
 
     def _on_flow(self, msg):
         flow = complex(msg.vector.x, msg.vector.y)
@@ -147,11 +141,8 @@ class VehicleNode(Node):
                                f'the last one')
         if kind == lockstep.REPEATED:
             return self._answer_again()
-        self.X = X[:, None]
-        view = self.ctrl.view(self.X, self.F_held)
-        row = (view.r[0], view.phase[0], view.rate[0], view.speed[0])
+        row = self.onboard.observe(X)
         self.known.store(self.k, ns, row)
-        self.speed_dot = view.speed_dot[0]
         self.last_state = self.wires[self.k - 1].encode(ns, itf.state_values(X, row))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
@@ -210,18 +201,17 @@ class VehicleNode(Node):
 
     def _command(self, members):
         ns = self.known.odom_ns
-        view, own = self.known.view(members, self.speed_dot)
-        U = self.ctrl.command(view, self.X, [own], members=members)
-        self.saturated += int(self.ctrl.saturated(U)[0])
-        self.F_held = U[1].copy()
+        view, own = self.known.view(members, self.onboard.speed_dot)
+        u, saturated = self.onboard.command(view, own, members)
+        self.saturated += saturated
         if self.known.commanded_ns < 0:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.known.commanded()
-        self.last_cmd = itf.cmd_msg(self.k, ns, U[:, 0], self.sc.model)
+        self.last_cmd = itf.cmd_msg(self.k, ns, u, self.sc.model)
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
-            self.latency.append((time.perf_counter_ns() - self.odom_in,
-                                 self.get_clock().now().nanoseconds - ns))
+            self.latency.add(time.perf_counter_ns() - self.odom_in,
+                             self.get_clock().now().nanoseconds - ns)
 
     def _report_waiting(self, now):
         """Say what a lockstep vehicle has waited for more than itf.STALL seconds."""
@@ -246,11 +236,8 @@ class VehicleNode(Node):
         delayed = self.inbox.counts[links.DELAYED]
         values = {'live_neighbours': live, 'gone_neighbours': gone, **self.reject.counts,
                   **self.inbox.counts, 'saturated': self.saturated,
-                  'mean_delay': f'{self.inbox.delay_total / max(1, delayed):.4f}'}
-        if self.latency:
-            for name, ms in zip(LATENCIES, 1e-6 * np.array(self.latency).T):
-                values.update({f'{name}_ms_p50': f'{np.median(ms):.3f}',
-                               f'{name}_ms_p99': f'{np.percentile(ms, 99):.3f}'})
+                  'mean_delay': f'{self.inbox.delay_total / max(1, delayed):.4f}',
+                  **self.latency.summary()}
         level = DiagnosticStatus.WARN if gone else DiagnosticStatus.OK
         text = f'neighbours {gone} silent' if gone else f'{live} neighbours live'
         common.publish_diagnostics(self, self.diag_pub, [common.status(
