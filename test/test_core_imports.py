@@ -12,7 +12,8 @@ import pytest
 
 ROS_PREFIXES = ('rclpy', 'rcl', 'rmw', 'geometry_msgs', 'nav_msgs', 'std_msgs',
                 'builtin_interfaces', 'ament_index_python')
-CORE_MODULES = ('scenario', 'simulator', 'laws', 'control', 'metrics', 'models')
+CORE_MODULES = ('scenario', 'simulator', 'laws', 'control', 'metrics', 'models', 'links',
+                'lockstep', 'neighbours', 'fleet', 'onboard', 'report', 'geometry')
 
 REPORT = textwrap.dedent(f'''
     import json
