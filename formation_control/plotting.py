@@ -18,7 +18,7 @@ def _arrows(ax, d, flow, length):
     ax.quiver(x, y, np.cos(theta), np.sin(theta), color='k', angles='xy',
               scale_units='xy', scale=1.0 / length, width=0.005, label='heading')
     if flow != 0:
-        ground = d['speed'][-1] * np.exp(1j * (theta + d['beta_hat'][-1]))
+        ground = d['ground'][-1]
         ax.quiver(x, y, ground.real, ground.imag, color='r', angles='xy', scale_units='xy',
                   scale=1.0 / length, width=0.005, label='ground velocity')
 

@@ -196,3 +196,15 @@ def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch)
                               _plain_rk4(X, U, dt, steps, plant))
     _assert_close_per_row(models.rk4_step(X, U, 0.002, plant), _plain_rk4(X, U, 0.002, 1, plant))
     assert np.array_equal(X, X_before) and np.array_equal(U, U_before)
+
+
+@pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
+@pytest.mark.parametrize('model', models.MODELS)
+def test_ground_velocity_is_the_rate_of_the_position(model, flow):
+    """``ground_velocity`` (8.1) is x' + i y' of every model, for one vehicle and a fleet."""
+    plant = models.Plant(model, flow, l1=0.2)
+    X, U = _random_fleet(model, 7, np.random.default_rng(3))
+    dX = models.deriv(X, U, plant)
+    np.testing.assert_allclose(models.ground_velocity(X, flow), dX[0] + 1j * dX[1], rtol=1e-13)
+    np.testing.assert_allclose(models.ground_velocity(X[:, 2], flow),
+                               models.ground_velocity(X, flow)[2], rtol=1e-15)

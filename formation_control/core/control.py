@@ -11,7 +11,8 @@ import numpy as np
 
 from formation_control.core import laws
 from formation_control.core.geometry import inner
-from formation_control.core.models import body_accel, OMEGA, Plant, RIGID_MODELS, THETA, U, V
+from formation_control.core.models import (body_accel, ground_velocity, OMEGA, Plant,
+                                           RIGID_MODELS, THETA, U, V)
 
 
 def particle_speed_terms(theta, flow):
@@ -75,16 +76,14 @@ def rigid_view(X, U_applied, plant, use_heading, full):
     otherwise the thesis' practical law uses omega and s' = 0 (text after 7.12).
     """
     r = X[0] + 1j * X[1]
-    heading = np.exp(1j * X[THETA])
-    rel = X[U] + 1j * X[V]
-    vel = rel * heading + plant.flow
+    vel = ground_velocity(X, plant.flow)
     speed = abs(vel)
     if use_heading:
         return laws.View(r, X[THETA], X[OMEGA], speed, np.zeros_like(speed))
     if not full:
         return laws.View(r, np.angle(vel), X[OMEGA], speed, np.zeros_like(speed))
     du, dv, _ = body_accel(X, U_applied, plant)
-    acc = (du + 1j * dv + 1j * X[OMEGA] * rel) * heading
+    acc = (du + 1j * dv + 1j * X[OMEGA] * (X[U] + 1j * X[V])) * np.exp(1j * X[THETA])
     rate = inner(1j * vel, acc) / speed ** 2
     return laws.View(r, np.angle(vel), rate, speed, inner(vel, acc) / speed)
 

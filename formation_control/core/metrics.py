@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from formation_control.core import laws
-from formation_control.core.models import THETA, U, V
+from formation_control.core.models import ground_velocity, THETA, U, V
 
 ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
@@ -92,10 +92,8 @@ def convergence_time(t, flags):
 
 def crab_angles(X, flow):
     """(beta, beta_hat): flow-relative crab angle atan2(v, u) and inertial one gamma - theta (8.1)."""
-    heading = np.exp(1j * X[THETA])
-    rel = X[U] + 1j * X[V]
-    beta = np.angle(rel)
-    beta_hat = np.angle((rel * heading + flow) / heading)
+    beta = np.arctan2(X[V], X[U])
+    beta_hat = np.angle(ground_velocity(X, flow) * np.exp(-1j * X[THETA]))
     return beta, beta_hat
 
 

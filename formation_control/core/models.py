@@ -66,6 +66,27 @@ class Plant:
     l1: float = 0.0
 
 
+def ground_velocity(X_, flow):
+    """
+    Return the ground (inertial) velocity of each vehicle, (8.1).
+
+    Parameters
+    ----------
+    X_ : array_like, shape (6, ...)
+        States, rows x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s); any trailing
+        shape, e.g. (6,) for one vehicle, (6, N) for a fleet, (6, T, N) for a run.
+    flow : complex
+        Uniform steady flow ``f = fx + i fy`` (m/s, world frame).
+
+    Returns
+    -------
+    complex or ndarray of complex, shape ``X_.shape[1:]``
+        ``(u + i v) e^{i theta} + f`` (m/s, world frame). For particles (u = 1, v = 0) this is
+        ``e^{i theta} + f``, (1.4).
+    """
+    return (X_[U] + 1j * X_[V]) * np.exp(1j * X_[THETA]) + flow
+
+
 def body_accel(X_, U_, plant):
     """
     Return (u', v', omega') of the rigid-body models, (6.15), (8.9), (8.22), (A.3).

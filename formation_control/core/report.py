@@ -6,22 +6,23 @@ import numpy as np
 
 from formation_control.core import metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import RIGID_MODELS, THETA, U, V
+from formation_control.core.models import ground_velocity, RIGID_MODELS, THETA, U
 from formation_control.core.simulator import summary
 
 
 def series(run):
     """
-    Per-sample data of the figures, each (T,) or (T, N): t, x, y, theta, omega, u, speed
-    (ground), beta, beta_hat (crab angles), lyapunov, order.
+    Per-sample data of the figures, each (T,) or (T, N): t, x, y, theta, omega, u, ground
+    (ground velocity, complex), speed (its modulus), beta, beta_hat (crab angles), lyapunov,
+    order.
     """
     ctrl = Controller(run.sc)
     snaps = [metrics.snapshot(ctrl, X, inputs) for X, inputs in zip(run.X, run.U)]
     X = run.X.transpose(1, 0, 2)
     beta, beta_hat = metrics.crab_angles(X, run.sc.flow_c)
-    ground = (X[U] + 1j * X[V]) * np.exp(1j * X[THETA]) + run.sc.flow_c
+    ground = ground_velocity(X, run.sc.flow_c)
     return {'t': run.t, 'x': X[0], 'y': X[1], 'theta': X[THETA], 'omega': X[3], 'u': X[U],
-            'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
+            'ground': ground, 'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
             'lyapunov': np.array([s.lyapunov for s in snaps]),
             'order': np.array([s.order for s in snaps])}
 

@@ -30,7 +30,7 @@ from visualization_msgs.msg import MarkerArray
 
 from formation_control.core import laws, metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import THETA, U, V
+from formation_control.core.models import ground_velocity
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import markers, parameters
@@ -234,7 +234,7 @@ class MonitorNode(Node):
         trails = self.trails[order].T
         ground = None
         if sc.flow_c != 0:
-            ground = (X[U] + 1j * X[V]) * np.exp(1j * X[THETA]) + sc.flow_c
+            ground = ground_velocity(X, sc.flow_c)
         centres = target = None
         if isinstance(self.ctrl.formation, laws.Circular):
             centres = self.ctrl.formation.centres(self.ctrl.view(X, self.U[1]))
