@@ -1,0 +1,228 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Communication graphs: who hears whom, for the Laplacian formation laws.
+
+A graph is undirected (a_kj = a_jk) and connected, with unit weights; the laws are gradients
+of their potentials only then (Sepulchre, Paley and Leonard, "Stabilization of planar
+collective motion with limited communication", IEEE TAC 53(3), 2008). A directed or
+disconnected graph is refused before anything runs.
+
+Kinds (scenario parameter ``graph``): ``complete`` (every vehicle hears every other: the
+all-to-all laws), ``ring``, ``circulant`` (vehicle k hears k +- d for each d in
+``graph_offsets``), ``random`` (connected, mean degree ``graph_degree``, seeded by
+``graph_seed``) and ``explicit`` (``graph_edges``: 1-based id pairs).
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+GRAPHS = ('complete', 'ring', 'circulant', 'random', 'explicit')
+
+
+class GraphError(ValueError):
+    """A graph parameter is invalid: the message names the parameter and the reason."""
+
+
+def _fail(name, value, reason):
+    raise GraphError(f"parameter '{name}' = {value!r} is invalid: {reason}")
+
+
+@dataclass(frozen=True)
+class Graph:
+    """
+    An undirected communication graph on vehicles 1..n.
+
+    Attributes
+    ----------
+    n : int
+        Number of vehicles.
+    edges : (E, 2) int
+        Each undirected edge once, as 0-based indices (i < j).
+    nu : float
+        The fleet-wide normalising constant of the Laplacian laws (> 0).
+    complete : bool
+        Every pair is linked: the laws take their O(N) all-to-all form.
+    """
+
+    n: int
+    edges: np.ndarray
+    nu: float
+    complete: bool = False
+
+    @property
+    def arcs(self):
+        """(src, dst): every edge in both directions, (2E,) int each."""
+        i, j = self.edges.T
+        return np.concatenate([i, j]), np.concatenate([j, i])
+
+    def degrees(self):
+        """(n,) int: the number of neighbours of each vehicle."""
+        return np.bincount(self.edges.ravel(), minlength=self.n)
+
+    def neighbours(self, k):
+        """The ids (1-based, sorted) vehicle ``k`` hears."""
+        i, j = self.edges.T
+        own = k - 1
+        return sorted(int(x) + 1 for x in np.concatenate([j[i == own], i[j == own]]))
+
+    def adjacency(self):
+        """(n, n) float: the weights a_kj (dense; for small fleets, tests and metrics)."""
+        A = np.zeros((self.n, self.n))
+        A[self.edges[:, 0], self.edges[:, 1]] = 1.0
+        return A + A.T
+
+    def laplacian(self):
+        """(n, n) float: L = D - A."""
+        A = self.adjacency()
+        return np.diag(A.sum(axis=1)) - A
+
+
+def algebraic_connectivity(A):
+    """
+    lambda_2 of the Laplacian of the symmetric weights ``A`` (n, n): > 0 iff connected.
+
+    Returns 0 for fewer than two vehicles.
+    """
+    A = np.asarray(A, float)
+    if A.shape[0] < 2:
+        return 0.0
+    L = np.diag(A.sum(axis=1)) - A
+    return float(np.linalg.eigvalsh(L)[1])
+
+
+def _components(n, edges):
+    """Number of connected components of the graph on n vertices (union-find)."""
+    parent = list(range(n))
+
+    def root(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+    for i, j in edges:
+        parent[root(int(i))] = root(int(j))
+    return len({root(x) for x in range(n)})
+
+
+def _circulant(n, offsets, name='graph_offsets'):
+    offsets = list(offsets)
+    if not offsets:
+        _fail(name, offsets, 'give at least one offset d (vehicle k hears k +- d)')
+    half = n / 2
+    bad = [d for d in offsets if not (isinstance(d, int) and 1 <= d < half)]
+    if bad:
+        _fail(name, offsets, f'offsets must be integers with 1 <= d < num_vehicles/2 = {half:g} '
+              f'(d and num_vehicles - d are the same link)')
+    if len(set(offsets)) != len(offsets):
+        _fail(name, offsets, 'offsets must be distinct')
+    k = np.arange(n)
+    return np.concatenate([np.stack([k, (k + d) % n], axis=1) for d in offsets])
+
+
+def _random(n, degree, seed):
+    """A connected graph: a random spanning tree, then random edges up to the mean degree."""
+    if not (isinstance(degree, (int, float)) and 2 <= degree <= n - 1):
+        _fail('graph_degree', degree, f'a random connected graph needs a mean degree in '
+              f'[2, num_vehicles - 1 = {n - 1}]')
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(n)
+    edges = {tuple(sorted((int(order[m]), int(order[rng.integers(m)])))) for m in range(1, n)}
+    target = int(round(n * degree / 2))
+    while len(edges) < target:
+        i, j = rng.choice(n, 2, replace=False)
+        edges.add((int(min(i, j)), int(max(i, j))))
+    return np.array(sorted(edges))
+
+
+def _explicit(n, flat):
+    flat = list(flat)
+    name = 'graph_edges'
+    if len(flat) % 2 or not flat:
+        _fail(name, flat, 'a flat list of 1-based id pairs [i1, j1, i2, j2, ...]')
+    bad = [k for k in flat if not (isinstance(k, int) and 1 <= k <= n)]
+    if bad:
+        _fail(name, flat, f'vehicle ids must lie in 1..num_vehicles = {n} (not {bad})')
+    pairs = [(flat[m], flat[m + 1]) for m in range(0, len(flat), 2)]
+    loops = [p for p in pairs if p[0] == p[1]]
+    if loops:
+        _fail(name, flat, f'self edges {loops}: a vehicle does not link to itself')
+    seen = [tuple(sorted(p)) for p in pairs]
+    twice = sorted({p for p in seen if seen.count(p) > 1})
+    if twice:
+        _fail(name, flat, f'edges {twice} are given more than once (edges are undirected: '
+              '[1, 2] and [2, 1] are the same edge)')
+    return np.array(sorted(seen)) - 1
+
+
+def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.0):
+    """
+    The communication graph a scenario names, validated.
+
+    Parameters
+    ----------
+    n : int
+        Number of vehicles.
+    graph : str
+        One of :data:`GRAPHS`.
+    offsets : sequence of int
+        ``circulant``: vehicle k hears k +- d for each offset d (1 <= d < n/2).
+    degree : float
+        ``random``: the mean degree (2 <= degree <= n - 1).
+    seed : int
+        ``random``: the seed of the draw.
+    edges : sequence of int
+        ``explicit``: undirected edges as a flat list of 1-based id pairs.
+    nu : float
+        The normalising constant; 0 = the default, max degree + 1 (= n on the complete graph).
+
+    Returns
+    -------
+    Graph
+
+    Raises
+    ------
+    GraphError
+        Naming the parameter: unknown kind, ids out of range, self or duplicate edges,
+        offsets that repeat a link, a degree out of range, a disconnected graph, nu < 0.
+    """
+    if graph not in GRAPHS:
+        _fail('graph', graph, f"allowed values: {' | '.join(GRAPHS)}")
+    if graph == 'complete':
+        i, j = np.triu_indices(n, 1)
+        pairs = np.stack([i, j], axis=1)
+    elif graph == 'ring':
+        if n < 3:
+            _fail('graph', graph, f'a ring needs num_vehicles >= 3 (got {n})')
+        pairs = _circulant(n, [1])
+    elif graph == 'circulant':
+        pairs = _circulant(n, offsets)
+    elif graph == 'random':
+        pairs = _random(n, degree, seed)
+    else:
+        pairs = _explicit(n, edges)
+    pairs = np.sort(pairs.reshape(-1, 2), axis=1)
+    if n > 1 and _components(n, pairs) > 1:
+        where = {'explicit': 'graph_edges', 'circulant': 'graph_offsets'}.get(graph, 'graph')
+        value = {'graph_edges': list(edges), 'graph_offsets': list(offsets)}.get(where, graph)
+        _fail(where, value, f'the graph on {n} vehicles is not connected: the Laplacian laws '
+              f'need every vehicle linked to every other through some path')
+    if not (math.isfinite(nu) and nu >= 0):
+        _fail('graph_nu', nu, 'must be >= 0 (0 = max degree + 1)')
+    degrees = np.bincount(pairs.ravel(), minlength=n)
+    nu = float(nu) if nu > 0 else float(degrees.max(initial=0) + 1)
+    return Graph(n, pairs.astype(np.int64), nu, complete=graph == 'complete' or
+                 len(pairs) == n * (n - 1) // 2)
