@@ -33,7 +33,7 @@ def messages(path, topics):
 
 
 def _stamp(msg):
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+    return itf.stamp_ns(msg.header.stamp)
 
 
 def _scenario(path):
@@ -63,8 +63,7 @@ def read_run(path):
     if stamps.size == 0:
         raise ScenarioError(f'{path}: no step with the odometry of all {n} vehicles')
     steps = np.rint((stamps - stamps[0]) * 1e-9 / sc.dt_control).astype(int)
-    every = max(1, int(round(sc.record_dt / sc.dt_control)))
-    keep = (steps % every == 0) | (steps == steps[-1])
+    keep = (steps % sc.record_every == 0) | (steps == steps[-1])
     stamps, steps = stamps[keep], steps[keep]
     X = np.array([np.column_stack([odom[s][k] for k in range(n)]) for s in stamps])
     U = np.zeros((len(stamps), 2, n))

@@ -10,7 +10,7 @@ from formation_control.core import laws
 from formation_control.core.control import (body_accel_from_inertial, Controller,
                                             particle_speed_terms)
 from formation_control.core.models import deriv, integrate, OMEGA, Plant, rk4_step, THETA
-from formation_control.core.scenario import initial_state, resolve
+from formation_control.core.scenario import initial_state, resolve, Scenario
 from formation_control.core.simulator import Stepper
 
 H = 1e-4
@@ -165,7 +165,7 @@ def test_body_accel_transform_gives_inertial_accel(flow):
     """(5.3)/(5.4): driving (1.7) with a = T(lambda) yields gamma'' = lambda."""
     rng = np.random.default_rng(1)
     theta, omega, lam = rng.uniform(-3, 3, 20), rng.normal(size=20), rng.normal(size=20)
-    plant = Plant('second_order', flow)
+    plant = Plant.of(Scenario(model='second_order', flow=(flow.real, flow.imag)))
     X = np.zeros((6, 20))
     X[THETA], X[OMEGA], X[4] = theta, omega, 1.0
     U = np.vstack([np.zeros(20), body_accel_from_inertial(lam, theta, omega, flow)])
@@ -221,7 +221,7 @@ def test_fleet_sums_need_no_pairwise_matrix(formation):
 
 def test_rk4_is_fourth_order():
     sc = _scenario(formation='circular', flow=[0.3, 0.1])
-    plant = Plant('second_order', sc.flow_c)
+    plant = Plant.of(sc)
     X0 = initial_state(sc)
     X0[OMEGA] = 0.5
     U = np.vstack([np.zeros(6), np.full(6, 0.3)])

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from formation_control.core import metrics, models
+from formation_control.core.scenario import Scenario
 from runs import run_of, SEEDS, views
 
 U0_TOL = 1e-3
@@ -187,7 +188,7 @@ def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch)
     """
     monkeypatch.setattr(models, 'PLAIN_BELOW', plain_below)
     monkeypatch.setattr(models, 'BLOCK', 16)
-    plant = models.Plant(model, flow, l1=0.2)
+    plant = models.Plant.of(Scenario(model=model, flow=(flow.real, flow.imag), l1=0.2))
     X, U = _random_fleet(model, 40, np.random.default_rng(7))
     X_before, U_before = X.copy(), U.copy()
     _assert_close_per_row(models.deriv(X, U, plant), _plain_deriv(X, U, plant))
@@ -202,7 +203,7 @@ def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch)
 @pytest.mark.parametrize('model', models.MODELS)
 def test_ground_velocity_is_the_rate_of_the_position(model, flow):
     """``ground_velocity`` (8.1) is x' + i y' of every model, for one vehicle and a fleet."""
-    plant = models.Plant(model, flow, l1=0.2)
+    plant = models.Plant.of(Scenario(model=model, flow=(flow.real, flow.imag), l1=0.2))
     X, U = _random_fleet(model, 7, np.random.default_rng(3))
     dX = models.deriv(X, U, plant)
     np.testing.assert_allclose(models.ground_velocity(X, flow), dX[0] + 1j * dX[1], rtol=1e-13)

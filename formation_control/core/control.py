@@ -13,6 +13,7 @@ from formation_control.core import laws
 from formation_control.core.geometry import inner
 from formation_control.core.models import (body_accel, ground_velocity, OMEGA, Plant,
                                            RIGID_MODELS, THETA, U, V)
+from formation_control.core.scenario import uses_held_force
 
 
 def particle_speed_terms(theta, flow):
@@ -127,14 +128,14 @@ class Controller:
 
     def __init__(self, sc):
         self.sc = sc
-        self.plant = Plant(sc.model, sc.flow_c, sc.m0, sc.I0, sc.l, sc.h, sc.l1)
+        self.plant = Plant.of(sc)
         self.rigid = sc.model in RIGID_MODELS
         if sc.formation == 'parallel':
             self.formation = laws.Parallel(sc.K)
         else:
             self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask)
         self.use_heading = sc.formation == 'parallel' and sc.flow_c == 0
-        self.full = sc.controller == 'pi' or sc.law_variant == 'full'
+        self.full = uses_held_force(sc)
         self.integral = None
         self.limits = command_limits(sc)
 

@@ -45,25 +45,49 @@ _COS = (-1 / 2, 1 / 24, -1 / 720, 1 / 40320)     # cos d = 1 + d^2 (b0 + d^2 (b1
 @dataclass(frozen=True)
 class Plant:
     """
-    Physical parameters of one fleet of identical vehicles.
+    Physical parameters of one fleet of identical vehicles (no defaults: see :meth:`of`).
 
-    Parameters
+    Attributes
     ----------
-    model : one of MODELS
-    flow : uniform steady flow f = fx + i fy (m/s)
-    m0 : mass (kg); I0 : yaw moment of inertia (kg m^2)
-    l : steering-force arm behind the centre of mass (m)
-    h : drag coefficient, D = h s^2 (kg/m), h = rho S C_D / 2 (6.15)
-    l1 : centre of pressure ahead of the centre of mass (m), ``rigid_cop`` only (A.1)
+    model : str
+        One of :data:`MODELS`.
+    flow : complex
+        Uniform steady flow ``f = fx + i fy`` (m/s).
+    m0 : float
+        Mass (kg).
+    I0 : float
+        Yaw moment of inertia (kg m^2).
+    l : float
+        Steering-force arm behind the centre of mass (m).
+    h : float
+        Drag coefficient, ``D = h s^2`` (kg/m), ``h = rho S C_D / 2`` (6.15).
+    l1 : float
+        Centre of pressure ahead of the centre of mass (m), ``rigid_cop`` only (A.1).
     """
 
-    model: str = 'second_order'
-    flow: complex = 0j
-    m0: float = 1.0
-    I0: float = 0.1
-    l: float = 0.5
-    h: float = 5.0
-    l1: float = 0.0
+    model: str
+    flow: complex
+    m0: float
+    I0: float
+    l: float
+    h: float
+    l1: float
+
+    @classmethod
+    def of(cls, sc):
+        """
+        Return the plant of a scenario.
+
+        Parameters
+        ----------
+        sc : scenario.Scenario
+            Any object with the scenario's attributes ``model, flow_c, m0, I0, l, h, l1``.
+
+        Returns
+        -------
+        Plant
+        """
+        return cls(sc.model, sc.flow_c, sc.m0, sc.I0, sc.l, sc.h, sc.l1)
 
 
 def ground_velocity(X_, flow):

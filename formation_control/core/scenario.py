@@ -108,7 +108,18 @@ class Scenario:
 
     @property
     def substeps(self):
+        """Integration steps in one control period, ``dt_control / dt_integration``."""
         return int(round(self.dt_control / self.dt_integration))
+
+    @property
+    def periods(self):
+        """Control periods in the run, ``duration / dt_control``."""
+        return int(round(self.duration / self.dt_control))
+
+    @property
+    def record_every(self):
+        """Control periods between two recorded samples, ``record_dt / dt_control`` (>= 1)."""
+        return max(1, int(round(self.record_dt / self.dt_control)))
 
     def to_dict(self):
         d = asdict(self)

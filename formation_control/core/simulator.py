@@ -90,12 +90,11 @@ class Recorder:
 
     def __init__(self, sc):
         self.sc = sc
-        self.steps = int(round(sc.duration / sc.dt_control))
-        self.every = max(1, int(round(sc.record_dt / sc.dt_control)))
+        self.steps = sc.periods
         self.t, self.X, self.U = [], [], []
 
     def record(self, n, X, U):
-        if n % self.every == 0 or n == self.steps:
+        if n % self.sc.record_every == 0 or n == self.steps:
             self.t.append(n * self.sc.dt_control)
             self.X.append(X.copy())
             self.U.append(U.copy())
