@@ -25,6 +25,10 @@ state stamped t of every neighbour not gone; a neighbour never heard is waited f
 processes in any order). Real time: the command follows each odometry, from the latest states of
 the live neighbours. A neighbour silent for ``timeout`` wall seconds leaves the formation sums
 until it speaks again (:class:`links.Liveness`).
+
+On a communication graph other than the complete one, each formation state also says which of
+its sender's graph neighbours the sender hears; a neighbour is in the Laplacian sums only while
+the link is mutual (it hears this vehicle too), so the sums stay symmetric however links drop.
 """
 import math
 
@@ -60,6 +64,8 @@ class NeighbourTable:
         Phase (rad), phase rate (rad/s) and speed (m/s) of each vehicle.
     stamp : (n,) int
         Stamp of each vehicle's state (ns); -1 = never heard.
+    hears_me : (n,) bool
+        Whether each vehicle's latest state says it hears this one (True until told).
     """
 
     def __init__(self, n, own, timeout, clock, lockstep=True):
@@ -70,6 +76,7 @@ class NeighbourTable:
         self.r = np.zeros(n, complex)
         self.table = np.zeros((3, n))
         self.stamp = np.full(n, -1, np.int64)
+        self.hears_me = np.ones(n, bool)
         self.since = math.inf if lockstep else -math.inf
         self.odom_ns = -1
         self.commanded_ns = -1
@@ -109,9 +116,11 @@ class NeighbourTable:
         self.table[:, i] = row[1:]
         self.stamp[i] = ns
 
-    def hear(self, j, ns, row):
+    def hear(self, j, ns, row, hears_me=True):
         """
         A neighbour's state: kept and ``j`` marked live, unless older than the last one.
+
+        ``hears_me``: whether the state says ``j`` hears this vehicle.
 
         Returns
         -------
@@ -122,6 +131,7 @@ class NeighbourTable:
             return False
         self.liveness.heard(j - 1, self.clock())
         self.store(j, ns, row)
+        self.hears_me[j - 1] = hears_me
         return True
 
     def answered(self):
@@ -146,6 +156,15 @@ class NeighbourTable:
         live[self.own] = True
         return live
 
+    def hearing(self):
+        """
+        (n,) bool: the vehicles this one says it hears.
+
+        Lockstep: every neighbour not gone (one not heard yet is waited for, so it will be);
+        real time: the live ones.
+        """
+        return ~self.gone() if self.lockstep else self.live()
+
     def waiting(self):
         """(n,) bool: lockstep, the vehicles whose state of the step under way is still awaited."""
         return ~self.gone() & ~self.answered()
@@ -156,15 +175,16 @@ class NeighbourTable:
 
         Lockstep: once the vehicle has its odometry and every neighbour not gone has answered
         the step, and it has not commanded the step yet, the members are the vehicles whose state
-        answers the step. Real time: after each odometry, the live vehicles ever heard.
+        answers the step. Real time: after each odometry, the live vehicles ever heard. Either
+        way only those that hear this vehicle too.
         """
         if self.odom_ns < 0:
             return None
         if not self.lockstep:
-            return self.live() & (self.stamp >= 0)
+            return self.live() & (self.stamp >= 0) & self.hears_me
         if self.commanded_ns == self.odom_ns or self.waiting().any():
             return None
-        return self.answered()
+        return self.answered() & self.hears_me
 
     def commanded(self):
         """Note that the command of the step under way was sent."""

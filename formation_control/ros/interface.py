@@ -35,7 +35,7 @@ from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
-from formation_control.core.models import OMEGA, PARTICLE_MODELS, THETA, U, V
+from formation_control.core.models import PARTICLE_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
 
 MAP_FRAME = 'map'
 DIAGNOSTICS_TOPIC = '/diagnostics'
@@ -58,7 +58,14 @@ METRIC_DOC = {
     'crab_angle_inertial': 'rigid bodies: mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)',
 }
 STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
-"""formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s)."""
+"""formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s);
+on a communication graph other than the complete one, ``hears_j`` follows for each graph
+neighbour j of the sender: 1 while it hears j, else 0 (:func:`state_names`)."""
+
+
+def state_names(hears=()):
+    """The names of a formation_state whose sender's graph neighbours are ``hears`` (ids)."""
+    return STATE_FIELDS + tuple(f'hears_{j}' for j in hears)
 
 STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                        reliability=ReliabilityPolicy.RELIABLE,
@@ -121,12 +128,12 @@ def odom_msg(k, ns, X, flow):
     set_stamp(msg.header, ns)
     msg.header.frame_id = MAP_FRAME
     msg.child_frame_id = base_link(k)
-    theta = float(X[THETA])
+    theta = float(X[ROW_THETA])
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(X[0]), float(X[1])
     yaw_quaternion(msg.pose.pose.orientation, theta)
-    body = complex(X[U], X[V]) + flow * complex(math.cos(theta), -math.sin(theta))
+    body = complex(X[ROW_U], X[ROW_V]) + flow * complex(math.cos(theta), -math.sin(theta))
     msg.twist.twist.linear.x, msg.twist.twist.linear.y = body.real, body.imag
-    msg.twist.twist.angular.z = float(X[OMEGA])
+    msg.twist.twist.angular.z = float(X[ROW_OMEGA])
     return msg
 
 
@@ -169,60 +176,70 @@ def input_from_cmd(msg, model):
     return w.force.x, w.force.y
 
 
-def state_msg(k, ns, X, view_row):
-    """formation_state of vehicle k: its pose, heading, yaw rate and the law's phase values."""
+def state_msg(k, ns, X, view_row, hears=(), hearing=()):
+    """
+    formation_state of vehicle k: its pose, heading, yaw rate and the law's phase values.
+
+    ``hears`` are its graph neighbours' ids and ``hearing`` whether it hears each (bool).
+    """
     msg = JointState()
     set_stamp(msg.header, ns)
     msg.header.frame_id = base_link(k)
-    msg.name = list(STATE_FIELDS)
-    msg.position = list(state_values(X, view_row))
+    msg.name = list(state_names(hears))
+    msg.position = list(state_values(X, view_row, hearing))
     return msg
 
 
-def state_values(X, view_row):
-    """The :data:`STATE_FIELDS` values of one vehicle."""
+def state_values(X, view_row, hearing=()):
+    """The values of one vehicle's formation_state (:func:`state_names` order)."""
     r, phase, rate, speed = view_row
-    return (r.real, r.imag, float(X[THETA]), float(X[OMEGA]), phase, rate, speed)
+    return (r.real, r.imag, float(X[ROW_THETA]), float(X[ROW_OMEGA]), phase, rate, speed,
+            *(float(h) for h in hearing))
 
 
 class StateWire:
     """
-    Vehicle k's formation_state as serialized bytes (sensor_msgs/JointState, little-endian CDR)
-    without message objects: every vehicle sends one and hears N - 1 of them each step.
-    ``encode`` writes the canonical layout (zero padding, empty velocity and effort), which
-    ``decode`` reads in place; it returns None for any other bytes, which the caller then
-    deserializes and checks as a message.
+    Vehicle k's formation_state as serialized bytes, without message objects.
+
+    sensor_msgs/JointState in little-endian CDR: every vehicle sends one and hears one from
+    each neighbour every step. ``encode`` writes the canonical layout (zero padding, empty
+    velocity and effort) of the names :func:`state_names` gives for the graph neighbours
+    ``hears``, which ``decode`` reads in place; it returns None for any other bytes, which the
+    caller then deserializes and checks as a message.
     """
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
-    def __init__(self, k):
+    def __init__(self, k, hears=()):
+        self.names = state_names(hears)
         body = bytearray()
 
         def put(raw, align=4):
             body.extend(bytes(-(8 + len(body)) % align) + raw)  # body starts at 12 = 8 past origin
         put(_cdr_string(base_link(k)))
-        put(struct.pack('<I', len(STATE_FIELDS)))
-        for name in STATE_FIELDS:
+        put(struct.pack('<I', len(self.names)))
+        for name in self.names:
             put(_cdr_string(name))
-        put(struct.pack('<I', len(STATE_FIELDS)))
+        put(struct.pack('<I', len(self.names)))
         put(b'', align=8)
         self.middle = bytes(body)
         self.values_at = 12 + len(body)
+        self.values = struct.Struct(f'<{len(self.names)}d')
         self.tail = bytes(8)                              # velocity and effort: empty
 
     def encode(self, ns, values):
+        """The bytes of a formation_state stamped ``ns`` (ns) with ``values``."""
         sec, nanosec = divmod(ns, 1_000_000_000)
         return b''.join((self.HEADER, struct.pack('<iI', sec, nanosec), self.middle,
-                         struct.pack('<7d', *values), self.tail))
+                         self.values.pack(*values), self.tail))
 
     def decode(self, data):
-        """(stamp in ns, the 7 values) of canonical bytes, else None."""
-        if (len(data) < self.values_at + 56 or data[:4] != self.HEADER
+        """(stamp in ns, the values) of canonical bytes, else None."""
+        if (len(data) < self.values_at + self.values.size or data[:4] != self.HEADER
                 or data[12:self.values_at] != self.middle):
             return None
         sec, nanosec = struct.unpack_from('<iI', data, 4)
-        return sec * 1_000_000_000 + nanosec, struct.unpack_from('<7d', data, self.values_at)
+        return sec * 1_000_000_000 + nanosec, self.values.unpack_from(data, self.values_at)
 
 
 def _cdr_string(text):
