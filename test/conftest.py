@@ -30,3 +30,19 @@ def ros(monkeypatch):
             probe.close()
             procs.stop_all()
             shm_clean(env)
+
+
+@pytest.fixture
+def nodes():
+    """
+    In-process nodes on a private ROS_DOMAIN_ID: ``nodes.plant(...)``, ``nodes.vehicle(k,
+    ...)``, ``nodes.monitor(...)`` with the probe's ``collect`` and ``spin_until``; every node is
+    destroyed and the context shut down at teardown.
+    """
+    from rosutil import domains, Nodes
+    with domains() as (did,):
+        made = Nodes(did)
+        try:
+            yield made
+        finally:
+            made.close()

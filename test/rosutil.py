@@ -7,8 +7,11 @@ import sys
 import tempfile
 import time
 
+from rcl_interfaces.msg import Log
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from formation_control.swarm import stop
 
@@ -68,12 +71,12 @@ def interrupt(proc, timeout=10.0):
 class Probe:
     """An in-process node on its own context in the test's domain."""
 
-    def __init__(self, domain_id, name='probe'):
+    def __init__(self, domain_id, name='probe', executor=SingleThreadedExecutor):
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=domain_id,
                    signal_handler_options=rclpy.SignalHandlerOptions.NO)
         self.node = rclpy.create_node(name, context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor = executor(context=self.context)
         self.executor.add_node(self.node)
 
     def spin_until(self, predicate, timeout=20.0):
@@ -93,6 +96,71 @@ class Probe:
         self.executor.shutdown()
         self.node.destroy_node()
         self.context.try_shutdown()
+
+
+def node_args(path=None, *params):
+    """The ``--ros-args`` of a node: a parameter file and ``-p`` overrides, as on the command
+    line of its executable."""
+    out = ['--ros-args']
+    if path is not None:
+        out += ['--params-file', str(path)]
+    for p in params:
+        out += ['-p', p]
+    return out
+
+
+ROSOUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+class Nodes(Probe):
+    """
+    The package's nodes built in this process, on the probe's context (one DDS participant, so
+    no discovery between processes to wait for) and spun by one events executor, as ``runner``
+    spins the nodes of an executable. Their log lines are collected from ``/rosout``.
+    """
+
+    def __init__(self, domain_id):
+        super().__init__(domain_id, executor=EventsExecutor)
+        self.nodes = []
+        self.rosout = self.collect(Log, '/rosout', ROSOUT_QOS)
+
+    def add(self, node):
+        self.executor.add_node(node)
+        self.nodes.append(node)
+        return node
+
+    def plant(self, path, *params):
+        from formation_control.ros.plant import PlantNode
+        return self.add(PlantNode(context=self.context, cli_args=node_args(path, *params)))
+
+    def vehicle(self, k, path, *params):
+        from formation_control.ros.vehicle import VehicleNode
+        return self.add(VehicleNode(k, context=self.context,
+                                    cli_args=node_args(path, f'vehicle_id:={k}', *params)))
+
+    def monitor(self, *params):
+        from formation_control.ros.monitor import MonitorNode
+        return self.add(MonitorNode(context=self.context, cli_args=node_args(None, *params)))
+
+    def remove(self, node):
+        """Take ``node`` out of the fleet (destroyed: its topics and timers are gone)."""
+        self.executor.remove_node(node)
+        self.nodes.remove(node)
+        node.destroy_node()
+
+    def logged(self, node, text):
+        """Whether ``node`` has logged a line containing ``text``."""
+        name = node if isinstance(node, str) else node.get_name()
+        return any(m.name == name and text in m.msg for m in self.rosout)
+
+    def close(self):
+        for node in reversed(self.nodes):
+            self.executor.remove_node(node)
+            node.destroy_node()
+        self.nodes = []
+        super().close()
 
 
 def shm_clean(env):

@@ -1,8 +1,12 @@
 """
-The executables as real processes (no launch_testing): what each publishes, how parameters are
-set, refused and changed, and a clean exit 0 on SIGINT.
+The plant and vehicle nodes: what each publishes, how parameters are set, refused and changed.
+The executables run as real processes (no launch_testing) where the property is the process'
+own (its command line and parameter file, the participant lock, a clean exit 0 on SIGINT); the
+other properties are tested on the same nodes built in this process (the ``nodes`` fixture).
 """
 import math
+from pathlib import Path
+import re
 
 import numpy as np
 import pytest
@@ -10,14 +14,15 @@ from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from formation_control.core import scenario
 from formation_control.core.control import Controller
-from formation_control.core.scenario import initial_state
+from formation_control.core.scenario import initial_state, ScenarioError
 from formation_control.ros import interface as itf
-from rosutil import CONFIG, interrupt, output
+from rosutil import CONFIG, interrupt
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
 
@@ -29,12 +34,13 @@ def _args(path, *params):
     return out
 
 
-def test_plant_publishes_initial_state_and_exits_on_sigint(ros):
+def test_plant_publishes_initial_state_owns_the_clock_and_exits_on_sigint(ros):
     plant = ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=3', 'flow:=[0.2, -0.1]',
                                             'exit_when_done:=false'))
     odom = ros.probe.collect(Odometry, '/vehicle_2/odom', itf.STATE_QOS)
     flow = ros.probe.collect(Vector3Stamped, '/vehicle_3/flow', itf.LATCHED_QOS)
-    assert ros.probe.spin_until(lambda: odom and flow)
+    clock = ros.probe.collect(Clock, '/clock', itf.LATCHED_QOS)
+    assert ros.probe.spin_until(lambda: odom and flow and clock)
     sc = scenario.load(PARTICLE, ['num_vehicles:=3', 'flow:=[0.2, -0.1]'])
     X = initial_state(sc)[:, 1]
     msg = odom[0]
@@ -47,14 +53,14 @@ def test_plant_publishes_initial_state_and_exits_on_sigint(ros):
     assert msg.twist.twist.linear.x == pytest.approx(ground_body.real)
     assert msg.twist.twist.linear.y == pytest.approx(ground_body.imag)
     assert (flow[0].vector.x, flow[0].vector.y) == pytest.approx((0.2, -0.1))
+    assert clock[0].clock.sec == 0 and clock[0].clock.nanosec == 0     # lockstep: its /clock
     assert interrupt(plant) == 0
 
 
-def test_plant_owns_clock_in_lockstep(ros):
-    ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=2', 'exit_when_done:=false'))
-    clock = ros.probe.collect(Clock, '/clock', itf.LATCHED_QOS)
-    assert ros.probe.spin_until(lambda: clock)
-    assert clock[0].clock.sec == 0 and clock[0].clock.nanosec == 0
+def _waits_for_a_lock(pid):
+    """Whether process ``pid`` is blocked on a file lock (a ``->`` line of /proc/locks)."""
+    return re.search(rf'^\d+: -> FLOCK\s+ADVISORY\s+WRITE\s+{pid}\s',
+                     Path('/proc/locks').read_text(), re.M) is not None
 
 
 def test_a_node_waits_for_the_participant_lock_before_joining(ros):
@@ -64,19 +70,22 @@ def test_a_node_waits_for_the_participant_lock_before_joining(ros):
     with one_participant_at_a_time():
         plant = ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=1',
                                                 'exit_when_done:=false'))
-        assert not ros.probe.spin_until(lambda: odom, timeout=4.0)
+        assert ros.probe.spin_until(lambda: _waits_for_a_lock(plant.pid)
+                                    or plant.poll() is not None)
         assert plant.poll() is None
+        assert not ros.probe.spin_until(lambda: odom, timeout=0.5)
+        assert 'plant' not in ros.probe.node.get_node_names()
     assert ros.probe.spin_until(lambda: odom)
     assert interrupt(plant) == 0
 
 
-def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(ros):
+def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(nodes):
     """Vehicle k's odometry comes every period, (k - 1) mod substeps integration steps in."""
-    ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=12', 'mode:=realtime',
-                                    'exit_when_done:=false', 'wait_for_fleet:=false'))
     ids = (1, 2, 10, 11, 12)
-    odom = {k: ros.probe.collect(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS) for k in ids}
-    assert ros.probe.spin_until(lambda: all(len(msgs) > 5 for msgs in odom.values()))
+    odom = {k: nodes.collect(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS) for k in ids}
+    nodes.plant(PARTICLE, 'num_vehicles:=12', 'mode:=realtime', 'exit_when_done:=false',
+                'wait_for_fleet:=false')
+    assert nodes.spin_until(lambda: all(len(msgs) > 5 for msgs in odom.values()))
     sc = scenario.load(PARTICLE)
     period, step = (round(dt * 1e9) for dt in (sc.dt_control, sc.dt_integration))
     assert sc.substeps == 10
@@ -88,32 +97,31 @@ def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(ros):
         assert (stamps[k][0] - start) % period == ((k - 1) % sc.substeps) * step, k
 
 
-def test_realtime_plant_starts_the_clock_once_every_vehicle_is_up(ros):
-    plant = ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=2', 'mode:=realtime',
-                                            'exit_when_done:=false'))
-    odom = ros.probe.collect(Odometry, itf.topic(1, 'odom'), itf.STATE_QOS)
-    cmd = [ros.probe.node.create_publisher(WrenchStamped, itf.topic(1, 'cmd'), itf.STATE_QOS)]
-    assert ros.probe.spin_until(lambda: 'real time starts once vehicles [2] are up'
-                                in output(plant))
-    assert not ros.probe.spin_until(lambda: odom, timeout=3.0)
-    cmd.append(ros.probe.node.create_publisher(WrenchStamped, itf.topic(2, 'cmd'), itf.STATE_QOS))
-    assert ros.probe.spin_until(lambda: len(odom) > 2)
+def test_realtime_plant_starts_the_clock_once_every_vehicle_is_up(nodes):
+    odom = nodes.collect(Odometry, itf.topic(1, 'odom'), itf.STATE_QOS)
+    plant = nodes.plant(PARTICLE, 'num_vehicles:=2', 'mode:=realtime', 'exit_when_done:=false')
+    cmd = [nodes.node.create_publisher(WrenchStamped, itf.topic(1, 'cmd'), itf.STATE_QOS)]
+    assert nodes.spin_until(lambda: nodes.logged(plant, 'real time starts once vehicles [2] '
+                                                        'are up'))
+    assert not nodes.spin_until(lambda: odom, timeout=0.5)      # the plant checks every 0.05 s
+    cmd.append(nodes.node.create_publisher(WrenchStamped, itf.topic(2, 'cmd'), itf.STATE_QOS))
+    assert nodes.spin_until(lambda: len(odom) > 2)
+    assert nodes.logged(plant, 'every vehicle is up: real time starts')
     sc = scenario.load(PARTICLE)
     stamps = [itf.stamp_ns(m.header.stamp) for m in odom]
     assert np.all(np.diff(stamps) == round(sc.dt_control * 1e9))
-    assert interrupt(plant) == 0
 
 
-def test_vehicle_answers_its_neighbours_with_state_and_command(ros):
+def test_vehicle_answers_its_neighbours_with_state_and_command(nodes):
     """Vehicle 1 of 2 gets its odometry and vehicle 2's state for t = 0.4 s, and commands."""
-    vehicle = ros.procs.start('vehicle', *_args(PARTICLE, 'num_vehicles:=2', 'vehicle_id:=1'))
-    node = ros.probe.node
+    nodes.vehicle(1, PARTICLE, 'num_vehicles:=2')
+    node = nodes.node
     odom_pub = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
     state_pub = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
-    states = ros.probe.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
-    cmds = ros.probe.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
-    assert ros.probe.spin_until(lambda: odom_pub.get_subscription_count() > 0
-                                and state_pub.get_subscription_count() > 0)
+    states = nodes.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    assert nodes.spin_until(lambda: odom_pub.get_subscription_count() > 0
+                            and state_pub.get_subscription_count() > 0)
     sc = scenario.load(PARTICLE, ['num_vehicles:=2'])
     ctrl = Controller(sc)
     X = np.array([[0.5, -1.0], [1.0, 2.0], [0.3, 2.5], [0.2, -0.4], [1.0, 1.0], [0.0, 0.0]])
@@ -123,14 +131,13 @@ def test_vehicle_answers_its_neighbours_with_state_and_command(ros):
     state_pub.publish(itf.state_msg(2, ns, X[:, 1], (view.r[1], view.phase[1], view.rate[1],
                                                      view.speed[1])))
     odom_pub.publish(itf.odom_msg(1, ns, X[:, 0], 0j))
-    assert ros.probe.spin_until(lambda: cmds and states)
+    assert nodes.spin_until(lambda: cmds and states)
     assert list(states[0].name) == list(itf.STATE_FIELDS)
     np.testing.assert_allclose(states[0].position, [0.5, 1.0, 0.3, 0.2, 0.3, 0.2, 1.0],
                                atol=1e-12)
     assert itf.stamp_ns(cmds[0].header.stamp) == ns
     assert cmds[0].header.frame_id == 'vehicle_1/base_link'
     assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
-    assert interrupt(vehicle) == 0
 
 
 def _call(probe, srv_type, name, request, timeout=15.0):
@@ -177,7 +184,7 @@ def test_parameters_from_yaml_and_run_time_changes(ros, tmp_path):
     assert interrupt(vehicle) == 0
 
 
-@pytest.mark.parametrize('exe, params, named', [
+BAD_AT_START_UP = [
     ('vehicle', ['vehicle_id:=1', 'kappa:=-1.0'], 'kappa out of range'),
     ('vehicle', ['vehicle_id:=1', 'K:=1.0'], "parameter 'K' = 1.0 is invalid: formation parallel"),
     ('vehicle', ['vehicle_id:=17'], "parameter 'vehicle_id' = 17"),
@@ -187,11 +194,32 @@ def test_parameters_from_yaml_and_run_time_changes(ros, tmp_path):
     ('plant', ['mode:=fast'], "parameter 'mode' = 'fast'"),
     ('plant', ['num_vehicles:=0'], 'num_vehicles'),
     ('plant', ['kappa:=abc'], "parameter 'kappa' to 'abc'"),
-])
+]
+AS_PROCESSES = (0, 3, 5, 8)
+"""Each way an executable refuses to start: a range (rclpy), the vehicle id (read by the
+``vehicle`` executable before the node exists), the scenario (the node's own check), a type
+(rclpy). The other cases are refused by the same checks in the node's constructor; they are
+built in process."""
+
+
+@pytest.mark.parametrize('exe, params, named', [BAD_AT_START_UP[i] for i in AS_PROCESSES])
 def test_bad_parameter_at_start_up_exits_non_zero_naming_it(ros, exe, params, named):
     result = ros.procs.run(exe, *_args(CONFIG / 'first_order_parallel.yaml', *params))
     assert result.returncode != 0
     assert named in result.stderr + result.stdout
+
+
+@pytest.mark.parametrize('exe, params, named', [case for i, case in enumerate(BAD_AT_START_UP)
+                                                if i not in AS_PROCESSES])
+def test_bad_parameter_at_start_up_is_refused_by_the_node_naming_it(nodes, exe, params, named):
+    path = CONFIG / 'first_order_parallel.yaml'
+    with pytest.raises((ScenarioError, InvalidParameterTypeException,
+                        InvalidParameterValueException)) as refused:
+        if exe == 'plant':
+            nodes.plant(path, *params)
+        else:
+            nodes.vehicle(int(params[0].split(':=')[1]), path, *params[1:])
+    assert named in str(refused.value)
 
 
 @pytest.mark.parametrize('k', [1, 9, 12, 345])
