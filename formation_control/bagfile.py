@@ -11,7 +11,7 @@ import numpy as np
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
-from formation_control.core.models import OMEGA
+from formation_control.core.models import ROW_OMEGA
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.core.simulator import Run
 from formation_control.ros import interface as itf
@@ -74,7 +74,7 @@ def read_run(path):
         at = np.searchsorted(times, stamps, side='right') - 1
         U[at >= 0, :, k] = values[at[at >= 0]]
     if sc.model == 'first_order':
-        X[:, OMEGA] = U[:, 1]
+        X[:, ROW_OMEGA] = U[:, 1]
     return Run(sc, steps * sc.dt_control, X, U, {'source': str(path)})
 
 

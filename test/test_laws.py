@@ -9,7 +9,8 @@ import pytest
 from formation_control.core import laws
 from formation_control.core.control import (body_accel_from_inertial, Controller,
                                             particle_speed_terms)
-from formation_control.core.models import deriv, integrate, OMEGA, Plant, rk4_step, THETA
+from formation_control.core.models import (deriv, integrate, Plant, rk4_step, ROW_OMEGA,
+                                           ROW_THETA)
 from formation_control.core.scenario import initial_state, resolve, Scenario
 from formation_control.core.simulator import Stepper
 
@@ -167,12 +168,12 @@ def test_body_accel_transform_gives_inertial_accel(flow):
     theta, omega, lam = rng.uniform(-3, 3, 20), rng.normal(size=20), rng.normal(size=20)
     plant = Plant.of(Scenario(model='second_order', flow=(flow.real, flow.imag)))
     X = np.zeros((6, 20))
-    X[THETA], X[OMEGA], X[4] = theta, omega, 1.0
+    X[ROW_THETA], X[ROW_OMEGA], X[4] = theta, omega, 1.0
     U = np.vstack([np.zeros(20), body_accel_from_inertial(lam, theta, omega, flow)])
 
     def gamma_rate(Xs):
-        s, gamma, g = particle_speed_terms(Xs[THETA], flow)
-        return g * Xs[OMEGA]
+        s, gamma, g = particle_speed_terms(Xs[ROW_THETA], flow)
+        return g * Xs[ROW_OMEGA]
     fd = (gamma_rate(rk4_step(X, U, H, plant)) - gamma_rate(rk4_step(X, U, -H, plant))) / (2 * H)
     np.testing.assert_allclose(fd, lam, atol=5e-6)
 
@@ -197,7 +198,7 @@ def test_one_vehicle_command_equals_fleet_command(case):
     """The node's call (idx=[k], its own state only) equals row k of the fleet's call."""
     sc = _scenario(**case)
     X = initial_state(sc)
-    X[OMEGA] = np.linspace(-1, 1, sc.num_vehicles)
+    X[ROW_OMEGA] = np.linspace(-1, 1, sc.num_vehicles)
     fleet = Controller(sc)
     view = fleet.view(X)
     U_all = fleet.command(view, X)
@@ -223,10 +224,10 @@ def test_rk4_is_fourth_order():
     sc = _scenario(formation='circular', flow=[0.3, 0.1])
     plant = Plant.of(sc)
     X0 = initial_state(sc)
-    X0[OMEGA] = 0.5
+    X0[ROW_OMEGA] = 0.5
     U = np.vstack([np.zeros(6), np.full(6, 0.3)])
     ref = integrate(X0, U, 1e-3, 1000, plant)
     err = [np.max(abs(integrate(X0, U, dt, int(round(1 / dt)), plant) - ref))
            for dt in (0.1, 0.05)]
     assert 12 < err[0] / err[1] < 20
-    assert np.allclose(deriv(X0, U, plant)[THETA], X0[OMEGA])
+    assert np.allclose(deriv(X0, U, plant)[ROW_THETA], X0[ROW_OMEGA])

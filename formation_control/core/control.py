@@ -11,8 +11,8 @@ import numpy as np
 
 from formation_control.core import laws
 from formation_control.core.geometry import inner
-from formation_control.core.models import (body_accel, ground_velocity, OMEGA, Plant,
-                                           RIGID_MODELS, THETA, U, V)
+from formation_control.core.models import (body_accel, ground_velocity, Plant, position,
+                                           RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V)
 from formation_control.core.scenario import uses_held_force
 
 
@@ -35,10 +35,10 @@ def particle_view(X, flow):
 
     Without flow this is theta, xi, 1, 0 (1.3).
     """
-    s, gamma, g = particle_speed_terms(X[THETA], flow)
-    w = X[OMEGA]
-    s_dot = inner(flow, 1j * np.exp(1j * X[THETA])) * w / s
-    return laws.View(X[0] + 1j * X[1], gamma, g * w, s, s_dot)
+    s, gamma, g = particle_speed_terms(X[ROW_THETA], flow)
+    w = X[ROW_OMEGA]
+    s_dot = inner(flow, 1j * np.exp(1j * X[ROW_THETA])) * w / s
+    return laws.View(position(X), gamma, g * w, s, s_dot)
 
 
 def body_rate_from_inertial(w, theta, flow):
@@ -62,8 +62,8 @@ def body_accel_from_inertial(lam, theta, omega, flow):
 
 def thrust(X, u0, K_f, plant):
     """Feedback-linearising thrust (7.1) = (8.10), giving u' = K_f (u0 - u) (flow-relative u)."""
-    u, v = X[U], X[V]
-    return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[OMEGA] + plant.m0 * K_f * (u0 - u)
+    u, v = X[ROW_U], X[ROW_V]
+    return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
 
 
 def rigid_view(X, U_applied, plant, use_heading, full):
@@ -76,15 +76,15 @@ def rigid_view(X, U_applied, plant, use_heading, full):
     s' from the model with the input ``U_applied`` (thrust now, steering force held);
     otherwise the thesis' practical law uses omega and s' = 0 (text after 7.12).
     """
-    r = X[0] + 1j * X[1]
+    r = position(X)
     vel = ground_velocity(X, plant.flow)
     speed = abs(vel)
     if use_heading:
-        return laws.View(r, X[THETA], X[OMEGA], speed, np.zeros_like(speed))
+        return laws.View(r, X[ROW_THETA], X[ROW_OMEGA], speed, np.zeros_like(speed))
     if not full:
-        return laws.View(r, np.angle(vel), X[OMEGA], speed, np.zeros_like(speed))
+        return laws.View(r, np.angle(vel), X[ROW_OMEGA], speed, np.zeros_like(speed))
     du, dv, _ = body_accel(X, U_applied, plant)
-    acc = (du + 1j * dv + 1j * X[OMEGA] * (X[U] + 1j * X[V])) * np.exp(1j * X[THETA])
+    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * (X[ROW_U] + 1j * X[ROW_V])) * np.exp(1j * X[ROW_THETA])
     rate = inner(1j * vel, acc) / speed ** 2
     return laws.View(r, np.angle(vel), rate, speed, inner(vel, acc) / speed)
 
@@ -93,7 +93,7 @@ def drag_moment_accel(X, plant):
     """Yaw acceleration h' = -(l1/I0) D sin(beta) of the centre-of-pressure drag (A.3), (A.13)."""
     if plant.model != 'rigid_cop':
         return np.zeros(X.shape[1])
-    return -plant.l1 * plant.h * np.hypot(X[U], X[V]) * X[V] / plant.I0
+    return -plant.l1 * plant.h * np.hypot(X[ROW_U], X[ROW_V]) * X[ROW_V] / plant.I0
 
 
 def steering_force(a, X, plant, cancel_drag_moment=True):
@@ -184,14 +184,14 @@ class Controller:
         U_ = np.zeros((2, X.shape[1]))
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
-            U_[1] = body_rate_from_inertial(w, X[THETA], self.plant.flow)
+            U_[1] = body_rate_from_inertial(w, X[ROW_THETA], self.plant.flow)
             return self.saturate(U_)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
             U_[0] = self.thrust(X)
             U_[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
-            U_[1] = body_accel_from_inertial(lam, X[THETA], X[OMEGA], self.plant.flow)
+            U_[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], self.plant.flow)
         return self.saturate(U_)
 
     def saturate(self, U_):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from formation_control.core import laws
-from formation_control.core.models import ground_velocity, THETA, U, V
+from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_V
 
 ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
@@ -54,7 +54,7 @@ def snapshot(ctrl, X, inputs):
         extra.update(spread=np.nan, radius=np.nan)
     if ctrl.rigid:
         beta, beta_hat = crab_angles(X, ctrl.sc.flow_c)
-        extra.update(speed_error=float(np.mean(abs(X[U] - ctrl.sc.u0))),
+        extra.update(speed_error=float(np.mean(abs(X[ROW_U] - ctrl.sc.u0))),
                      crab=float(beta.mean()), crab_inertial=float(beta_hat.mean()))
     return Snapshot(float(abs(view.e.mean())), float(f.potential(view)),
                     float(laws.composite_lyapunov(f, view)), max_rate=float(np.max(abs(view.rate))),
@@ -92,8 +92,8 @@ def convergence_time(t, flags):
 
 def crab_angles(X, flow):
     """(beta, beta_hat): flow-relative crab angle atan2(v, u) and inertial one gamma - theta (8.1)."""
-    beta = np.arctan2(X[V], X[U])
-    beta_hat = np.angle(ground_velocity(X, flow) * np.exp(-1j * X[THETA]))
+    beta = np.arctan2(X[ROW_V], X[ROW_U])
+    beta_hat = np.angle(ground_velocity(X, flow) * np.exp(-1j * X[ROW_THETA]))
     return beta, beta_hat
 
 

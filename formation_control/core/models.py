@@ -26,14 +26,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-X, Y, THETA, OMEGA, U, V = range(6)
+ROW_X, ROW_Y, ROW_THETA, ROW_OMEGA, ROW_U, ROW_V = range(6)
 STATE_NAMES = ('x', 'y', 'theta', 'omega', 'u', 'v')
 PARTICLE_MODELS = ('first_order', 'second_order')
 RIGID_MODELS = ('rigid', 'rigid_couple', 'rigid_cop')
 MODELS = PARTICLE_MODELS + RIGID_MODELS
 # How many leading rows each model moves: x, y, theta (first order: omega holds the input);
 # and omega (second order); all six (rigid bodies). The others have zero derivative.
-MOVED_ROWS = dict(first_order=THETA + 1, second_order=OMEGA + 1, **dict.fromkeys(RIGID_MODELS, 6))
+MOVED_ROWS = dict(first_order=ROW_THETA + 1, second_order=ROW_OMEGA + 1,
+                  **dict.fromkeys(RIGID_MODELS, 6))
 
 PLAIN_BELOW = 1000                               # fleets integrated with the plain formulas
 BLOCK = 16384                                    # vehicles integrated together (cache-sized)
@@ -90,13 +91,30 @@ class Plant:
         return cls(sc.model, sc.flow_c, sc.m0, sc.I0, sc.l, sc.h, sc.l1)
 
 
-def ground_velocity(X_, flow):
+def position(X):
+    """
+    Return the position of each vehicle as a complex number.
+
+    Parameters
+    ----------
+    X : array_like, shape (6, ...)
+        States (see the module docstring).
+
+    Returns
+    -------
+    complex or ndarray of complex, shape ``X.shape[1:]``
+        ``r = x + i y`` (m, world frame).
+    """
+    return X[ROW_X] + 1j * X[ROW_Y]
+
+
+def ground_velocity(X, flow):
     """
     Return the ground (inertial) velocity of each vehicle, (8.1).
 
     Parameters
     ----------
-    X_ : array_like, shape (6, ...)
+    X : array_like, shape (6, ...)
         States, rows x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s); any trailing
         shape, e.g. (6,) for one vehicle, (6, N) for a fleet, (6, T, N) for a run.
     flow : complex
@@ -104,30 +122,30 @@ def ground_velocity(X_, flow):
 
     Returns
     -------
-    complex or ndarray of complex, shape ``X_.shape[1:]``
+    complex or ndarray of complex, shape ``X.shape[1:]``
         ``(u + i v) e^{i theta} + f`` (m/s, world frame). For particles (u = 1, v = 0) this is
         ``e^{i theta} + f``, (1.4).
     """
-    return (X_[U] + 1j * X_[V]) * np.exp(1j * X_[THETA]) + flow
+    return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA]) + flow
 
 
-def body_accel(X_, U_, plant):
+def body_accel(X, U, plant):
     """
     Return (u', v', omega') of the rigid-body models, (6.15), (8.9), (8.22), (A.3).
 
     Drag ``D = h s^2`` opposes the flow-relative velocity, so ``D cos(beta) = h s u`` and
     ``D sin(beta) = h s v``. Written in flow-relative u, v, the uniform steady flow drops out.
     """
-    shape = np.shape(X_[U])
+    shape = np.shape(X[ROW_U])
     out = np.empty((3,) + shape)
-    _body_accel(out[0], out[1], out[2], X_, U_, plant, np.empty((2,) + shape))
+    _body_accel(out[0], out[1], out[2], X, U, plant, np.empty((2,) + shape))
     return out[0], out[1], out[2]
 
 
-def _body_accel(du, dv, dw, X_, U_, plant, t):
+def _body_accel(du, dv, dw, X, U, plant, t):
     """:func:`body_accel` written into the rows du, dv, dw; t: two scratch rows."""
-    u, v, w = X_[U], X_[V], X_[OMEGA]
-    thrust, force = U_[0], U_[1]
+    u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
+    thrust, force = U[0], U[1]
     hs, tmp = t[0], t[1]
     np.multiply(u, u, out=hs)
     hs += np.multiply(v, v, out=tmp)
@@ -151,9 +169,9 @@ def _body_accel(du, dv, dw, X_, U_, plant, t):
         dw -= tmp
 
 
-def _rates(K, Z, U_, plant, c, s, t):
+def _rates(K, Z, U, plant, c, s, t):
     """
-    Write dX/dt at the state Z into K, given c, s = cos, sin(Z[THETA]); t: two scratch rows.
+    Write dX/dt at the state Z into K, given c, s = cos, sin(Z[ROW_THETA]); t: two scratch rows.
 
     Rows with no dynamics (u, v of particles; omega of first-order ones) are left as they are.
     """
@@ -162,29 +180,29 @@ def _rates(K, Z, U_, plant, c, s, t):
         np.copyto(kx, c)                                     # (1.1), (1.3)
         np.copyto(ky, s)
         if plant.model == 'first_order':
-            np.copyto(kth, U_[1])
+            np.copyto(kth, U[1])
         else:
-            np.copyto(kth, Z[OMEGA])
-            np.copyto(kw, U_[1])
+            np.copyto(kth, Z[ROW_OMEGA])
+            np.copyto(kw, U[1])
     else:
-        u, v = Z[U], Z[V]
+        u, v = Z[ROW_U], Z[ROW_V]
         np.multiply(u, c, out=kx)                            # (6.7)
         kx -= np.multiply(v, s, out=t[0])
         np.multiply(u, s, out=ky)
         ky += np.multiply(v, c, out=t[0])
-        np.copyto(kth, Z[OMEGA])
-        _body_accel(ku, kv, kw, Z, U_, plant, t)
+        np.copyto(kth, Z[ROW_OMEGA])
+        _body_accel(ku, kv, kw, Z, U, plant, t)
     if plant.flow:
         kx += plant.flow.real                                # (1.4), (1.7), (8.1)
         ky += plant.flow.imag
 
 
-def deriv(X_, U_, plant):
+def deriv(X, U, plant):
     """Return dX/dt for the model ``plant.model``; see the module docstring for the layout."""
-    X_ = np.asarray(X_, dtype=float)
-    theta = X_[THETA]
-    dX = np.zeros(X_.shape)
-    _rates(dX, X_, U_, plant, np.cos(theta), np.sin(theta), np.empty((2,) + theta.shape))
+    X = np.asarray(X, dtype=float)
+    theta = X[ROW_THETA]
+    dX = np.zeros(X.shape)
+    _rates(dX, X, U, plant, np.cos(theta), np.sin(theta), np.empty((2,) + theta.shape))
     return dX
 
 
@@ -230,7 +248,7 @@ def _cos_sin(out, cs, theta, d, t):
     os_ += s                                                 # s cos d + c sin d
 
 
-def _rk4_block(X_, U_, dt, steps, plant):
+def _rk4_block(X, U, dt, steps, plant):
     """
     ``steps`` RK4 steps of one block of vehicles, in place, reusing its work rows throughout.
 
@@ -240,42 +258,42 @@ def _rk4_block(X_, U_, dt, steps, plant):
     When omega' is held (every model but ``rigid_cop``), theta is quadratic in time and RK4
     exact on it, so k4's stage theta is also the next step's: three turns per step, not four.
     """
-    n, m = X_.shape[1], MOVED_ROWS[plant.model]
+    n, m = X.shape[1], MOVED_ROWS[plant.model]
     held = plant.model != 'rigid_cop'
     K, Z = np.zeros((6, n)), np.empty((6, n))              # a stage's k, its state (omega, u, v)
     acc, t = np.empty((m, n)), np.empty((6, n))            # k1/2 + k2 + k3 + k4/2; scratch
-    cs, stage_cs = np.empty((2, n)), np.empty((2, n))     # cos, sin of theta; of a stage's
-    np.cos(X_[THETA], out=cs[0])
-    np.sin(X_[THETA], out=cs[1])
+    cs, stage_cs = np.empty((2, n)), np.empty((2, n))      # cos, sin of theta; of a stage's
+    np.cos(X[ROW_THETA], out=cs[0])
+    np.sin(X[ROW_THETA], out=cs[1])
     d = np.empty(n)
-    fed = slice(OMEGA, m)                                  # stage rows that k depends on
+    fed = slice(ROW_OMEGA, m)                              # stage rows that k depends on
     for _ in range(steps):
-        _rates(K, X_, U_, plant, cs[0], cs[1], t)          # k1
+        _rates(K, X, U, plant, cs[0], cs[1], t)            # k1
         np.multiply(0.5, K[:m], out=acc)
         for stage, h in ((2, 0.5 * dt), (3, 0.5 * dt), (4, dt)):
-            np.multiply(h, K[THETA], out=d)                # stage theta - theta
-            _cos_sin(stage_cs, cs, X_[THETA], d, t)
+            np.multiply(h, K[ROW_THETA], out=d)            # stage theta - theta
+            _cos_sin(stage_cs, cs, X[ROW_THETA], d, t)
             np.multiply(h, K[fed], out=Z[fed])
-            Z[fed] += X_[fed]                              # X + h k
-            _rates(K, Z, U_, plant, stage_cs[0], stage_cs[1], t)
+            Z[fed] += X[fed]                               # X + h k
+            _rates(K, Z, U, plant, stage_cs[0], stage_cs[1], t)
             acc += np.multiply(0.5, K[:m], out=t[:m]) if stage == 4 else K[:m]
         acc *= dt / 3.0                # = (dt/6)(k1 + 2 k2 + 2 k3 + k4), to the last bit
         if not held:
-            _cos_sin(stage_cs, cs, X_[THETA], acc[THETA], t)
+            _cos_sin(stage_cs, cs, X[ROW_THETA], acc[ROW_THETA], t)
         cs, stage_cs = stage_cs, cs
-        X_[:m] += acc
+        X[:m] += acc
 
 
-def rk4_step(X_, U_, dt, plant):
+def rk4_step(X, U, dt, plant):
     """Return ``X`` advanced by one classical Runge-Kutta step of ``dt`` s with ``U`` held."""
-    k1 = deriv(X_, U_, plant)
-    k2 = deriv(X_ + 0.5 * dt * k1, U_, plant)
-    k3 = deriv(X_ + 0.5 * dt * k2, U_, plant)
-    k4 = deriv(X_ + dt * k3, U_, plant)
-    return X_ + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    k1 = deriv(X, U, plant)
+    k2 = deriv(X + 0.5 * dt * k1, U, plant)
+    k3 = deriv(X + 0.5 * dt * k2, U, plant)
+    k4 = deriv(X + dt * k3, U, plant)
+    return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def integrate(X_, U_, dt, steps, plant):
+def integrate(X, U, dt, steps, plant):
     """
     Return ``X`` after ``steps`` RK4 steps of ``dt`` with ``U`` held (one sampled-data period).
 
@@ -284,14 +302,14 @@ def integrate(X_, U_, dt, steps, plant):
     numbers to rounding, several times faster) on blocks of BLOCK vehicles, which are
     independent over the period, so that each block's work rows stay in cache.
     """
-    n = np.shape(X_)[1]
+    n = np.shape(X)[1]
     if n < PLAIN_BELOW:
         for _ in range(steps):
-            X_ = rk4_step(X_, U_, dt, plant)
-        return X_
-    X_ = np.array(X_, dtype=float)
-    U_ = np.broadcast_to(np.asarray(U_, dtype=float), (2, n))
+            X = rk4_step(X, U, dt, plant)
+        return X
+    X = np.array(X, dtype=float)
+    U = np.broadcast_to(np.asarray(U, dtype=float), (2, n))
     for start in range(0, n, BLOCK):
         cols = slice(start, start + BLOCK)
-        _rk4_block(X_[:, cols], U_[:, cols], dt, steps, plant)
-    return X_
+        _rk4_block(X[:, cols], U[:, cols], dt, steps, plant)
+    return X

@@ -6,7 +6,8 @@ import numpy as np
 
 from formation_control.core import metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import ground_velocity, RIGID_MODELS, THETA, U
+from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
+                                           ROW_U, ROW_X, ROW_Y)
 from formation_control.core.simulator import summary
 
 
@@ -21,7 +22,8 @@ def series(run):
     X = run.X.transpose(1, 0, 2)
     beta, beta_hat = metrics.crab_angles(X, run.sc.flow_c)
     ground = ground_velocity(X, run.sc.flow_c)
-    return {'t': run.t, 'x': X[0], 'y': X[1], 'theta': X[THETA], 'omega': X[3], 'u': X[U],
+    return {'t': run.t, 'x': X[ROW_X], 'y': X[ROW_Y], 'theta': X[ROW_THETA],
+            'omega': X[ROW_OMEGA], 'u': X[ROW_U],
             'ground': ground, 'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
             'lyapunov': np.array([s.lyapunov for s in snaps]),
             'order': np.array([s.order for s in snaps])}
@@ -55,7 +57,7 @@ def predictions(sc, X):
             out['crab_angle'] = (metrics.steady_turn(sc)[2], '(7.9)-(7.10) corrected: beta0')
         if sc.formation == 'parallel':
             out['crab_angle'] = (0.0, 'straight motion: v -> 0')
-            crab = float(np.mean(metrics.parallel_flow_crab(sc, X[THETA])[0]))
+            crab = float(np.mean(metrics.parallel_flow_crab(sc, X[ROW_THETA])[0]))
             out['crab_angle_inertial'] = (crab, '(8.17) at the final heading' if not still
                                           else 'no flow: 0')
     return out

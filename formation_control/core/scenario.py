@@ -11,12 +11,13 @@ import re
 import numpy as np
 import yaml
 
-from formation_control.core.models import MODELS, PARTICLE_MODELS, RIGID_MODELS
+from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
+                                           STATE_NAMES)
 
 FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
 LAW_VARIANTS = ('practical', 'full')
-INIT_ARRAYS = ('init_x', 'init_y', 'init_theta', 'init_omega', 'init_u', 'init_v')
+INIT_ARRAYS = tuple(f'init_{name}' for name in STATE_NAMES)
 CHOICES = {'model': MODELS, 'formation': FORMATIONS, 'controller': CONTROLLERS,
            'law_variant': LAW_VARIANTS}
 
@@ -366,5 +367,5 @@ def initial_state(sc):
         if getattr(sc, name):
             X[row] = getattr(sc, name)
     if sc.model in PARTICLE_MODELS:
-        X[4], X[5] = 1.0, 0.0
+        X[ROW_U], X[ROW_V] = 1.0, 0.0
     return X

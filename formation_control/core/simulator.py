@@ -11,7 +11,8 @@ import numpy as np
 
 from formation_control.core import metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import integrate, OMEGA, RIGID_MODELS, STATE_NAMES
+from formation_control.core.models import (integrate, RIGID_MODELS, ROW_OMEGA, ROW_U, ROW_V,
+                                           STATE_NAMES)
 from formation_control.core.scenario import initial_state, resolve
 
 
@@ -70,7 +71,7 @@ class Stepper:
         """Hold ``U`` over the next period (the first-order turn rate is the state omega)."""
         self.U = np.array(U, float)
         if self.sc.model == 'first_order':
-            self.X[OMEGA] = self.U[1]
+            self.X[ROW_OMEGA] = self.U[1]
         return self.U
 
     def command(self):
@@ -130,5 +131,5 @@ def summary(run):
                    radius_target=1.0 / abs(sc.omega0))
     if sc.model in RIGID_MODELS:
         X = run.X[-1]
-        out.update(mean_u=float(X[4].mean()), mean_v=float(X[5].mean()))
+        out.update(mean_u=float(X[ROW_U].mean()), mean_v=float(X[ROW_V].mean()))
     return out

@@ -7,6 +7,7 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from formation_control.core.models import position, ROW_THETA
 from formation_control.ros import interface as itf
 
 HEADING = ColorRGBA(r=0.1, g=0.3, b=0.9, a=1.0)
@@ -66,10 +67,11 @@ def centre_markers(ns, centres, target):
 def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):
     """The MarkerArray of a fleet: X (6, N), ground velocities (N,) or None, trails per vehicle."""
     msg = MarkerArray()
+    r = position(X)
     for i in range(X.shape[1]):
         vel = None if ground_velocity is None else ground_velocity[i]
-        msg.markers += vehicle_markers(ns, i + 1, complex(X[0, i], X[1, i]), float(X[2, i]),
-                                       vel, trails[i])
+        msg.markers += vehicle_markers(ns, i + 1, complex(r[i]), float(X[ROW_THETA, i]), vel,
+                                       trails[i])
     if centres is not None:
         msg.markers += centre_markers(ns, centres, target)
     return msg

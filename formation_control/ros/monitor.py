@@ -30,7 +30,7 @@ from visualization_msgs.msg import MarkerArray
 
 from formation_control.core import laws, metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import ground_velocity
+from formation_control.core.models import ground_velocity, position
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.ros import interface as itf
 from formation_control.ros import markers, parameters
@@ -166,7 +166,7 @@ class MonitorNode(Node):
         snap = metrics.snapshot(self.ctrl, self.X, self.U)
         self.values = snap.values()
         self.metrics_pub.publish(itf.metrics_msg(ns, self.values))
-        self.trails[self.samples % len(self.trails)] = self.X[0] + 1j * self.X[1]
+        self.trails[self.samples % len(self.trails)] = position(self.X)
         self.samples += 1
         self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(self.X, self.U[1]))
         self.saturated = self.ctrl.saturated(self.U)
