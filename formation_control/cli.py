@@ -1,7 +1,8 @@
 """
 Command line: ``formation-control sim`` runs the offline simulator, ``formation-control swarm``
 runs a fleet as ROS 2 processes (plant + one process per vehicle + monitor); ``plot`` and
-``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2 bag.
+``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2 bag; ``params`` prints
+the table of scenario parameters (docs/parameters.md).
 """
 import argparse
 import json
@@ -134,6 +135,11 @@ def cmd_report(args):
     return 0
 
 
+def cmd_params(args):
+    print(scenario.markdown(), end='')
+    return 0
+
+
 def _scenario_arguments(parser):
     parser.add_argument('scenario', help='scenario YAML (ROS 2 parameter file) or config name')
     parser.add_argument('--summary', help='write the convergence figures to this .json')
@@ -175,6 +181,9 @@ def build_parser():
     rep.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
     rep.add_argument('--summary', help='write the figures to this .json')
     rep.set_defaults(func=cmd_report)
+    params = sub.add_parser('params', help='print the table of scenario parameters (Markdown, '
+                                           'docs/parameters.md)')
+    params.set_defaults(func=cmd_params)
     return parser
 
 

@@ -2,6 +2,7 @@
 Scenario validation: every kind of bad input is refused before anything runs, with a message
 that names the parameter and what it may be; the shipped configs, overrides and initial states.
 """
+from dataclasses import fields
 import json
 import math
 from pathlib import Path
@@ -9,9 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from formation_control.core import scenario
 from formation_control.core.scenario import (held_force_loop_gain, initial_state, load,
                                              PARAMETER_NAMES, parse_override, read_params,
-                                             resolve, rhp_zero, ScenarioError)
+                                             resolve, rhp_zero, Scenario, ScenarioError)
 
 CONFIGS = sorted((Path(__file__).resolve().parents[1] / 'config').glob('*.yaml'))
 RIGID = dict(model='rigid', num_vehicles=5)
@@ -409,3 +411,31 @@ def test_particles_keep_unit_speed_whatever_init_u():
     np.testing.assert_array_equal(X[4], 1.0)
     np.testing.assert_array_equal(X[5], 0.0)
     np.testing.assert_array_equal(X[3], [0.4, -0.4])
+
+
+# --- the parameter table ---------------------------------------------------------------------
+
+def test_parameter_doc_is_the_generated_table():
+    """docs/parameters.md is what ``formation-control params`` prints (it cannot drift)."""
+    doc = Path(__file__).resolve().parents[1] / 'docs' / 'parameters.md'
+    assert doc.read_text(encoding='utf-8') == scenario.markdown(), (
+        'docs/parameters.md is stale: run formation-control params > docs/parameters.md')
+
+
+def test_every_parameter_is_in_the_table_with_a_description():
+    assert list(scenario.PARAMETERS) == list(PARAMETER_NAMES)
+    assert {f.name for f in fields(Scenario)} == set(PARAMETER_NAMES) | {'warnings'}
+    for name in PARAMETER_NAMES:
+        assert scenario.PARAMETERS[name].text and scenario.describe(name), name
+        assert f'| `{name}` |' in scenario.markdown()
+
+
+@pytest.mark.parametrize('name', [n for n, s in scenario.PARAMETERS.items() if s.low is not None])
+def test_each_range_of_the_table_is_enforced(name):
+    """A value just outside the documented range is refused with that range in the message."""
+    spec = scenario.PARAMETERS[name]
+    value = spec.low if spec.above else spec.low - 1
+    base = RIGID if spec.models == scenario.RIGID_MODELS else {}
+    _refused(rf"parameter '{name}' = .* is invalid: must be {'>' if spec.above else '>='} "
+             rf'{spec.low:g}', **base, **{name: value})
+    resolve(dict(base, **{name: getattr(Scenario(), name)}))

@@ -18,8 +18,6 @@ FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
 LAW_VARIANTS = ('practical', 'full')
 INIT_ARRAYS = tuple(f'init_{name}' for name in STATE_NAMES)
-CHOICES = {'model': MODELS, 'formation': FORMATIONS, 'controller': CONTROLLERS,
-           'law_variant': LAW_VARIANTS}
 
 
 class _Loader(yaml.SafeLoader):
@@ -37,59 +35,151 @@ class ScenarioError(ValueError):
 
 
 @dataclass(frozen=True)
+class Spec:
+    """
+    What one scenario parameter means and which values it may take.
+
+    Attributes
+    ----------
+    unit : str
+        SI unit of the value ('' for none).
+    text : str
+        What it is, with the thesis' symbol and equation.
+    low, high : float or None
+        Range of a number, ``low <= value <= high`` (None: unbounded on that side); checked by
+        :func:`resolve`, and the range of the ROS parameter descriptor.
+    above : bool
+        The lower end is excluded: ``value > low``.
+    zero : str
+        What the value 0 means, when it means something special ('no limit').
+    models : tuple of str
+        The models whose scenarios are checked against the range (the others ignore it).
+    choices : tuple of str
+        The allowed values of a string.
+    rule : str
+        Further conditions, in words (checked by :func:`resolve` in code).
+    runtime : bool
+        A running node accepts a new value (validated with the whole scenario); otherwise the
+        parameter is read-only.
+    shown_default : str
+        The default as the docs show it, when the field's default is a placeholder.
+
+    """
+
+    unit: str
+    text: str
+    low: float = None
+    high: float = None
+    above: bool = False
+    zero: str = ''
+    models: tuple = MODELS
+    choices: tuple = ()
+    rule: str = ''
+    runtime: bool = False
+    shown_default: str = ''
+
+
+def _param(default, unit, text, **spec):
+    """Declare a :class:`Scenario` field with its default and its :class:`Spec`."""
+    return field(default=default, metadata={'spec': Spec(unit, text, **spec)})
+
+
+_POSITIVE = {'low': 0.0, 'above': True}
+_RIGID_POSITIVE = dict(_POSITIVE, models=RIGID_MODELS)
+_LIMIT = {'low': 0.0, 'zero': 'no limit', 'runtime': True}
+_ENTRIES = 'num_vehicles entries, or none'
+
+
+@dataclass(frozen=True)
 class Scenario:
     """
     Every parameter of a run (SI units, radians); the names follow the thesis.
 
-    Chapter 1-5 (particles): num_vehicles, model, formation, controller, K, kappa, omega0,
-    flow [fx, fy] (m/s), K_p. Chapter 6-8 and Appendix A (rigid bodies): u0 (m/s), K_f,
-    K_P, K_I, m0 (kg), I0 (kg m^2), l (m), h (kg/m), l1 (m), c0 [x, y] (m), informed
-    (vehicle ids 1..N that know c0), law_variant (practical | full), cancel_drag_moment.
-    Command limits (0 = none): max_thrust, max_steering_force (N, rigid bodies),
-    max_angular_accel (rad/s^2, second order), max_turn_rate (rad/s, first order).
-    Run: seed, dt_control and dt_integration (s), duration (s), record_dt (s), init_box (m,
-    side of the square of random positions), init_* (explicit initial states, empty = random).
-    When K is not given it takes the thesis' value for the formation (-1 parallel, +1 circular).
+    Each field is declared with its default and its :class:`Spec` (unit, meaning, allowed
+    values, whether a running node accepts a change): this is the one parameter table, which
+    :data:`PARAMETERS` collects. It drives the validation of :func:`resolve`, the ROS parameter
+    descriptors (``ros/parameters.py``) and ``docs/parameters.md`` (:func:`markdown`,
+    ``formation-control params``).
     """
 
-    num_vehicles: int = 16
-    model: str = 'second_order'
-    formation: str = 'parallel'
-    controller: str = 'backstepping'
-    K: float = 0.0
-    kappa: float = 5.0
-    omega0: float = 1.0
-    flow: tuple = (0.0, 0.0)
-    K_p: float = 5.0
-    u0: float = 1.0
-    K_f: float = 1.0
-    K_P: float = 10.0
-    K_I: float = 15.0
-    m0: float = 1.0
-    I0: float = 0.1
-    l: float = 0.5
-    h: float = 5.0
-    l1: float = 0.0
-    c0: tuple = (0.0, 0.0)
-    informed: tuple = ()
-    law_variant: str = 'practical'
-    cancel_drag_moment: bool = True
-    max_thrust: float = 0.0
-    max_steering_force: float = 0.0
-    max_angular_accel: float = 0.0
-    max_turn_rate: float = 0.0
-    seed: int = 0
-    dt_control: float = 0.02
-    dt_integration: float = 0.002
-    duration: float = 60.0
-    record_dt: float = 0.1
-    init_box: float = 10.0
-    init_x: tuple = ()
-    init_y: tuple = ()
-    init_theta: tuple = ()
-    init_omega: tuple = ()
-    init_u: tuple = ()
-    init_v: tuple = ()
+    # Chapters 1-5: the fleet and the particle laws
+    num_vehicles: int = _param(16, '', 'number of vehicles N, numbered 1..N', low=1)
+    model: str = _param(
+        'second_order', '', 'vehicle model: particles first_order (1.1), second_order (1.3); '
+        'rigid bodies rigid (6.15), rigid_couple (8.22), rigid_cop (A.3)', choices=MODELS)
+    formation: str = _param('parallel', '', 'formation: parallel (1.12) or circular (1.16)',
+                            choices=FORMATIONS)
+    controller: str = _param(
+        'backstepping', '', 'steering law: first_order (1.12), (1.16); backstepping (3.7), '
+        '(3.14), (7.12); proportional (5.5); pi (8.24)', choices=CONTROLLERS,
+        rule='first_order goes with model first_order, and only with it')
+    K: float = _param(0.0, '1/s', 'formation gain K', shown_default='-1.0 parallel, 1.0 circular',
+                      rule='K < 0 for parallel (1.12), (3.7); K > 0 for circular (1.16), (3.14)',
+                      runtime=True)
+    kappa: float = _param(5.0, '1/s', 'backstepping gain kappa (3.7), (3.14)', runtime=True,
+                          **_POSITIVE)
+    omega0: float = _param(1.0, 'rad/m', 'circle curvature omega0: radius 1/|omega0|',
+                           rule='!= 0 for circular', runtime=True)
+    flow: tuple = _param((0.0, 0.0), 'm/s', 'uniform steady flow [fx, fy], map frame (1.4)',
+                         rule='|flow| < 1 for particles (1.6), < u0 for rigid bodies')
+    K_p: float = _param(5.0, '1/s', 'proportional steering gain K_p (5.5)', runtime=True,
+                        **_POSITIVE)
+    # Chapters 6-8 and Appendix A: rigid bodies
+    u0: float = _param(1.0, 'm/s', 'forward speed u0 relative to the flow that the thrust holds '
+                       '(7.1)', runtime=True, **_RIGID_POSITIVE)
+    K_f: float = _param(1.0, '1/s', "thrust gain K_f: u' = K_f (u0 - u) (7.1), (8.10)",
+                        runtime=True, **_RIGID_POSITIVE)
+    K_P: float = _param(10.0, '1/s', 'PI steering proportional gain K_P (8.24)', runtime=True,
+                        **_RIGID_POSITIVE)
+    K_I: float = _param(15.0, '1/s^2', 'PI steering integral gain K_I (8.24)', runtime=True,
+                        low=0.0, models=RIGID_MODELS)
+    m0: float = _param(1.0, 'kg', 'mass m0 (6.15)', **_RIGID_POSITIVE)
+    I0: float = _param(0.1, 'kg m^2', 'yaw moment of inertia I0 (6.15)', **_RIGID_POSITIVE)
+    l: float = _param(0.5, 'm', 'arm l of the steering force behind the centre of mass (6.14)',
+                      **_RIGID_POSITIVE)
+    h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)',
+                      **_RIGID_POSITIVE)
+    l1: float = _param(0.0, 'm', 'centre of pressure l1 ahead of the centre of mass, rigid_cop '
+                       '(A.1)')
+    c0: tuple = _param((0.0, 0.0), 'm', 'prescribed circle centre c0 [x, y], map frame (7.17)',
+                       runtime=True)
+    informed: tuple = _param((), '', 'ids of the vehicles that know c0 (a_k0 = 1 in (7.17)); '
+                             'empty = none', rule='ids in 1..num_vehicles', runtime=True)
+    law_variant: str = _param(
+        'practical', '', "rigid-body steering (7.12): practical (the thesis' simulations) or "
+        "full (adds s' and beta' computed from the model)", choices=LAW_VARIANTS)
+    cancel_drag_moment: bool = _param(True, '', 'cancel the drag moment of the centre of '
+                                      'pressure, rigid_cop (A.20)')
+    # Command limits
+    max_thrust: float = _param(0.0, 'N', 'thrust limit |T|, rigid bodies', **_LIMIT)
+    max_steering_force: float = _param(0.0, 'N', 'steering-force limit |F|, rigid bodies',
+                                       **_LIMIT)
+    max_angular_accel: float = _param(0.0, 'rad/s^2', 'angular-acceleration command limit, '
+                                      'second_order', **_LIMIT)
+    max_turn_rate: float = _param(0.0, 'rad/s', 'turn-rate command limit, first_order',
+                                  **_LIMIT)
+    # The run
+    seed: int = _param(0, '', 'random seed of the initial state', low=0)
+    dt_control: float = _param(0.02, 's', 'control period: each command is held this long',
+                               **_POSITIVE)
+    dt_integration: float = _param(0.002, 's', 'RK4 integration step', rule='divides '
+                                   'dt_control into a whole number of steps', **_POSITIVE)
+    duration: float = _param(60.0, 's', 'length of the run',
+                             rule='a whole number of dt_control', **_POSITIVE)
+    record_dt: float = _param(0.1, 's', 'recording period (simulator, plant and bags)',
+                              rule='a whole number of dt_control', **_POSITIVE)
+    init_box: float = _param(10.0, 'm', 'side of the square, centred on the origin, of the '
+                             'random initial positions', **_POSITIVE)
+    init_x: tuple = _param((), 'm', 'initial x of each vehicle; empty = random', rule=_ENTRIES)
+    init_y: tuple = _param((), 'm', 'initial y of each vehicle; empty = random', rule=_ENTRIES)
+    init_theta: tuple = _param((), 'rad', 'initial heading theta of each vehicle; empty = '
+                               'random', rule=_ENTRIES)
+    init_omega: tuple = _param((), 'rad/s', 'initial yaw rate of each vehicle; empty = 0',
+                               rule=_ENTRIES)
+    init_u: tuple = _param((), 'm/s', 'initial forward speed relative to the flow; empty = u0 '
+                           '(particles: always 1)', rule=f'> 0 for rigid bodies; {_ENTRIES}')
+    init_v: tuple = _param((), 'm/s', 'initial sideslip speed relative to the flow; empty = 0 '
+                           '(particles: always 0)', rule=_ENTRIES)
     warnings: tuple = field(default=(), compare=False)
 
     @property
@@ -131,8 +221,12 @@ class Scenario:
         return json.dumps(self.to_dict(), sort_keys=True)
 
 
-LIMITS = ('max_thrust', 'max_steering_force', 'max_angular_accel', 'max_turn_rate')
-PARAMETER_NAMES = tuple(f.name for f in fields(Scenario) if f.name != 'warnings')
+PARAMETERS = {f.name: f.metadata['spec'] for f in fields(Scenario) if 'spec' in f.metadata}
+"""The parameter table, name -> :class:`Spec`, in the order of :class:`Scenario`."""
+PARAMETER_NAMES = tuple(PARAMETERS)
+CHOICES = {name: spec.choices for name, spec in PARAMETERS.items() if spec.choices}
+RUNTIME = tuple(name for name, spec in PARAMETERS.items() if spec.runtime)
+"""The parameters a running node accepts changes of; every other one is read-only."""
 _DEFAULTS = Scenario()
 
 
@@ -183,17 +277,117 @@ def _choice(sc, name):
         _fail(name, getattr(sc, name), f"allowed values: {' | '.join(CHOICES[name])}")
 
 
-def _positive(sc, *names):
-    for name in names:
-        if not getattr(sc, name) > 0:
-            _fail(name, getattr(sc, name), 'must be > 0')
+def _bounds(spec):
+    """The range of a :class:`Spec` in words: '> 0', '>= 0 (0 = no limit)', ..., or ''."""
+    parts = []
+    if spec.low is not None:
+        parts.append(f"{'>' if spec.above else '>='} {spec.low:g}")
+    if spec.high is not None:
+        parts.append(f'<= {spec.high:g}')
+    text = ' and '.join(parts)
+    return f'{text} (0 = {spec.zero})' if text and spec.zero else text
+
+
+def describe(name):
+    """Return what parameter ``name`` is, with its unit: 'backstepping gain kappa ... [1/s]'."""
+    spec = PARAMETERS[name]
+    return f'{spec.text} [{spec.unit}]' if spec.unit else spec.text
+
+
+def allowed(name):
+    """Return the values parameter ``name`` may take, in words ('' when any value goes)."""
+    spec = PARAMETERS[name]
+    parts = [' | '.join(spec.choices)] if spec.choices else []
+    bounds = _bounds(spec)
+    if bounds:
+        where = 'rigid bodies' if spec.models == RIGID_MODELS else ', '.join(spec.models)
+        parts.append(bounds if spec.models == MODELS else f'{bounds} for {where}')
+    if spec.rule:
+        parts.append(spec.rule)
+    return '; '.join(parts)
+
+
+def _shown(name):
+    """The default of parameter ``name`` as a parameter file writes it."""
+    spec, value = PARAMETERS[name], getattr(_DEFAULTS, name)
+    if spec.shown_default:
+        return spec.shown_default
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, str):
+        return f'`{value}`'
+    return str(list(value)) if isinstance(value, tuple) else str(value)
+
+
+MARKDOWN_HEAD = """\
+# Scenario parameters
+
+<!-- Generated from the table in formation_control/core/scenario.py by
+     `formation-control params > docs/parameters.md`; do not edit by hand:
+     test/test_scenario.py checks that this file equals the generated text. -->
+
+A scenario is a ROS 2 parameter file (`/**: ros__parameters: ...`). The same names configure
+the offline simulator (`formation-control sim FILE -p name:=value`), the plant and every
+vehicle node, which declare each one with a descriptor made from this table (the description
+with the unit, the range, read-only unless marked *run time*). Units are SI, angles in radians;
+equation numbers are those of R. Mellish, *Backstepping control design for the coordinated
+motion of vehicles in a flowfield*, M.S. thesis, University of Maryland, 2011.
+
+A value outside *allowed* is refused before anything runs, with a message naming the
+parameter. A *run time* parameter can be changed on a running node (`ros2 param set
+/vehicle_1 kappa 3.0`); a change that would make the scenario invalid is refused with the
+reason.
+
+| parameter | default | unit | allowed | run time | meaning |
+|---|---|---|---|---|---|
+"""
+
+MARKDOWN_TAIL = """
+Checks across parameters, for rigid bodies (see [errata.md](errata.md), "Rigid-body practice"):
+
+- tail steering (`rigid`, `rigid_cop`) has a right-half-plane zero at u0 sqrt(h l / I0): it is
+  refused below half the steering bandwidth (kappa, K_p or K_P, by controller) and warned
+  about below the bandwidth;
+- the full law on tail steering (`law_variant: full`, and always the `pi` controller) closes a
+  one-sample loop of gain bandwidth I0 / (l m0 u0), refused from 0.8;
+- PI steering (8.24) needs h u0 / m0 > K_I / K_P.
+"""
+
+
+def markdown():
+    """
+    Return docs/parameters.md: the parameter table of :data:`PARAMETERS` in Markdown.
+
+    Returns
+    -------
+    str
+        The whole page, as ``formation-control params`` prints it.
+
+    """
+    def cell(text):
+        return text.replace('|', '\\|')
+
+    rows = [f"| `{name}` | {cell(_shown(name))} | {spec.unit} | {cell(allowed(name))} | "
+            f"{'yes' if spec.runtime else ''} | {cell(spec.text)} |"
+            for name, spec in PARAMETERS.items()]
+    return MARKDOWN_HEAD + '\n'.join(rows) + '\n' + MARKDOWN_TAIL
+
+
+def _check_range(sc, name):
+    """Refuse a value outside the range of its :class:`Spec` (for the models it applies to)."""
+    spec, value = PARAMETERS[name], getattr(sc, name)
+    if sc.model not in spec.models:
+        return
+    if spec.low is not None and not (value > spec.low if spec.above else value >= spec.low):
+        _fail(name, value, f'must be {_bounds(replace(spec, high=None))}')
+    if spec.high is not None and not value <= spec.high:
+        _fail(name, value, f'must be {_bounds(replace(spec, low=None))}')
 
 
 def _check_structure(sc):
     for name in CHOICES:
         _choice(sc, name)
-    if sc.num_vehicles < 1:
-        _fail('num_vehicles', sc.num_vehicles, 'must be >= 1')
+    _check_range(sc, 'num_vehicles')
     if (sc.model == 'first_order') != (sc.controller == 'first_order'):
         _fail('controller', sc.controller, "model 'first_order' goes with controller "
               "'first_order' only, and controller 'first_order' with model 'first_order' only")
@@ -220,11 +414,9 @@ def _check_gains(sc):
             _fail('K', sc.K, 'formation circular needs K > 0 (1.16), (3.14)')
         if sc.omega0 == 0:
             _fail('omega0', sc.omega0, 'formation circular needs omega0 != 0 (radius 1/|omega0|)')
-    for name in LIMITS:
-        if getattr(sc, name) < 0:
-            _fail(name, getattr(sc, name), 'must be >= 0 (0 = no limit)')
-    _positive(sc, 'kappa', 'K_p', 'dt_control', 'dt_integration', 'duration', 'record_dt',
-              'init_box')
+    for name, spec in PARAMETERS.items():
+        if (spec.low, spec.high) != (None, None) and name != 'num_vehicles':
+            _check_range(sc, name)
     if sc.dt_integration > sc.dt_control or abs(
             sc.substeps * sc.dt_integration - sc.dt_control) > 1e-9 * sc.dt_control:
         _fail('dt_integration', sc.dt_integration,
@@ -237,12 +429,8 @@ def _check_gains(sc):
     speed = abs(sc.flow_c)
     if sc.model in PARTICLE_MODELS and speed >= 1:
         _fail('flow', list(sc.flow), 'unit-speed particles need |flow| < 1 m/s (1.6)')
-    if sc.model in RIGID_MODELS:
-        _positive(sc, 'u0', 'K_f', 'K_P', 'm0', 'I0', 'l', 'h')
-        if sc.K_I < 0:
-            _fail('K_I', sc.K_I, 'must be >= 0')
-        if speed >= sc.u0:
-            _fail('flow', list(sc.flow), f'rigid bodies need |flow| < u0 = {sc.u0} m/s')
+    if sc.model in RIGID_MODELS and speed >= sc.u0:
+        _fail('flow', list(sc.flow), f'rigid bodies need |flow| < u0 = {sc.u0} m/s')
 
 
 def rhp_zero(sc):

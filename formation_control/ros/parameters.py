@@ -2,8 +2,6 @@
 Scenario parameters on a node: declared with descriptors, validated by the core's
 :func:`scenario.resolve` (one source of truth), gains changeable at run time.
 """
-from dataclasses import fields
-
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
@@ -14,61 +12,44 @@ from formation_control.core.scenario import Scenario, ScenarioError
 MODES = ('lockstep', 'realtime')
 """Time modes of the plant and the vehicles."""
 
-RUNTIME = ('K', 'kappa', 'omega0', 'K_p', 'u0', 'K_f', 'K_P', 'K_I', 'c0', 'informed',
-           *scenario.LIMITS)
-"""Gains and references a running node accepts; every other scenario parameter is read-only."""
-
-DOCS = {
-    'num_vehicles': 'number of vehicles N in the fleet (vehicles are numbered 1..N)',
-    'model': 'vehicle model: first_order | second_order | rigid | rigid_couple | rigid_cop',
-    'formation': 'parallel | circular',
-    'controller': 'first_order | backstepping | proportional | pi',
-    'K': 'formation gain K (1/s): < 0 for parallel (3.7), > 0 for circular (3.14)',
-    'kappa': 'backstepping gain kappa (1/s), > 0',
-    'omega0': 'circle curvature omega0 (rad/m), radius 1/|omega0|, != 0',
-    'flow': 'uniform steady flow [fx, fy] (m/s, map frame)',
-    'K_p': 'proportional gain K_p of (5.5) (1/s), > 0',
-    'u0': 'commanded forward speed relative to the flow u0 (m/s), > 0',
-    'K_f': 'thrust feedback-linearisation gain K_f (1/s), > 0',
-    'K_P': 'PI steering proportional gain K_P (1/s), > 0',
-    'K_I': 'PI steering integral gain K_I (1/s^2), >= 0',
-    'm0': 'vehicle mass m0 (kg), > 0',
-    'I0': 'yaw moment of inertia I0 (kg m^2), > 0',
-    'l': 'steering force arm behind the centre of mass l (m), > 0',
-    'h': 'drag coefficient h, D = h s^2 (kg/m), > 0',
-    'l1': 'centre of pressure ahead of the centre of mass l1 (m), rigid_cop',
-    'c0': 'prescribed circle centre c0 [x, y] (m, map frame)',
-    'informed': 'ids (1..N) of the vehicles that know c0',
-    'law_variant': 'rigid-body steering: practical (thesis) | full (s\', beta\' terms)',
-    'cancel_drag_moment': 'cancel the centre-of-pressure drag moment (A.20)',
-    'max_thrust': 'thrust limit |T| (N), rigid bodies; 0 = none',
-    'max_steering_force': 'steering force limit |F| (N), rigid bodies; 0 = none',
-    'max_angular_accel': 'angular acceleration limit (rad/s^2), second_order; 0 = none',
-    'max_turn_rate': 'turn-rate command limit (rad/s), first_order; 0 = none',
-    'seed': 'random seed of the initial conditions',
-    'dt_control': 'control period (s), > 0',
-    'dt_integration': 'integration step (s), divides dt_control',
-    'duration': 'run length (s)',
-    'record_dt': 'recording period (s), a multiple of dt_control',
-    'init_box': 'side of the square of random initial positions (m)',
-    'init_x': 'initial x of each vehicle (m); empty = random',
-    'init_y': 'initial y of each vehicle (m); empty = random',
-    'init_theta': 'initial heading of each vehicle (rad); empty = random',
-    'init_omega': 'initial yaw rate of each vehicle (rad/s); empty = 0',
-    'init_u': 'initial forward speed relative to the flow (m/s); empty = u0',
-    'init_v': 'initial sideslip speed relative to the flow (m/s); empty = 0',
-}
-POSITIVE = ('kappa', 'K_p', 'u0', 'K_f', 'K_P', 'm0', 'I0', 'l', 'h', 'dt_control',
-            'dt_integration', 'duration', 'record_dt', 'init_box')
+FLOAT_BOUND = 1e9
+"""Descriptor range ends of a number that the scenario leaves unbounded on that side."""
+INTEGER_BOUND = 2 ** 63 - 1
 EMPTY_TYPES = {'informed': Parameter.Type.INTEGER_ARRAY}
 
 
-def _descriptor(name, read_only):
-    d = ParameterDescriptor(description=DOCS[name], read_only=read_only)
-    if name in POSITIVE or name in scenario.LIMITS:
-        d.floating_point_range = [FloatingPointRange(from_value=0.0, to_value=1e9)]
-    if name == 'num_vehicles':
-        d.integer_range = [IntegerRange(from_value=1, to_value=100_000, step=1)]
+def descriptor(name):
+    """
+    Return the ParameterDescriptor of scenario parameter ``name``, from its :class:`Spec`.
+
+    Parameters
+    ----------
+    name : str
+        A name of :data:`scenario.PARAMETERS`.
+
+    Returns
+    -------
+    rcl_interfaces.msg.ParameterDescriptor
+        Description with the unit, the allowed values in ``additional_constraints``, the range
+        of a number (``floating_point_range`` or ``integer_range``; ROS ranges are closed, so
+        '> 0' is [0, ...] here and 0 is refused by :func:`scenario.resolve`), and ``read_only``
+        unless the parameter may change at run time.
+
+    """
+    spec, default = scenario.PARAMETERS[name], getattr(Scenario(), name)
+    d = ParameterDescriptor(description=scenario.describe(name),
+                            additional_constraints=scenario.allowed(name),
+                            read_only=not spec.runtime)
+    if (spec.low, spec.high) == (None, None):
+        return d
+    if isinstance(default, int):
+        low = -INTEGER_BOUND if spec.low is None else int(spec.low)
+        high = INTEGER_BOUND if spec.high is None else int(spec.high)
+        d.integer_range = [IntegerRange(from_value=low, to_value=high, step=1)]
+    else:
+        low = -FLOAT_BOUND if spec.low is None else float(spec.low)
+        high = FLOAT_BOUND if spec.high is None else float(spec.high)
+        d.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
     return d
 
 
@@ -78,18 +59,15 @@ def _ros_value(value):
 
 def declare(node, defaults=Scenario()):
     """Declare every scenario parameter on ``node`` with its descriptor and default."""
-    for f in fields(Scenario):
-        if f.name == 'warnings':
-            continue
-        value = _ros_value(getattr(defaults, f.name))
-        if f.name == 'K':
+    for name in scenario.PARAMETER_NAMES:
+        value = _ros_value(getattr(defaults, name))
+        if name == 'K':
             value = -1.0 if node.get_parameter('formation').value == 'parallel' else 1.0
-        descriptor = _descriptor(f.name, f.name not in RUNTIME)
         if value == []:
-            node.declare_parameter(f.name, EMPTY_TYPES.get(f.name, Parameter.Type.DOUBLE_ARRAY),
-                                   descriptor)
+            node.declare_parameter(name, EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY),
+                                   descriptor(name))
         else:
-            node.declare_parameter(f.name, value, descriptor)
+            node.declare_parameter(name, value, descriptor(name))
 
 
 def _values(node, changes=()):
