@@ -1,23 +1,24 @@
 """
-Read a rosbag2 bag written by ``swarm --bag`` (or ``ros2 bag record`` of the same topics) with
-the ``rosbags`` library: the run it holds, as the simulator's :class:`simulator.Run`, and the
-series of ``/formation/metrics`` and ``/diagnostics``.
+Read a rosbag2 bag written by ``swarm --bag`` with the ``rosbags`` library.
+
+(Or by ``ros2 bag record`` of the same topics.) The run it holds, as the simulator's
+:class:`simulator.Run`, and the series of ``/formation/metrics`` and ``/diagnostics``.
 """
 from collections import defaultdict
 import json
 from pathlib import Path
 
-import numpy as np
-from rosbags.rosbag2 import Reader
-from rosbags.typesys import get_typestore, Stores
-
 from formation_control.core.models import ROW_OMEGA
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.core.simulator import Run
 from formation_control.ros import interface as itf
+import numpy as np
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
 
 
 def is_bag(path):
+    """Return whether ``path`` is a rosbag2 bag directory (one with metadata.yaml)."""
     return Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists()
 
 
@@ -45,8 +46,24 @@ def _scenario(path):
 
 def read_run(path):
     """
-    The run a bag holds, sampled like the plant's record: every ``record_dt`` of the steps at
-    which every vehicle's odometry is present, with each vehicle's latest command at that time.
+    Return the run a bag holds, sampled like the plant's record.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The bag directory; it must hold ``/formation/scenario``.
+
+    Returns
+    -------
+    simulator.Run
+        Every ``record_dt`` (and the last) of the steps at which every vehicle's odometry is
+        present, with each vehicle's latest command at that time.
+
+    Raises
+    ------
+    ScenarioError
+        No scenario, or no step with the odometry of every vehicle.
+
     """
     sc = _scenario(path)
     n = sc.num_vehicles

@@ -1,8 +1,10 @@
 """
-Command line: ``formation-control sim`` runs the offline simulator, ``formation-control swarm``
-runs a fleet as ROS 2 processes (plant + one process per vehicle + monitor); ``plot`` and
-``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2 bag; ``params`` prints
-the table of scenario parameters (docs/parameters.md).
+Command line: ``formation-control sim | swarm | plot | report | params``.
+
+``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
+process per vehicle + monitor); ``plot`` and ``report`` read a run back from a simulator/plant
+``.npz`` or a rosbag2 bag; ``params`` prints the table of scenario parameters
+(docs/parameters.md).
 """
 import argparse
 import json
@@ -13,7 +15,7 @@ from formation_control.core import report, scenario, simulator
 
 
 def find_scenario(name):
-    """A scenario path, or the name of a file shipped in the package's config/ directory."""
+    """Return the path of a scenario: a path, or the name of a file in the package's config/."""
     path = Path(name)
     if path.exists():
         return path
@@ -110,7 +112,7 @@ def cmd_swarm(args):
 
 
 def load_source(path):
-    """A run from a simulator/plant ``.npz`` or a rosbag2 bag directory."""
+    """Return the run of a simulator/plant ``.npz`` or of a rosbag2 bag directory."""
     from formation_control import bagfile
     if bagfile.is_bag(path):
         return bagfile.read_run(path)

@@ -1,16 +1,17 @@
 """
-Thesis-style figures of a run: trajectories with heading (and ground-velocity) arrows; turning
-rate and speeds; crab angles; the composite Lyapunov value on a log scale. They draw
-:func:`report.series`, so a run from the simulator, the plant's ``.npz`` or a bag looks the same.
+Thesis-style figures of a run.
+
+Trajectories with heading (and ground-velocity) arrows; turning rate and speeds; crab angles;
+the composite Lyapunov value on a log scale. They draw :func:`report.series`, so a run from the
+simulator, the plant's ``.npz`` or a bag looks the same.
 """
+from formation_control.core.models import RIGID_MODELS
+from formation_control.core.report import series
 import matplotlib
 
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
-from formation_control.core.models import RIGID_MODELS  # noqa: E402
-from formation_control.core.report import series  # noqa: E402
 
 
 def _arrows(ax, d, flow, length):
@@ -54,7 +55,22 @@ def _lyapunov(ax, d):
 
 
 def plot_run(run, path):
-    """Write the figure of ``run`` (a :class:`simulator.Run`) to ``path`` (PNG); returns the data."""
+    """
+    Write the figure of a run to a PNG file.
+
+    Parameters
+    ----------
+    run : simulator.Run
+        The run.
+    path : str or path-like
+        The PNG file.
+
+    Returns
+    -------
+    dict
+        The data drawn, :func:`report.series`.
+
+    """
     sc = run.sc
     d = series(run)
     rigid = sc.model in RIGID_MODELS

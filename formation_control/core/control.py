@@ -7,21 +7,32 @@ vehicles it knows into its own command (:meth:`Controller.command`).
 """
 from dataclasses import replace
 
-import numpy as np
-
 from formation_control.core import laws
 from formation_control.core.geometry import inner
 from formation_control.core.models import (body_accel, ground_velocity, Plant, position,
                                            RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V)
 from formation_control.core.scenario import uses_held_force
+import numpy as np
 
 
 def particle_speed_terms(theta, flow):
     """
-    Return ``(s, gamma, g)`` for a unit-speed particle in a uniform flow f (1.4)-(1.6).
+    Return the inertial speed, course and course-rate factor of unit-speed particles in a flow.
 
-    ``s e^{i gamma} = e^{i theta} + f`` and ``gamma' = g theta'`` with
-    ``g = (1 + <f, e^{i theta}>) / s^2 = 1 - <e^{i gamma}, f> / s``, the factor of (5.1).
+    Parameters
+    ----------
+    theta : array_like
+        Body headings theta (rad).
+    flow : complex
+        Uniform steady flow f (m/s), ``|f| < 1``.
+
+    Returns
+    -------
+    s, gamma, g : ndarray, shape of ``theta``
+        ``s e^{i gamma} = e^{i theta} + f`` (1.4)-(1.6): inertial speed s (m/s) and course gamma
+        (rad); ``gamma' = g theta'`` with ``g = (1 + <f, e^{i theta}>) / s^2
+        = 1 - <e^{i gamma}, f> / s``, the factor of (5.1).
+
     """
     e = np.exp(1j * theta)
     vel = e + flow
@@ -31,9 +42,21 @@ def particle_speed_terms(theta, flow):
 
 def particle_view(X, flow):
     """
-    View of unit-speed particles: phase gamma, rate Omega = g omega, speed s, s' (1.8), (4.9).
+    Return the particle view of unit-speed particles.
 
-    Without flow this is theta, xi, 1, 0 (1.3).
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        States (rows of :mod:`models`); omega is the body turn rate theta'.
+    flow : complex
+        Uniform steady flow f (m/s).
+
+    Returns
+    -------
+    laws.View
+        Phase gamma, rate ``Omega = g omega``, speed s and ``s' = <f, i e^{i theta}> omega / s``
+        (1.8), (4.9); without flow theta, xi, 1, 0 (1.3).
+
     """
     s, gamma, g = particle_speed_terms(X[ROW_THETA], flow)
     w = X[ROW_OMEGA]
@@ -42,16 +65,47 @@ def particle_view(X, flow):
 
 
 def body_rate_from_inertial(w, theta, flow):
-    """First-order transform (5.1): body turn rate u_k = w_k / g for a uniform flow."""
+    """
+    Return the body turn rate that gives the inertial course rate ``w``, (5.1).
+
+    Parameters
+    ----------
+    w : array_like
+        Desired course rates gamma' (rad/s).
+    theta : array_like
+        Body headings (rad).
+    flow : complex
+        Uniform steady flow f (m/s).
+
+    Returns
+    -------
+    ndarray
+        ``u_k = w_k / g`` (rad/s), g of :func:`particle_speed_terms`.
+
+    """
     return w / particle_speed_terms(theta, flow)[2]
 
 
 def body_accel_from_inertial(lam, theta, omega, flow):
     """
-    Transform (5.3)/(5.4): body angular acceleration a_k from the inertial one lambda_k.
+    Return the body angular acceleration that gives the inertial one ``lam``, (5.3)/(5.4).
 
-    From ``gamma' = g theta'``: ``lambda = g a + g' omega``, with
-    ``g' = <f, i e^{i theta}> omega (s^2 - 2 (1 + <f, e^{i theta}>)) / s^4``.
+    Parameters
+    ----------
+    lam : array_like
+        Desired course accelerations lambda_k = gamma'' (rad/s^2).
+    theta, omega : array_like
+        Body headings (rad) and turn rates (rad/s).
+    flow : complex
+        Uniform steady flow f (m/s).
+
+    Returns
+    -------
+    ndarray
+        ``a_k = (lambda_k - g' omega_k) / g`` (rad/s^2): from ``gamma' = g theta'``,
+        ``lambda = g a + g' omega`` with
+        ``g' = <f, i e^{i theta}> omega (s^2 - 2 (1 + <f, e^{i theta}>)) / s^4``.
+
     """
     e = np.exp(1j * theta)
     s2 = abs(e + flow) ** 2
@@ -61,20 +115,55 @@ def body_accel_from_inertial(lam, theta, omega, flow):
 
 
 def thrust(X, u0, K_f, plant):
-    """Feedback-linearising thrust (7.1) = (8.10), giving u' = K_f (u0 - u) (flow-relative u)."""
+    """
+    Return the feedback-linearising thrust of rigid bodies, (7.1) = (8.10).
+
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        States (rows of :mod:`models`); u, v relative to the flow.
+    u0 : float
+        Commanded forward speed relative to the flow (m/s).
+    K_f : float
+        Speed gain (1/s).
+    plant : Plant
+        Physical parameters (m0, h).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``T = h s u - m0 v omega + m0 K_f (u0 - u)`` (N), which gives ``u' = K_f (u0 - u)``.
+
+    """
     u, v = X[ROW_U], X[ROW_V]
     return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
 
 
 def rigid_view(X, U_applied, plant, use_heading, full):
     """
-    View of rigid bodies.
+    Return the particle view of rigid bodies.
 
-    ``use_heading``: phase theta with rate omega, as (7.3) with (3.7) uses it. Otherwise the
-    phase is the direction of the ground velocity, psi = theta + beta (7.11) or
-    gamma = theta + beta_hat (8.1), with speed s or s_hat. ``full`` computes its exact rate and
-    s' from the model with the input ``U_applied`` (thrust now, steering force held);
-    otherwise the thesis' practical law uses omega and s' = 0 (text after 7.12).
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        States (rows of :mod:`models`).
+    U_applied : array_like, shape (2, N)
+        Input the exact rates are computed with: thrust now, steering force held (N).
+    plant : Plant
+        The rigid-body model.
+    use_heading : bool
+        Steer the heading: phase theta with rate omega, as (7.3) with (3.7) uses it.
+    full : bool
+        Otherwise, compute the exact course rate and s' from the model with ``U_applied``;
+        the thesis' practical law (text after 7.12) uses omega and ``s' = 0``.
+
+    Returns
+    -------
+    laws.View
+        Unless ``use_heading``, the phase is the direction of the ground velocity,
+        ``psi = theta + beta`` (7.11) or ``gamma = theta + beta_hat`` (8.1); the speed is the
+        ground speed s or s_hat (m/s).
+
     """
     r = position(X)
     vel = ground_velocity(X, plant.flow)
@@ -84,13 +173,29 @@ def rigid_view(X, U_applied, plant, use_heading, full):
     if not full:
         return laws.View(r, np.angle(vel), X[ROW_OMEGA], speed, np.zeros_like(speed))
     du, dv, _ = body_accel(X, U_applied, plant)
-    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * (X[ROW_U] + 1j * X[ROW_V])) * np.exp(1j * X[ROW_THETA])
+    rel = X[ROW_U] + 1j * X[ROW_V]
+    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * rel) * np.exp(1j * X[ROW_THETA])   # r''
     rate = inner(1j * vel, acc) / speed ** 2
     return laws.View(r, np.angle(vel), rate, speed, inner(vel, acc) / speed)
 
 
 def drag_moment_accel(X, plant):
-    """Yaw acceleration h' = -(l1/I0) D sin(beta) of the centre-of-pressure drag (A.3), (A.13)."""
+    """
+    Return the yaw acceleration of the centre-of-pressure drag moment, (A.3), (A.13).
+
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        States (rows of :mod:`models`).
+    plant : Plant
+        Physical parameters.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``h' = -(l1/I0) D sin(beta) = -(l1/I0) h s v`` (rad/s^2) for ``rigid_cop``, else 0.
+
+    """
     if plant.model != 'rigid_cop':
         return np.zeros(X.shape[1])
     return -plant.l1 * plant.h * np.hypot(X[ROW_U], X[ROW_V]) * X[ROW_V] / plant.I0
@@ -98,10 +203,25 @@ def drag_moment_accel(X, plant):
 
 def steering_force(a, X, plant, cancel_drag_moment=True):
     """
-    Steering force for a yaw acceleration a: ``F = -(I0/l)(a - h')`` (7.3), (8.11), (A.20).
+    Return the steering force that gives the yaw acceleration ``a``, (7.3), (8.11), (A.20).
 
-    (7.3) prints I0/I; omega' = -(l/I0) F (6.14) requires I0/l. ``h'`` cancels the drag
-    moment of the centre-of-pressure model (A.20) when ``cancel_drag_moment``.
+    Parameters
+    ----------
+    a : array_like, shape (N,)
+        Desired yaw acceleration omega' (rad/s^2).
+    X : array_like, shape (6, N)
+        States (rows of :mod:`models`).
+    plant : Plant
+        Physical parameters.
+    cancel_drag_moment : bool, optional
+        Subtract the drag moment h' of the centre-of-pressure model (A.20).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``F = -(I0/l)(a - h')`` (N). (7.3) prints I0/I; ``omega' = -(l/I0) F`` (6.14) requires
+        I0/l (errata).
+
     """
     if cancel_drag_moment:
         a = a - drag_moment_accel(X, plant)
@@ -109,7 +229,21 @@ def steering_force(a, X, plant, cancel_drag_moment=True):
 
 
 def command_limits(sc):
-    """(2,) bounds on |U| rows: (T, F) for rigid bodies, (-, turn input) for particles; inf = none."""
+    """
+    Return the bounds on the magnitude of each input row.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its command limits (0 = none).
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        (|T|, |F|) bounds (N) for rigid bodies; (unused, turn input) for particles, rad/s^2
+        (second order) or rad/s (first order); inf where there is no limit.
+
+    """
     if sc.model in RIGID_MODELS:
         limits = (sc.max_thrust, sc.max_steering_force)
     else:
@@ -124,6 +258,23 @@ class Controller:
     The same object serves the whole fleet (simulator) or one vehicle (node): ``command``
     takes the views of every vehicle known, the state of the vehicles ``idx`` it commands,
     and returns their inputs. The PI law (8.24) keeps one integrator per commanded vehicle.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The validated scenario (model, formation, controller, gains, limits).
+
+    Attributes
+    ----------
+    plant : models.Plant
+        Physical parameters, ``Plant.of(sc)``.
+    formation : laws.Parallel or laws.Circular
+        The formation law over the whole fleet.
+    limits : ndarray, shape (2,)
+        :func:`command_limits`.
+    integral : ndarray or None
+        The PI integrator of each commanded vehicle (rad/s s), created at the first command.
+
     """
 
     def __init__(self, sc):
@@ -140,13 +291,29 @@ class Controller:
         self.limits = command_limits(sc)
 
     def thrust(self, X):
-        """Thrust (7.1)/(8.10) for rigid bodies, zero for particles."""
+        """Return the thrust of ``X`` (6, n), (7.1)/(8.10): (n,) N; 0 for particles."""
         if not self.rigid:
             return np.zeros(X.shape[1])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
 
     def view(self, X, F_held=None):
-        """Particle view of the vehicles in ``X`` (what each vehicle shares with the others)."""
+        """
+        Return the particle view of the vehicles ``X``: what each vehicle shares with the others.
+
+        Parameters
+        ----------
+        X : array_like, shape (6, n)
+            Their states.
+        F_held : array_like, shape (n,), optional
+            Steering force held from the last period (N), for the exact course rate of the
+            full and PI laws; zero by default.
+
+        Returns
+        -------
+        laws.View
+            :func:`particle_view` or :func:`rigid_view`.
+
+        """
         if not self.rigid:
             return particle_view(X, self.plant.flow)
         held = np.zeros(X.shape[1]) if F_held is None else F_held
@@ -154,14 +321,33 @@ class Controller:
         return rigid_view(X, U_applied, self.plant, self.use_heading, self.full)
 
     def formation_of(self, members=None):
-        """The formation law over the fleet vehicles ``members`` (bool mask; None = all)."""
+        """Return the formation law over the fleet vehicles ``members`` (bool mask; None = all)."""
         f = self.formation
         if members is None or not isinstance(f, laws.Circular):
             return f
         return replace(f, informed=np.asarray(f.informed)[members])
 
     def phase_accel(self, view, idx, members=None):
-        """Desired phase acceleration of the vehicles idx: (3.7), (3.14), (4.3), (4.8), (5.5), (8.24)."""
+        """
+        Return the desired phase acceleration of the vehicles ``idx``.
+
+        Parameters
+        ----------
+        view : laws.View
+            Views of the vehicles known.
+        idx : index
+            The vehicles commanded, into the vehicles of ``view``.
+        members : ndarray of bool, shape (N,), optional
+            The fleet vehicles ``view`` holds; None = the whole fleet.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            (rad/s^2): backstepping (3.7), (3.14), (4.3), (4.8), (7.12), (7.25), proportional
+            (5.5), or PI (8.24) ``K_P e + K_I int e`` with ``e = phi - rate``, which advances
+            the integrator by one control period.
+
+        """
         sc, f = self.sc, self.formation_of(members)
         if sc.controller == 'backstepping':
             return laws.backstepping(f, view, sc.kappa, idx)
@@ -175,29 +361,46 @@ class Controller:
 
     def command(self, view, X, idx=slice(None), members=None):
         """
-        Inputs U (2, n) for the vehicles idx of ``view`` whose own states are ``X`` (6, n).
+        Return the inputs of the vehicles ``idx`` of ``view``.
 
-        ``members`` (bool mask over the fleet) names the vehicles the view holds when it is not
-        the whole fleet (a vehicle that hears only its live neighbours).
+        Parameters
+        ----------
+        view : laws.View
+            Views of the vehicles known.
+        X : array_like, shape (6, n)
+            The commanded vehicles' own states.
+        idx : index, optional
+            The commanded vehicles, into the vehicles of ``view``; all by default.
+        members : ndarray of bool, shape (N,), optional
+            The fleet vehicles the view holds when it is not the whole fleet (a vehicle that
+            hears only its live neighbours); None = the whole fleet.
+
+        Returns
+        -------
+        ndarray, shape (2, n)
+            Rigid bodies: thrust (7.1) and steering force (7.3), (8.11), (A.20) (N); particles:
+            row 1 the body angular acceleration (5.4) (rad/s^2) or, first order, the turn rate
+            (5.1) (rad/s). Clipped to :attr:`limits`.
+
         """
         sc = self.sc
-        U_ = np.zeros((2, X.shape[1]))
+        U = np.zeros((2, X.shape[1]))
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
-            U_[1] = body_rate_from_inertial(w, X[ROW_THETA], self.plant.flow)
-            return self.saturate(U_)
+            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.plant.flow)
+            return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
-            U_[0] = self.thrust(X)
-            U_[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
+            U[0] = self.thrust(X)
+            U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
-            U_[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], self.plant.flow)
-        return self.saturate(U_)
+            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], self.plant.flow)
+        return self.saturate(U)
 
-    def saturate(self, U_):
-        """Clip each input row to its limit (:func:`command_limits`)."""
-        return np.clip(U_, -self.limits[:, None], self.limits[:, None])
+    def saturate(self, U):
+        """Return the inputs U (2, n) with each row clipped to its :func:`command_limits`."""
+        return np.clip(U, -self.limits[:, None], self.limits[:, None])
 
-    def saturated(self, U_):
-        """(n,) bool: the vehicle's command sits on a limit."""
-        return np.any(abs(np.asarray(U_)) >= self.limits[:, None] * (1 - 1e-9), axis=0)
+    def saturated(self, U):
+        """Return (n,) bool: whether each vehicle's input U (2, n) sits on a limit."""
+        return np.any(abs(np.asarray(U)) >= self.limits[:, None] * (1 - 1e-9), axis=0)

@@ -10,9 +10,8 @@ received (``idx=[k]``) and the whole fleet (``idx=None``).
 """
 from dataclasses import dataclass
 
-import numpy as np
-
 from formation_control.core.geometry import inner
+import numpy as np
 
 
 @dataclass
@@ -27,6 +26,7 @@ class View:
     rate : (N,) phase rate (rad/s): xi_k, Omega_k or omega_k
     speed : (N,) inertial speed s_k (m/s), 1 for unit particles, (1.6) in flow
     speed_dot : (N,) s_k' (m/s^2), (4.9) in flow
+
     """
 
     r: np.ndarray
@@ -37,12 +37,22 @@ class View:
 
     @property
     def e(self):
+        """(N,) complex unit vectors ``e_k = e^{i phase_k}``."""
         return np.exp(1j * self.phase)
 
 
 @dataclass(frozen=True)
 class Terms:
-    """phi, its time derivative and the backstepping cross term sigma, for vehicles idx."""
+    """
+    The terms of a formation law for the vehicles ``idx`` of a view.
+
+    Attributes
+    ----------
+    phi : (n,) desired phase rate phi_k (rad/s)
+    phi_dot : (n,) its time derivative phi_k' along the motion (rad/s^2)
+    sigma : (n,) cross term ``-dV/dphase_k`` that the backstepping laws add
+
+    """
 
     phi: np.ndarray
     phi_dot: np.ndarray
@@ -61,6 +71,24 @@ class Parallel:
     K: float
 
     def terms(self, view, idx=slice(None)):
+        """
+        Return phi, phi' and sigma of the parallel law for the vehicles ``idx``.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the N vehicles known.
+        idx : index, optional
+            The vehicles to compute for (an index into the N of ``view``); all by default.
+
+        Returns
+        -------
+        Terms
+            ``phi_k = -K <p, i e_k>`` (1.12), (1.18), (4.1) with ``p = mean(e)``;
+            ``phi_k' = -K (<mean(e w), e_k> - w_k <p, e_k>)`` with w the phase rates, the O(N)
+            form of the pairwise sum in (3.7), (4.3); ``sigma_k = <p, i e_k> / N``.
+
+        """
         e = view.e
         p = e.mean()
         pw = (e * view.rate).mean()
@@ -70,18 +98,44 @@ class Parallel:
         return Terms(-self.K * q, phi_dot, q / e.size)
 
     def potential(self, view):
+        """
+        Return the potential of phase synchrony.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the N vehicles.
+
+        Returns
+        -------
+        float
+            ``V = (1 - |p|^2) / 2`` (1.11), in [0, 1/2]; 0 when all phases agree.
+
+        """
         return 0.5 * (1.0 - abs(view.e.mean()) ** 2)
 
 
 @dataclass(frozen=True)
 class Circular:
     """
-    Circular formation, ``phi_k = omega0 (s_k + K G_k)`` with K > 0, where
-    ``G_k = <e_k, P_k c> + a_k0 <e_k, c_k - c0>`` and ``c_k = r_k + i e_k / omega0``.
+    Circular formation, ``phi_k = omega0 (s_k + K G_k)`` with K > 0.
 
+    Here ``G_k = <e_k, P_k c> + a_k0 <e_k, c_k - c0>`` and ``c_k = r_k + i e_k / omega0``
     (1.16), (1.19), (3.9), (4.4); the prescribed-centre term of (7.17), (7.18) is switched on
     per vehicle by ``informed``. Potential (7.18): ``<c, P c>/2 + sum a_k0 |c_k - c0|^2 / 2``.
     ``sigma_k = G_k / omega0`` is the cross term of the backstepping laws (3.14), (4.8), (7.25).
+
+    Attributes
+    ----------
+    K : float
+        Formation gain (1/s), > 0.
+    omega0 : float
+        Curvature (rad/m), != 0: circles of radius ``1/|omega0|``, turning at ``omega0 s_k``.
+    c0 : complex
+        Prescribed centre (m).
+    informed : array_like of float, shape (N,), or None
+        a_k0: 1 for the vehicles that know c0, 0 for the others; None = nobody.
+
     """
 
     K: float
@@ -90,14 +144,50 @@ class Circular:
     informed: np.ndarray = None
 
     def centres(self, view):
+        """
+        Return the circle centres of the vehicles.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the N vehicles; the phase is the direction of the velocity.
+
+        Returns
+        -------
+        ndarray of complex, shape (N,)
+            ``c_k = r_k + i e_k / omega0`` (m), (1.14); the errata's (7.11) correction uses the
+            velocity heading psi (gamma in a flow), not the body heading.
+
+        """
         return view.r + 1j * view.e / self.omega0
 
     def _a0(self, n, idx=slice(None)):
+        """Return a_k0 of the vehicles idx of n (0.0 when nobody is informed)."""
         if self.informed is None:
             return 0.0
         return np.broadcast_to(self.informed, (n,))[idx]
 
     def terms(self, view, idx=slice(None)):
+        """
+        Return phi, phi' and sigma of the circular law for the vehicles ``idx``.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the N vehicles known (speeds s and s' are used: flow, rigid).
+        idx : index, optional
+            The vehicles to compute for (an index into the N of ``view``); all by default.
+
+        Returns
+        -------
+        Terms
+            ``phi_k = omega0 (s_k + K G_k)`` (1.16), (4.4), (7.17) and
+            ``phi_k' = omega0 (s_k' + K G_k')`` (3.14), (4.8), (7.12), (7.25) corrected, with
+            ``G_k' = w_k <i e_k, P_k c> + (s_k - w_k/omega0) - <mean(c'), e_k>
+            + a_k0 (w_k <i e_k, c_k - c0> + s_k - w_k/omega0)`` and
+            ``c_k' = e_k (s_k - w_k/omega0)`` (w the phase rates); ``sigma_k = G_k / omega0``.
+
+        """
         e = view.e
         c = view.r + 1j * e / self.omega0
         c_dot = e * (view.speed - view.rate / self.omega0)
@@ -114,33 +204,120 @@ class Circular:
         return Terms(phi, phi_dot, g / self.omega0)
 
     def potential(self, view):
+        """
+        Return the potential of the circular formation.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the N vehicles.
+
+        Returns
+        -------
+        float
+            ``V = sum_k |c_k - mean(c)|^2 / 2 + sum_k a_k0 |c_k - c0|^2 / 2`` (m^2), (1.14),
+            (7.18); 0 when every centre is the common one (and c0, if anyone is informed).
+
+        """
         c = self.centres(view)
         pc = c - c.mean()
         return 0.5 * (np.sum(abs(pc) ** 2) + np.sum(self._a0(c.size) * abs(c - self.c0) ** 2))
 
 
 def first_order(formation, view, idx=slice(None)):
-    """First-order steering, phase' = phi_k (1.12), (1.16), (1.18), (1.19), (7.17)."""
+    """
+    Return the first-order steering law, ``phase_k' = phi_k``.
+
+    Parameters
+    ----------
+    formation : Parallel or Circular
+        The formation law.
+    view : View
+        Particle view of the N vehicles known.
+    idx : index, optional
+        The vehicles to steer; all by default.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The desired phase rate ``phi_k`` (rad/s), (1.12), (1.16), (1.18), (1.19), (7.17).
+
+    """
     return formation.terms(view, idx).phi
 
 
 def backstepping(formation, view, kappa, idx=slice(None)):
     """
-    Backstepping phase acceleration ``sigma_k - kappa z_k + phi_k'`` with ``z_k = rate_k - phi_k``.
+    Return the backstepping phase acceleration.
 
-    (3.7), (3.14), (4.3), (4.8), (7.12), (7.25); the composite function
-    ``V_c = V + sum z_k^2 / 2`` then has ``V_c' = sum (-|K| or K/N) (...)^2 - kappa z_k^2 <= 0``.
+    Parameters
+    ----------
+    formation : Parallel or Circular
+        The formation law whose phase rate ``phi_k`` the rates are steered to.
+    view : View
+        Particle view of the N vehicles known.
+    kappa : float
+        Backstepping gain (1/s), > 0.
+    idx : index, optional
+        The vehicles to steer; all by default.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``sigma_k - kappa z_k + phi_k'`` (rad/s^2) with ``z_k = rate_k - phi_k``: (3.7),
+        (3.14), (4.3), (4.8), (7.12), (7.25).
+
+    Notes
+    -----
+    The composite function ``V_c = V + sum z_k^2 / 2`` (:func:`composite_lyapunov`) then has
+    ``V_c' = sum (-|K| or K/N) (...)^2 - kappa z_k^2 <= 0``.
+
     """
     t = formation.terms(view, idx)
     return t.sigma - kappa * (view.rate[idx] - t.phi) + t.phi_dot
 
 
 def proportional(formation, view, K_p, idx=slice(None)):
-    """Proportional phase acceleration ``-K_p z_k`` (5.5)."""
+    """
+    Return the proportional phase acceleration.
+
+    Parameters
+    ----------
+    formation : Parallel or Circular
+        The formation law whose phase rate ``phi_k`` the rates are steered to.
+    view : View
+        Particle view of the N vehicles known.
+    K_p : float
+        Proportional gain (1/s), > 0.
+    idx : index, optional
+        The vehicles to steer; all by default.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``-K_p z_k`` (rad/s^2) with ``z_k = rate_k - phi_k``, (5.5).
+
+    """
     return -K_p * (view.rate[idx] - formation.terms(view, idx).phi)
 
 
 def composite_lyapunov(formation, view):
-    """``V_c = V + sum z_k^2 / 2`` (2.10), with the potential of ``formation``."""
+    """
+    Return the composite Lyapunov value of the backstepping laws.
+
+    Parameters
+    ----------
+    formation : Parallel or Circular
+        The formation law (its potential V and phase rates phi).
+    view : View
+        Particle view of the whole fleet.
+
+    Returns
+    -------
+    float
+        ``V_c = V + sum_k z_k^2 / 2`` with ``z_k = rate_k - phi_k`` (2.10); it never increases
+        under :func:`backstepping`.
+
+    """
     z = view.rate - formation.terms(view).phi
     return formation.potential(view) + 0.5 * np.sum(z ** 2)

@@ -1,13 +1,14 @@
 """
-Formation metrics of the thesis' analysis: order parameter |p|, circle centres, potentials,
-composite Lyapunov values, centre spread, radius, crab angles and the convergence test.
+Formation metrics of the thesis' analysis, and the convergence test.
+
+Order parameter |p|, circle centres, potentials, composite Lyapunov values, centre spread,
+radius, crab angles; the steady states the analysis predicts for rigid bodies.
 """
 from dataclasses import dataclass
 
-import numpy as np
-
 from formation_control.core import laws
 from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_V
+import numpy as np
 
 ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
@@ -31,7 +32,7 @@ class Snapshot:
     crab_inertial: float = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
 
     def values(self):
-        """Named values for messages and reports, leaving out those that do not apply."""
+        """Return the named values for messages and reports, without those that do not apply."""
         out = {'order_parameter': self.order, 'potential': self.potential,
                'lyapunov': self.lyapunov, 'max_turn_rate': self.max_rate,
                'centre_spread': self.spread, 'radius': self.radius,
@@ -42,7 +43,26 @@ class Snapshot:
 
 
 def snapshot(ctrl, X, inputs):
-    """Metrics of the states X (6, N) with held inputs (2, N) under the controller's law."""
+    """
+    Return the formation metrics of the fleet at one instant.
+
+    Parameters
+    ----------
+    ctrl : control.Controller
+        The controller of the scenario (its formation law and view).
+    X : array_like, shape (6, N)
+        States of the whole fleet.
+    inputs : array_like, shape (2, N)
+        Inputs held at that instant (the held steering force enters the full law's view).
+
+    Returns
+    -------
+    Snapshot
+        |p| (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max |phase rate|; circular: centre
+        spread, mean radius and centre; rigid bodies: mean |u - u0| and mean crab angles
+        (:func:`crab_angles`).
+
+    """
     view = ctrl.view(X, inputs[1])
     f = ctrl.formation
     extra = {}
@@ -57,12 +77,29 @@ def snapshot(ctrl, X, inputs):
         extra.update(speed_error=float(np.mean(abs(X[ROW_U] - ctrl.sc.u0))),
                      crab=float(beta.mean()), crab_inertial=float(beta_hat.mean()))
     return Snapshot(float(abs(view.e.mean())), float(f.potential(view)),
-                    float(laws.composite_lyapunov(f, view)), max_rate=float(np.max(abs(view.rate))),
-                    **extra)
+                    float(laws.composite_lyapunov(f, view)),
+                    max_rate=float(np.max(abs(view.rate))), **extra)
 
 
 def converged(sc, snap):
-    """The scenario's convergence test: parallel or circular formation reached."""
+    """
+    Return whether the formation of the scenario is reached.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario (formation, omega0).
+    snap : Snapshot
+        The fleet's metrics.
+
+    Returns
+    -------
+    bool
+        Parallel: ``|p| > ORDER_TOL`` and every ``|phase rate| < RATE_TOL`` (rad/s); circular:
+        centre spread below SPREAD_TOL (m) and the mean radius within RADIUS_TOL of
+        ``1/|omega0|``.
+
+    """
     if sc.formation == 'parallel':
         return snap.order > ORDER_TOL and snap.max_rate < RATE_TOL
     radius_error = abs(snap.radius * abs(sc.omega0) - 1.0)
@@ -70,7 +107,23 @@ def converged(sc, snap):
 
 
 def vehicles_converged(ctrl, view):
-    """(N,) bool: each vehicle meets its own share of :func:`converged`."""
+    """
+    Return whether each vehicle meets its own share of :func:`converged`.
+
+    Parameters
+    ----------
+    ctrl : control.Controller
+        The controller of the scenario.
+    view : laws.View
+        The fleet's view.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        Parallel: phase within ``acos(ORDER_TOL)`` of the mean phase and ``|rate| < RATE_TOL``;
+        circular: centre within SPREAD_TOL of the mean centre and radius within RADIUS_TOL.
+
+    """
     f = ctrl.formation
     if isinstance(f, laws.Circular):
         c = f.centres(view)
@@ -82,7 +135,22 @@ def vehicles_converged(ctrl, view):
 
 
 def convergence_time(t, flags):
-    """First time from which ``flags`` holds to the end, or None."""
+    """
+    Return the first time from which ``flags`` holds to the end.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Sample times (s).
+    flags : array_like of bool, shape (T,)
+        The convergence test at each sample.
+
+    Returns
+    -------
+    float or None
+        That time (s), or None when the last sample does not hold.
+
+    """
     flags = np.asarray(flags, bool)
     if flags.size == 0 or not flags[-1]:
         return None
@@ -91,7 +159,23 @@ def convergence_time(t, flags):
 
 
 def crab_angles(X, flow):
-    """(beta, beta_hat): flow-relative crab angle atan2(v, u) and inertial one gamma - theta (8.1)."""
+    """
+    Return the crab angles of rigid bodies, relative to the flow and inertial.
+
+    Parameters
+    ----------
+    X : array_like, shape (6, ...)
+        States (rows of :mod:`models`).
+    flow : complex
+        Uniform steady flow f (m/s).
+
+    Returns
+    -------
+    beta, beta_hat : ndarray, shape ``X.shape[1:]``
+        ``beta = atan2(v, u)`` (7.11) and ``beta_hat = gamma - theta`` (8.1), the angle of the
+        ground velocity in the body frame (rad, in (-pi, pi]).
+
+    """
     beta = np.arctan2(X[ROW_V], X[ROW_U])
     beta_hat = np.angle(ground_velocity(X, flow) * np.exp(-1j * X[ROW_THETA]))
     return beta, beta_hat
@@ -99,13 +183,31 @@ def crab_angles(X, flow):
 
 def steady_turn(sc):
     """
-    Steady turn of a rigid body on radius 1/|omega0| (7.9)-(7.10), corrected (errata).
+    Return the steady turn of a rigid body on radius 1/|omega0|, (7.9)-(7.10) corrected.
 
-    Returns (v0, s0, beta0, yaw_rate): ``v0 = -m0 u0 omega0 / h_eff`` (skids outward),
-    ``s0 = u0 sqrt(1 + (m0 omega0 / h_eff)^2)``, ``beta0 = atan2(v0, u0)``, yaw rate
-    ``omega0 s0``. ``h_eff = h``, except for the centre-of-pressure model with its drag moment
-    cancelled (A.20): there the steady force ``F = -(l1/l) h s v`` adds to the drag,
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A rigid-body scenario (u0, omega0, m0, h, l, l1, model, cancel_drag_moment).
+
+    Returns
+    -------
+    v0 : float
+        Sideslip ``-m0 u0 omega0 / h_eff`` (m/s): the body skids outward (errata: the thesis
+        prints +).
+    s0 : float
+        Speed ``u0 sqrt(1 + (m0 omega0 / h_eff)^2)`` (m/s) (errata: not the quartic root).
+    beta0 : float
+        Crab angle ``atan2(v0, u0)`` (rad).
+    yaw_rate : float
+        ``omega0 s0`` (rad/s).
+
+    Notes
+    -----
+    ``h_eff = h``, except for the centre-of-pressure model with its drag moment cancelled
+    (A.20): there the steady force ``F = -(l1/l) h s v`` adds to the drag,
     ``h_eff = h (1 + l1/l)``.
+
     """
     h_eff = sc.h
     if sc.model == 'rigid_cop' and sc.cancel_drag_moment:
@@ -116,8 +218,23 @@ def steady_turn(sc):
 
 
 def parallel_flow_crab(sc, theta):
-    """Steady inertial crab angle and speed in flow (8.17): atan2(<f, y>, u0 + <f, x>), |u0 e + f|."""
+    """
+    Return the steady inertial crab angle and ground speed of rigid parallel motion in flow.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A rigid-body scenario (u0, flow).
+    theta : array_like
+        Common heading (rad).
+
+    Returns
+    -------
+    beta_hat0, s_hat0 : ndarray, shape of ``theta``
+        ``atan2(<f, y_body>, u0 + <f, x_body>)`` (rad) and ``|u0 e^{i theta} + f|`` (m/s),
+        (8.17).
+
+    """
     heading = np.exp(1j * np.asarray(theta))
     f_body = sc.flow_c / heading
     return np.arctan2(f_body.imag, sc.u0 + f_body.real), abs(sc.u0 * heading + sc.flow_c)
-

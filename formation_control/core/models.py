@@ -64,6 +64,7 @@ class Plant:
         Drag coefficient, ``D = h s^2`` (kg/m), ``h = rho S C_D / 2`` (6.15).
     l1 : float
         Centre of pressure ahead of the centre of mass (m), ``rigid_cop`` only (A.1).
+
     """
 
     model: str
@@ -87,6 +88,7 @@ class Plant:
         Returns
         -------
         Plant
+
         """
         return cls(sc.model, sc.flow_c, sc.m0, sc.I0, sc.l, sc.h, sc.l1)
 
@@ -104,6 +106,7 @@ def position(X):
     -------
     complex or ndarray of complex, shape ``X.shape[1:]``
         ``r = x + i y`` (m, world frame).
+
     """
     return X[ROW_X] + 1j * X[ROW_Y]
 
@@ -125,16 +128,36 @@ def ground_velocity(X, flow):
     complex or ndarray of complex, shape ``X.shape[1:]``
         ``(u + i v) e^{i theta} + f`` (m/s, world frame). For particles (u = 1, v = 0) this is
         ``e^{i theta} + f``, (1.4).
+
     """
     return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA]) + flow
 
 
 def body_accel(X, U, plant):
     """
-    Return (u', v', omega') of the rigid-body models, (6.15), (8.9), (8.22), (A.3).
+    Return the body-frame accelerations of the rigid-body models, (6.15), (8.9), (8.22), (A.3).
 
+    Parameters
+    ----------
+    X : array_like, shape (6, ...)
+        States (rows x, y, theta, omega, u, v; see the module docstring).
+    U : array_like, shape (2, ...)
+        Inputs: thrust T and steering force F (N).
+    plant : Plant
+        A rigid-body model (``plant.model`` in :data:`RIGID_MODELS`).
+
+    Returns
+    -------
+    du, dv, domega : ndarray, shape ``X.shape[1:]``
+        ``u' = (T - h s u) / m0 + v omega`` and ``v' = (F - h s v) / m0 - u omega`` (m/s^2; no
+        F in v' for the moment couple (8.22)), ``omega' = -l F / I0`` (rad/s^2; minus
+        ``l1 h s v / I0`` for the centre of pressure (A.3)), with ``s = |u + i v|``.
+
+    Notes
+    -----
     Drag ``D = h s^2`` opposes the flow-relative velocity, so ``D cos(beta) = h s u`` and
     ``D sin(beta) = h s v``. Written in flow-relative u, v, the uniform steady flow drops out.
+
     """
     shape = np.shape(X[ROW_U])
     out = np.empty((3,) + shape)
@@ -143,7 +166,7 @@ def body_accel(X, U, plant):
 
 
 def _body_accel(du, dv, dw, X, U, plant, t):
-    """:func:`body_accel` written into the rows du, dv, dw; t: two scratch rows."""
+    """Write :func:`body_accel` into the rows du, dv, dw; t: two scratch rows."""
     u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
     thrust, force = U[0], U[1]
     hs, tmp = t[0], t[1]
@@ -171,7 +194,7 @@ def _body_accel(du, dv, dw, X, U, plant, t):
 
 def _rates(K, Z, U, plant, c, s, t):
     """
-    Write dX/dt at the state Z into K, given c, s = cos, sin(Z[ROW_THETA]); t: two scratch rows.
+    Write dX/dt at the state Z into K, given c, s = cos, sin(theta); t: two scratch rows.
 
     Rows with no dynamics (u, v of particles; omega of first-order ones) are left as they are.
     """
@@ -198,7 +221,27 @@ def _rates(K, Z, U, plant, c, s, t):
 
 
 def deriv(X, U, plant):
-    """Return dX/dt for the model ``plant.model``; see the module docstring for the layout."""
+    """
+    Return the state derivative dX/dt of the model ``plant.model``.
+
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        States, rows x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s).
+    U : array_like, shape (2, N) or (2, 1)
+        Inputs, as the module docstring's table gives them per model.
+    plant : Plant
+        The model and its physical parameters.
+
+    Returns
+    -------
+    ndarray, shape (6, N)
+        dX/dt: particles (1.1), (1.3), ``r' = e^{i theta} + f`` (1.4); rigid bodies
+        ``r' = (u + i v) e^{i theta} + f`` (6.7), (8.1), ``theta' = omega`` and
+        :func:`body_accel`. Rows a model does not move are zero (u, v of particles; omega of
+        first-order ones, whose turn rate is the input).
+
+    """
     X = np.asarray(X, dtype=float)
     theta = X[ROW_THETA]
     dX = np.zeros(X.shape)
@@ -208,8 +251,10 @@ def deriv(X, U, plant):
 
 def _series(d2, coefs, power, dmax, out):
     """
-    ``out = d2 (a0 + d2 (a1 + ...))`` by Horner, in place, for a Taylor series in ``d`` whose
-    term ``a_k d^(power + 2k)`` is left out, with all after it, once below 1e-17 at |d| = dmax.
+    Write ``out = d2 (a0 + d2 (a1 + ...))`` by Horner, in place, for a Taylor series in d.
+
+    The term ``a_k d^(power + 2k)`` is left out, with all after it, once below 1e-17 at
+    ``|d| = dmax``.
     """
     keep = max(1, sum(abs(a) * dmax ** (power + 2 * k) > 1e-17 for k, a in enumerate(coefs)))
     np.multiply(d2, coefs[keep - 1], out=out)
@@ -250,7 +295,7 @@ def _cos_sin(out, cs, theta, d, t):
 
 def _rk4_block(X, U, dt, steps, plant):
     """
-    ``steps`` RK4 steps of one block of vehicles, in place, reusing its work rows throughout.
+    Take ``steps`` RK4 steps of one block of vehicles in place, reusing its work rows.
 
     Only the rows the model moves are integrated (x, y, theta for first order; up to omega
     for second order; all for rigid bodies): the others have zero derivative. cos and sin of
@@ -285,7 +330,26 @@ def _rk4_block(X, U, dt, steps, plant):
 
 
 def rk4_step(X, U, dt, plant):
-    """Return ``X`` advanced by one classical Runge-Kutta step of ``dt`` s with ``U`` held."""
+    """
+    Return the state after one classical Runge-Kutta (RK4) step with the input held.
+
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        State at the start of the step (see :func:`deriv`).
+    U : array_like, shape (2, N) or (2, 1)
+        Input, held over the step.
+    dt : float
+        Step (s); negative steps integrate backwards.
+    plant : Plant
+        The model and its physical parameters.
+
+    Returns
+    -------
+    ndarray, shape (6, N)
+        ``X + (dt/6)(k1 + 2 k2 + 2 k3 + k4)`` with the stages ``k_i`` of :func:`deriv`.
+
+    """
     k1 = deriv(X, U, plant)
     k2 = deriv(X + 0.5 * dt * k1, U, plant)
     k3 = deriv(X + 0.5 * dt * k2, U, plant)
@@ -295,12 +359,34 @@ def rk4_step(X, U, dt, plant):
 
 def integrate(X, U, dt, steps, plant):
     """
-    Return ``X`` after ``steps`` RK4 steps of ``dt`` with ``U`` held (one sampled-data period).
+    Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 
-    The inputs are not modified. Fleets of fewer than PLAIN_BELOW vehicles, where the cost is
-    per numpy call, take :func:`rk4_step`. Larger ones take :func:`_rk4_block` (the same
-    numbers to rounding, several times faster) on blocks of BLOCK vehicles, which are
-    independent over the period, so that each block's work rows stay in cache.
+    Parameters
+    ----------
+    X : array_like, shape (6, N)
+        State at the start of the period (see :func:`deriv`); not modified.
+    U : array_like, shape (2, N) or (2, 1)
+        Input, held over the period (zero-order hold); not modified.
+    dt : float
+        Integration step (s).
+    steps : int
+        Number of steps, ``dt_control / dt_integration`` for one control period.
+    plant : Plant
+        The model and its physical parameters.
+
+    Returns
+    -------
+    ndarray, shape (6, N)
+        The state ``steps * dt`` later, equal to ``steps`` calls of :func:`rk4_step` to
+        rounding.
+
+    Notes
+    -----
+    Fleets of fewer than PLAIN_BELOW vehicles, where the cost is per numpy call, take
+    :func:`rk4_step`. Larger ones take :func:`_rk4_block` (the same numbers to rounding,
+    several times faster) on blocks of BLOCK vehicles, which are independent over the period,
+    so that each block's work rows stay in cache.
+
     """
     n = np.shape(X)[1]
     if n < PLAIN_BELOW:

@@ -1,21 +1,34 @@
 """
-What a run shows, whatever recorded it (offline simulator, the plant's ``.npz``, a bag): the
-series the figures draw, and the final values next to the steady state the thesis predicts.
-"""
-import numpy as np
+What a run shows, whatever recorded it (offline simulator, the plant's ``.npz``, a bag).
 
+The series the figures draw, and the final values next to the steady state the thesis
+predicts.
+"""
 from formation_control.core import metrics
 from formation_control.core.control import Controller
 from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
                                            ROW_U, ROW_X, ROW_Y)
 from formation_control.core.simulator import summary
+import numpy as np
 
 
 def series(run):
     """
-    Per-sample data of the figures, each (T,) or (T, N): t, x, y, theta, omega, u, ground
-    (ground velocity, complex), speed (its modulus), beta, beta_hat (crab angles), lyapunov,
-    order.
+    Return the per-sample data of the figures.
+
+    Parameters
+    ----------
+    run : simulator.Run
+        A recorded run of T samples of N vehicles.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``t`` (T,) s; ``x``, ``y`` (m), ``theta`` (rad), ``omega`` (rad/s), ``u`` (m/s), each
+        (T, N); ``ground`` (T, N) complex, the ground velocity (8.1) (m/s), and ``speed`` its
+        modulus; ``beta``, ``beta_hat`` (T, N), the crab angles (rad); ``lyapunov`` (T,) V_c
+        (2.10) and ``order`` (T,) |p| (1.10).
+
     """
     ctrl = Controller(run.sc)
     snaps = [metrics.snapshot(ctrl, X, inputs) for X, inputs in zip(run.X, run.U)]
@@ -31,9 +44,21 @@ def series(run):
 
 def predictions(sc, X):
     """
-    Steady-state values the thesis' analysis predicts for ``sc``: name -> (value, source).
+    Return the steady-state values the thesis' analysis predicts.
 
-    ``X`` (6, N), the final state, gives the common heading the crab angle (8.17) depends on.
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    X : array_like, shape (6, N)
+        The final state: it gives the common heading the crab angle (8.17) depends on.
+
+    Returns
+    -------
+    dict of str to (float, str)
+        Metric name (:meth:`metrics.Snapshot.values`) -> (predicted value, its source in the
+        thesis or the errata).
+
     """
     rigid = sc.model in RIGID_MODELS
     still = sc.flow_c == 0
@@ -64,7 +89,23 @@ def predictions(sc, X):
 
 
 def report(run):
-    """(summary, rows): the run's summary and rows (name, measured, predicted, source)."""
+    """
+    Return the report of a run.
+
+    Parameters
+    ----------
+    run : simulator.Run
+        A recorded run.
+
+    Returns
+    -------
+    summary : dict
+        :func:`simulator.summary`.
+    rows : list of (str, float, float or None, str)
+        For each final metric: its name, the measured value, the predicted one (None if the
+        analysis predicts none) and the source of the prediction.
+
+    """
     out = summary(run)
     final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1]).values()
     predicted = predictions(run.sc, run.X[-1])
@@ -73,7 +114,7 @@ def report(run):
 
 
 def format_report(title, out, rows):
-    """The text ``formation-control report`` prints."""
+    """Return the text ``formation-control report`` prints of a report (:func:`report`)."""
     time = out['convergence_time']
     lines = [title,
              f"  converged          {'yes' if out['converged'] else 'no'}"

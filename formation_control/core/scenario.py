@@ -1,18 +1,19 @@
 """
-Scenarios: one ROS 2 parameter file (``/**: ros__parameters: ...``) drives the offline
-simulator and the ROS nodes alike. :func:`load` reads and validates it; every error names the
-parameter and the values it may take, before anything runs.
+Scenarios: one ROS 2 parameter file drives the offline simulator and the ROS nodes alike.
+
+A scenario file is ``/**: ros__parameters: ...``. :func:`load` reads and validates it; every
+error names the parameter and the values it may take, before anything runs. The parameters,
+their defaults, units and ranges are one table, the fields of :class:`Scenario`.
 """
 from dataclasses import asdict, dataclass, field, fields, replace
 import json
 import math
 import re
 
-import numpy as np
-import yaml
-
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
+import numpy as np
+import yaml
 
 FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
@@ -184,15 +185,17 @@ class Scenario:
 
     @property
     def flow_c(self):
+        """The flow as a complex number ``fx + i fy`` (m/s)."""
         return complex(self.flow[0], self.flow[1])
 
     @property
     def c0_c(self):
+        """The prescribed centre as a complex number (m)."""
         return complex(self.c0[0], self.c0[1])
 
     @property
     def informed_mask(self):
-        """a_k0 of (7.17) as a float array over vehicles 1..N."""
+        """The a_k0 of (7.17), (N,) floats over vehicles 1..N: 1 for the informed ones."""
         mask = np.zeros(self.num_vehicles)
         mask[[k - 1 for k in self.informed]] = 1.0
         return mask
@@ -213,11 +216,13 @@ class Scenario:
         return max(1, int(round(self.record_dt / self.dt_control)))
 
     def to_dict(self):
+        """Return the parameters as a dict of plain values (lists for the tuples)."""
         d = asdict(self)
         d.pop('warnings')
         return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
     def to_json(self):
+        """Return :meth:`to_dict` as JSON (``/formation/scenario``, the ``.npz`` params)."""
         return json.dumps(self.to_dict(), sort_keys=True)
 
 
@@ -278,7 +283,7 @@ def _choice(sc, name):
 
 
 def _bounds(spec):
-    """The range of a :class:`Spec` in words: '> 0', '>= 0 (0 = no limit)', ..., or ''."""
+    """Return the range of a :class:`Spec` in words: '> 0', '>= 0 (0 = no limit)' or ''."""
     parts = []
     if spec.low is not None:
         parts.append(f"{'>' if spec.above else '>='} {spec.low:g}")
@@ -308,7 +313,7 @@ def allowed(name):
 
 
 def _shown(name):
-    """The default of parameter ``name`` as a parameter file writes it."""
+    """Return the default of parameter ``name`` as the docs show it."""
     spec, value = PARAMETERS[name], getattr(_DEFAULTS, name)
     if spec.shown_default:
         return spec.shown_default
@@ -367,9 +372,11 @@ def markdown():
     def cell(text):
         return text.replace('|', '\\|')
 
-    rows = [f"| `{name}` | {cell(_shown(name))} | {spec.unit} | {cell(allowed(name))} | "
-            f"{'yes' if spec.runtime else ''} | {cell(spec.text)} |"
-            for name, spec in PARAMETERS.items()]
+    rows = []
+    for name, spec in PARAMETERS.items():
+        cells = (f'`{name}`', _shown(name), spec.unit, allowed(name),
+                 'yes' if spec.runtime else '', spec.text)
+        rows.append('| ' + ' | '.join(cell(c) for c in cells) + ' |')
     return MARKDOWN_HEAD + '\n'.join(rows) + '\n' + MARKDOWN_TAIL
 
 
@@ -434,32 +441,61 @@ def _check_gains(sc):
 
 
 def rhp_zero(sc):
-    """Right-half-plane zero u0 sqrt(h l / I0) (rad/s) of tail steering from F to the course."""
+    """
+    Return the right-half-plane zero of tail steering, from the force F to the course.
+
+    Parameters
+    ----------
+    sc : Scenario
+        A rigid-body scenario (u0, h, l, I0).
+
+    Returns
+    -------
+    float
+        ``u0 sqrt(h l / I0)`` (rad/s): the side force at the tail first pushes the velocity
+        the wrong way (errata, "Physical parameters").
+
+    """
     return sc.u0 * math.sqrt(sc.h * sc.l / sc.I0)
 
 
 def steering_bandwidth(sc):
-    """The gain that sets how fast the steering loop acts (rad/s)."""
+    """Return the gain that sets how fast the steering loop acts: kappa, K_p or K_P (1/s)."""
     return {'backstepping': sc.kappa, 'proportional': sc.K_p, 'pi': sc.K_P}[sc.controller]
 
 
 def uses_held_force(sc):
-    """Whether the steering law reads the course rate from the model with the held force F."""
+    """
+    Return whether the steering law reads the course rate from the model with the held force.
+
+    The full law (``law_variant: full``) and the PI law (8.24) do (the exact rate and s' of
+    :func:`control.rigid_view`); the practical law uses omega.
+    """
     return sc.controller == 'pi' or sc.law_variant == 'full'
 
 
 def held_force_loop_gain(sc):
     """
-    Gain ``bandwidth * I0 / (l m0 u0)`` of the one-sample loop F -> beta' -> F of tail steering.
+    Return the gain of the one-sample loop F -> beta' -> F of tail steering with the full law.
 
-    With the full law, beta' (hence psi') contains F/m0 (7.7); computed from the held force it
-    closes a loop through one sample that diverges when this gain nears 1.
+    Parameters
+    ----------
+    sc : Scenario
+        A rigid-body scenario.
+
+    Returns
+    -------
+    float
+        ``bandwidth I0 / (l m0 u0)`` (:func:`steering_bandwidth`). With the full law, beta'
+        (hence psi') contains F/m0 (7.7); computed from the held force it closes a loop
+        through one sample that diverges when this gain nears 1.
+
     """
     return steering_bandwidth(sc) * sc.I0 / (sc.l * sc.m0 * sc.u0)
 
 
 def _check_physics(sc):
-    """Errata, 'Physical parameters': the conditions the rigid-body laws need."""
+    """Check the conditions the rigid-body laws need (errata); return the warnings."""
     notes = []
     if sc.model in ('rigid', 'rigid_cop'):
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
@@ -469,15 +505,16 @@ def _check_physics(sc):
                 f'rad/s, below half the steering bandwidth {band:.3g} rad/s: the law would '
                 f'diverge. Raise u0, h or l, or lower I0 or the gain (parameters u0, h, l, I0)')
         if zero < band:
-            notes.append(f'right-half-plane zero u0*sqrt(h*l/I0) = {zero:.3g} rad/s lies below '
-                         f'the steering bandwidth {band:.3g} rad/s: expect slow, oscillating turns')
+            notes.append(f'right-half-plane zero u0*sqrt(h*l/I0) = {zero:.3g} rad/s lies '
+                         f'below the steering bandwidth {band:.3g} rad/s: expect slow, '
+                         f'oscillating turns')
         gain = held_force_loop_gain(sc)
         if uses_held_force(sc) and gain >= 0.8:
             raise ScenarioError(
                 f'the full law on tail steering closes a one-sample loop through the held force '
                 f'with gain bandwidth*I0/(l*m0*u0) = {gain:.3g}, which must stay below 0.8 '
-                f"(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: "
-                f"practical, or model: rigid_couple")
+                f'(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: '
+                f'practical, or model: rigid_couple')
     if sc.model in RIGID_MODELS and sc.controller == 'pi':
         if not sc.h * sc.u0 / sc.m0 > sc.K_I / sc.K_P:
             raise ScenarioError(
@@ -487,7 +524,28 @@ def _check_physics(sc):
 
 
 def resolve(params):
-    """Build a validated :class:`Scenario` from a dict of parameter values."""
+    """
+    Build a validated scenario from parameter values.
+
+    Parameters
+    ----------
+    params : dict
+        Parameter name -> value, as a parameter file or ROS gives them (lists for pairs and
+        arrays); names left out take the defaults of :data:`PARAMETERS`, K that of the
+        formation (-1 parallel, 1 circular).
+
+    Returns
+    -------
+    Scenario
+        With ``warnings``: the notes of the physical checks that do not refuse.
+
+    Raises
+    ------
+    ScenarioError
+        An unknown name, a value of the wrong type or outside its allowed values, or
+        parameters that do not fit together; the message names the parameter.
+
+    """
     unknown = sorted(set(params) - set(PARAMETER_NAMES))
     if unknown:
         raise ScenarioError(f"unknown parameter(s) {', '.join(repr(u) for u in unknown)}; "
@@ -504,7 +562,7 @@ def resolve(params):
 def parse_override(text):
     """Parse ``name:=value`` (value in YAML syntax, as ``ros2 run -p`` takes it)."""
     if ':=' not in text:
-        raise ScenarioError(f"override {text!r} must read name:=value")
+        raise ScenarioError(f'override {text!r} must read name:=value')
     name, value = text.split(':=', 1)
     try:
         return name.strip(), yaml.load(value, Loader=_Loader)
@@ -524,13 +582,35 @@ def read_params(path):
     except (TypeError, KeyError):
         params = None
     if not isinstance(params, dict):
-        raise ScenarioError(f"{path}: a scenario is a ROS 2 parameter file with a "
+        raise ScenarioError(f'{path}: a scenario is a ROS 2 parameter file with a '
                             f"'/**: ros__parameters:' section mapping parameter names to values")
     return params
 
 
 def load(path, overrides=(), **values):
-    """Read, override (``name:=value`` strings, then keyword values) and validate a scenario."""
+    """
+    Read, override and validate a scenario.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A ROS 2 parameter file (``/**: ros__parameters: ...``).
+    overrides : iterable of str, optional
+        ``name:=value`` strings (YAML values, as ``ros2 run -p`` takes them), applied in order.
+    **values
+        Parameter values applied last; None values are ignored (unset options).
+
+    Returns
+    -------
+    Scenario
+        :func:`resolve` of the result.
+
+    Raises
+    ------
+    ScenarioError
+        The file cannot be read or is not a parameter file, or :func:`resolve` refuses it.
+
+    """
     params = read_params(path)
     params.update(parse_override(o) for o in overrides)
     params.update({k: v for k, v in values.items() if v is not None})
@@ -539,10 +619,21 @@ def load(path, overrides=(), **values):
 
 def initial_state(sc):
     """
-    Initial state (6, N): explicit ``init_*`` arrays where given, else the thesis' random draw.
+    Return the initial state of the fleet.
 
-    Positions uniform in the init_box square centred on the origin, headings uniform on the
-    circle, turning rates zero, u = u0 (rigid) or 1 (particles), v = 0; seeded by ``seed``.
+    Parameters
+    ----------
+    sc : Scenario
+        The scenario (num_vehicles, seed, init_box, init_* arrays, model, u0).
+
+    Returns
+    -------
+    ndarray, shape (6, N)
+        Rows of :mod:`models`: the explicit ``init_*`` arrays where given, else the thesis'
+        random draw, seeded by ``seed``: positions uniform in the init_box square centred on
+        the origin (m), headings uniform on the circle (rad), turning rates zero, u = u0 (rigid
+        bodies), v = 0. Particles always have u = 1, v = 0.
+
     """
     n = sc.num_vehicles
     rng = np.random.default_rng(sc.seed)

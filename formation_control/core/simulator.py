@@ -7,18 +7,33 @@ period and held while RK4 integrates the plant over ``dt_control / dt_integratio
 from dataclasses import dataclass, field
 import json
 
-import numpy as np
-
 from formation_control.core import metrics
 from formation_control.core.control import Controller
 from formation_control.core.models import (integrate, RIGID_MODELS, ROW_OMEGA, ROW_U, ROW_V,
                                            STATE_NAMES)
 from formation_control.core.scenario import initial_state, resolve
+import numpy as np
 
 
 @dataclass
 class Run:
-    """A recorded run: times (T,), states (T, 6, N), commands (T, 2, N) and the scenario."""
+    """
+    A recorded run.
+
+    Attributes
+    ----------
+    sc : scenario.Scenario
+        The scenario that ran.
+    t : ndarray, shape (T,)
+        Sample times (s) from the first step.
+    X : ndarray, shape (T, 6, N)
+        States at those times (rows of :mod:`models`).
+    U : ndarray, shape (T, 2, N)
+        Inputs held from those times on.
+    meta : dict
+        Where it came from (a bag's path, ...), saved as JSON.
+
+    """
 
     sc: object
     t: np.ndarray
@@ -28,8 +43,15 @@ class Run:
 
     def arrays(self):
         """
-        The ``.npz`` layout: t (T,); x, y, theta, omega, u, v (T, N); the held commands, T and F
-        (N) for rigid bodies, ``command`` for particles (rad/s^2, or rad/s for first order).
+        Return the arrays of the ``.npz`` layout.
+
+        Returns
+        -------
+        dict of str to ndarray
+            t (T,); x, y, theta, omega, u, v (T, N); the held inputs, T and F (N) for rigid
+            bodies, ``command`` for particles (rad/s^2, or rad/s for first order); ``params``,
+            the scenario as JSON, and ``meta``.
+
         """
         out = {'t': self.t, 'params': np.array(self.sc.to_json()),
                'meta': np.array(json.dumps(self.meta))}
@@ -41,11 +63,25 @@ class Run:
         return out
 
     def save(self, path):
+        """Write :meth:`arrays` to ``path`` (a compressed ``.npz``)."""
         np.savez_compressed(path, **self.arrays())
 
 
 def load_run(path):
-    """Read a run written by :meth:`Run.save` (the simulator or the plant node)."""
+    """
+    Read a run written by :meth:`Run.save` (the simulator or the plant node).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.npz`` file.
+
+    Returns
+    -------
+    Run
+        With its scenario validated again by :func:`scenario.resolve`.
+
+    """
     with np.load(path) as d:
         sc = resolve(json.loads(str(d['params'])))
         X = np.stack([d[name] for name in STATE_NAMES], axis=1)
@@ -59,7 +95,24 @@ def load_run(path):
 
 
 class Stepper:
-    """One sampled-data period at a time: ``command`` (or ``hold``) then ``advance``."""
+    """
+    The sampled-data loop, one control period at a time: ``command`` (or ``hold``), ``advance``.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    X0 : array_like, shape (6, N), optional
+        Initial state; :func:`scenario.initial_state` by default.
+
+    Attributes
+    ----------
+    X : ndarray, shape (6, N)
+        The fleet's current state.
+    U : ndarray, shape (2, N)
+        The inputs held over the current period.
+
+    """
 
     def __init__(self, sc, X0=None):
         self.sc = sc
@@ -68,18 +121,27 @@ class Stepper:
         self.U = np.zeros((2, self.X.shape[1]))
 
     def hold(self, U):
-        """Hold ``U`` over the next period (the first-order turn rate is the state omega)."""
+        """
+        Hold the inputs ``U`` (2, N) over the next period; return them as held.
+
+        The first-order turn rate is the state omega, so it is written into ``X`` too.
+        """
         self.U = np.array(U, float)
         if self.sc.model == 'first_order':
             self.X[ROW_OMEGA] = self.U[1]
         return self.U
 
     def command(self):
-        """Compute and hold every vehicle's command from the current state."""
+        """Compute every vehicle's command from the current state, hold and return it (2, N)."""
         return self.hold(self.ctrl.command(self.ctrl.view(self.X, self.U[1]), self.X))
 
     def advance(self, steps=None):
-        """Integrate one control period (or ``steps`` integration steps) with the held command."""
+        """
+        Integrate one control period with the held inputs; return the new state (6, N).
+
+        ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
+        (the real-time plant advances one step per tick).
+        """
         sc = self.sc
         self.X = integrate(self.X, self.U, sc.dt_integration, steps or sc.substeps,
                            self.ctrl.plant)
@@ -87,7 +149,12 @@ class Stepper:
 
 
 class Recorder:
-    """Keeps the state and held command every ``record_dt`` (the simulator and the plant)."""
+    """
+    Keep the state and held inputs every ``record_dt``, and at the last step.
+
+    The simulator and the plant node record with it; step n is at ``n dt_control``, and a run
+    has ``sc.periods`` steps after step 0.
+    """
 
     def __init__(self, sc):
         self.sc = sc
@@ -95,17 +162,35 @@ class Recorder:
         self.t, self.X, self.U = [], [], []
 
     def record(self, n, X, U):
+        """Record the state X (6, N) and inputs U (2, N) of step n if it is a recorded step."""
         if n % self.sc.record_every == 0 or n == self.steps:
             self.t.append(n * self.sc.dt_control)
             self.X.append(X.copy())
             self.U.append(U.copy())
 
     def run(self):
+        """Return what was recorded as a :class:`Run`."""
         return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U))
 
 
 def simulate(sc, X0=None):
-    """Run the scenario for ``sc.duration`` seconds and record every ``record_dt``."""
+    """
+    Run a scenario in the offline simulator.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario: ``duration`` seconds of control periods ``dt_control``, each integrated
+        by RK4 with ``dt_integration`` steps and the commands held.
+    X0 : array_like, shape (6, N), optional
+        Initial state; :func:`scenario.initial_state` by default.
+
+    Returns
+    -------
+    Run
+        Samples every ``record_dt`` and at the end.
+
+    """
     stepper = Stepper(sc, X0)
     rec = Recorder(sc)
     for n in range(rec.steps + 1):
@@ -116,14 +201,31 @@ def simulate(sc, X0=None):
 
 
 def summary(run):
-    """Convergence figures of a run: final metrics, convergence flag and time."""
+    """
+    Return the convergence figures of a run.
+
+    Parameters
+    ----------
+    run : Run
+        A recorded run.
+
+    Returns
+    -------
+    dict
+        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end),
+        ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
+        ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
+        bodies: ``mean_u``, ``mean_v`` (m/s).
+
+    """
     sc = run.sc
     ctrl = Controller(sc)
     snaps = [metrics.snapshot(ctrl, X, U) for X, U in zip(run.X, run.U)]
     flags = [metrics.converged(sc, s) for s in snaps]
     final = snaps[-1]
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
-           'converged': bool(flags[-1]), 'convergence_time': metrics.convergence_time(run.t, flags),
+           'converged': bool(flags[-1]),
+           'convergence_time': metrics.convergence_time(run.t, flags),
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate}
     if sc.formation == 'circular':

@@ -1,14 +1,14 @@
 """
-RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``): each vehicle's heading
-arrow, its ground-velocity arrow in a flow, its trail, the circle centres c_k and the
-prescribed centre c0.
+RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``).
+
+Each vehicle's heading arrow, its ground-velocity arrow in a flow, its trail, the circle
+centres c_k and the prescribed centre c0.
 """
+from formation_control.core.models import position, ROW_THETA
+from formation_control.ros import interface as itf
 from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
-
-from formation_control.core.models import position, ROW_THETA
-from formation_control.ros import interface as itf
 
 HEADING = ColorRGBA(r=0.1, g=0.3, b=0.9, a=1.0)
 VELOCITY = ColorRGBA(r=0.9, g=0.1, b=0.1, a=1.0)
@@ -31,7 +31,7 @@ def _point(z):
 
 
 def vehicle_markers(ns, k, position, heading, ground_velocity, trail):
-    """Heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
+    """Return the heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
     arrow = _marker(ns, 'heading', k, Marker.ARROW, HEADING)
     arrow.pose.position = _point(position)
     itf.yaw_quaternion(arrow.pose.orientation, heading)
@@ -50,7 +50,7 @@ def vehicle_markers(ns, k, position, heading, ground_velocity, trail):
 
 
 def centre_markers(ns, centres, target):
-    """The circle centres c_k as spheres and the prescribed centre c0 (None: not prescribed)."""
+    """Return the circle centres c_k as spheres and the prescribed centre c0 (None: none)."""
     spheres = _marker(ns, 'centres', 0, Marker.SPHERE_LIST, CENTRE)
     spheres.points = [_point(c) for c in centres]
     spheres.scale.x = spheres.scale.y = spheres.scale.z = 0.1
@@ -65,7 +65,29 @@ def centre_markers(ns, centres, target):
 
 
 def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):
-    """The MarkerArray of a fleet: X (6, N), ground velocities (N,) or None, trails per vehicle."""
+    """
+    Return the MarkerArray of a fleet.
+
+    Parameters
+    ----------
+    ns : int
+        Stamp (ns).
+    X : array_like, shape (6, N)
+        States (rows of :mod:`models`).
+    ground_velocity : array_like of complex, shape (N,), or None
+        Ground velocities (m/s), :func:`models.ground_velocity`; None: no velocity arrows.
+    trails : sequence of N sequences of complex
+        Each vehicle's recent positions (m).
+    centres : array_like of complex, shape (N,), optional
+        Circle centres c_k (m).
+    target : complex, optional
+        Prescribed centre c0 (m).
+
+    Returns
+    -------
+    visualization_msgs.msg.MarkerArray
+
+    """
     msg = MarkerArray()
     r = position(X)
     for i in range(X.shape[1]):

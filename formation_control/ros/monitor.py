@@ -18,6 +18,12 @@ import json
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from formation_control.core import laws, metrics
+from formation_control.core.control import Controller
+from formation_control.core.models import ground_velocity, position
+from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.ros import interface as itf
+from formation_control.ros import markers, parameters
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -27,13 +33,6 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
-
-from formation_control.core import laws, metrics
-from formation_control.core.control import Controller
-from formation_control.core.models import ground_velocity, position
-from formation_control.core.scenario import resolve, ScenarioError
-from formation_control.ros import interface as itf
-from formation_control.ros import markers, parameters
 
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 PREFIX = 'formation_control/'
@@ -56,7 +55,7 @@ NODE_PARAMETERS = {
                                           'that has not converged is reported', 0.0, 1e6)),
     'diagnostics_period': (1.0, _descriptor('wall seconds between /diagnostics', 0.01, 60.0)),
     'markers_period': (0.2, _descriptor('wall seconds between /formation/markers', 0.01, 60.0)),
-    'trail_length': (300, _descriptor('points of each vehicle\'s trail marker', 2, 100_000,
+    'trail_length': (300, _descriptor("points of each vehicle's trail marker", 2, 100_000,
                                       integer=True)),
 }
 
@@ -80,10 +79,11 @@ class MonitorNode(Node):
         self.sc = None
         self.rejected = 0
         self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC,
+                                              itf.STREAM_QOS)
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
-        self.get_logger().info(f'waiting for the fleet\'s scenario on {itf.SCENARIO_TOPIC}')
+        self.get_logger().info(f"waiting for the fleet's scenario on {itf.SCENARIO_TOPIC}")
 
     def _now(self):
         return self.wall.now().nanoseconds * 1e-9
@@ -193,7 +193,7 @@ class MonitorNode(Node):
             reasons.append('command saturated')
         late = self.t > self.p['converge_within'] and self.since is None
         if late and not self.vehicle_ok[i]:
-            reasons.append(f"not converging after {self.t:.1f} s")
+            reasons.append(f'not converging after {self.t:.1f} s')
         if reasons and level == OK:
             level = WARN
         values = {f'{s}_age': f'{a:.3f}' for s, a in ages.items()}

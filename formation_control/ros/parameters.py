@@ -1,13 +1,15 @@
 """
-Scenario parameters on a node: declared with descriptors, validated by the core's
-:func:`scenario.resolve` (one source of truth), gains changeable at run time.
+Scenario parameters on a node, declared from the core's parameter table.
+
+Each is declared with a descriptor made from its :class:`scenario.Spec`, validated by the
+core's :func:`scenario.resolve` (one source of truth); gains and references can change at run
+time (:data:`scenario.RUNTIME`).
 """
+from formation_control.core import links, scenario
+from formation_control.core.scenario import Scenario, ScenarioError
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
-
-from formation_control.core import links, scenario
-from formation_control.core.scenario import Scenario, ScenarioError
 
 MODES = ('lockstep', 'realtime')
 """Time modes of the plant and the vehicles."""
@@ -78,7 +80,7 @@ def _values(node, changes=()):
 
 
 def current(node):
-    """The validated scenario the node's parameters describe (raises ScenarioError)."""
+    """Return the validated scenario the node's parameters describe (raises ScenarioError)."""
     return scenario.resolve(_values(node))
 
 
@@ -92,16 +94,16 @@ def reject_unknown(node, extra=()):
 
 
 def choice(node, name, allowed):
-    """The value of a string parameter, refused unless it is one of ``allowed``."""
+    """Return the value of a string parameter, refused unless it is one of ``allowed``."""
     value = node.get_parameter(name).value
     if value not in allowed:
-        raise ScenarioError(f"parameter {name!r} = {value!r} is invalid: allowed values: "
+        raise ScenarioError(f'parameter {name!r} = {value!r} is invalid: allowed values: '
                             f"{' | '.join(allowed)}")
     return value
 
 
 def validator(node):
-    """An on-set callback that accepts a change only if the scenario stays valid."""
+    """Return an on-set callback that accepts a change only if the scenario stays valid."""
     def on_set(params):
         try:
             scenario.resolve(_values(node, params))
