@@ -20,9 +20,8 @@ over the integration steps (:class:`simulator.Stepper`), records every ``record_
 (:class:`simulator.Recorder`) and stops a vehicle whose state turns non-finite: frozen at its
 last finite state, zero command, no more odometry; the others go on.
 """
-import numpy as np
-
 from formation_control.core.simulator import Recorder, Stepper
+import numpy as np
 
 
 class FleetPlant:
@@ -42,6 +41,7 @@ class FleetPlant:
         The latest command of each vehicle, held from the next period boundary (or step).
     stopped : (N,) bool
         Vehicles stopped by a non-finite state.
+
     """
 
     def __init__(self, sc):
@@ -59,7 +59,7 @@ class FleetPlant:
 
     @property
     def time(self):
-        """Simulated time of the period under way (s)."""
+        """Return the simulated time of the period under way (s)."""
         return self.n * self.sc.dt_control
 
     def set_command(self, i, u):
@@ -77,6 +77,7 @@ class FleetPlant:
         -------
         bool
             False when the run is over (nothing more to integrate).
+
         """
         self.pending[:, np.asarray(off) | self.stopped] = 0.0
         held = self.stepper.hold(self.pending)
@@ -95,6 +96,7 @@ class FleetPlant:
         (k,) int
             Indices of the vehicles whose state became non-finite in this integration: they
             are stopped at their last finite state.
+
         """
         before = self.stepper.X
         with np.errstate(invalid='ignore', over='ignore'):  # a vehicle turning non-finite
@@ -105,7 +107,7 @@ class FleetPlant:
         return np.flatnonzero(bad)
 
     def run(self, meta):
-        """The recorded :class:`simulator.Run`, with ``meta`` (mode, wall time, ...)."""
+        """Return the recorded :class:`simulator.Run`, with ``meta`` (mode, wall time, ...)."""
         run = self.recorder.run()
         run.meta = meta
         return run

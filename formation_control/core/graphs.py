@@ -56,6 +56,7 @@ class Graph:
         The fleet-wide normalising constant of the Laplacian laws (> 0).
     complete : bool
         Every pair is linked: the laws take their O(N) all-to-all form.
+
     """
 
     n: int
@@ -74,7 +75,7 @@ class Graph:
         return np.bincount(self.edges.ravel(), minlength=self.n)
 
     def neighbours(self, k):
-        """The ids (1-based, sorted) vehicle ``k`` hears."""
+        """Return the ids (1-based, sorted) vehicle ``k`` hears."""
         i, j = self.edges.T
         own = k - 1
         return sorted(int(x) + 1 for x in np.concatenate([j[i == own], i[j == own]]))
@@ -105,7 +106,7 @@ def algebraic_connectivity(A):
 
 
 def _components(n, edges):
-    """Number of connected components of the graph on n vertices (union-find)."""
+    """Count the connected components of the graph on n vertices (union-find)."""
     parent = list(range(n))
 
     def root(x):
@@ -134,7 +135,7 @@ def _circulant(n, offsets, name='graph_offsets'):
 
 
 def _random(n, degree, seed):
-    """A connected graph: a random spanning tree, then random edges up to the mean degree."""
+    """Draw a connected graph: a random spanning tree, then random edges up to the degree."""
     if not (isinstance(degree, (int, float)) and 2 <= degree <= n - 1):
         _fail('graph_degree', degree, f'a random connected graph needs a mean degree in '
               f'[2, num_vehicles - 1 = {n - 1}]')
@@ -170,7 +171,7 @@ def _explicit(n, flat):
 
 def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.0):
     """
-    The communication graph a scenario names, validated.
+    Build and validate the communication graph a scenario names.
 
     Parameters
     ----------
@@ -198,6 +199,7 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     GraphError
         Naming the parameter: unknown kind, ids out of range, self or duplicate edges,
         offsets that repeat a link, a degree out of range, a disconnected graph, nu < 0.
+
     """
     if graph not in GRAPHS:
         _fail('graph', graph, f"allowed values: {' | '.join(GRAPHS)}")

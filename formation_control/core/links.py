@@ -1,3 +1,17 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Links between vehicles: who is alive, and the faults a study injects on what a vehicle hears.
 
@@ -9,9 +23,8 @@ import heapq
 import itertools
 import math
 
-import numpy as np
-
 from formation_control.core.scenario import ScenarioError
+import numpy as np
 
 PARAMETERS = {
     'neighbor_timeout': (1.0, 0.01, 3600.0,
@@ -37,17 +50,19 @@ def check(values, n, own):
         default, low, high, _ = PARAMETERS[name]
         if low is not None and not (math.isfinite(value) and low <= value <= high):
             raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: allowed range "
-                            f'[{low:g}, {high:g}]')
+                                f'[{low:g}, {high:g}]')
     bad = [j for j in values.get('fault_links', ()) if not 1 <= j <= n or j == own]
     if bad:
         raise ScenarioError(f"parameter 'fault_links' = {list(values['fault_links'])} is invalid: "
-                        f'neighbour ids in 1..{n} other than {own}')
+                            f'neighbour ids in 1..{n} other than {own}')
     return values
 
 
 class Liveness:
     """
-    When each of n peers was last heard (wall seconds). A peer never heard is waited for
+    When each of n peers was last heard (wall seconds).
+
+    A peer never heard is waited for
     (start-up); one heard, then silent for longer than ``timeout`` is ``gone`` until it is heard
     again.
 
@@ -128,6 +143,7 @@ class Inbox:
         The faults of the vehicle.
     clock : callable
         Returns the wall time (s), monotonic.
+
     """
 
     def __init__(self, faults, clock):
@@ -146,6 +162,7 @@ class Inbox:
         -------
         str
             :data:`NOW` (deliver it), :data:`DELAYED`, :data:`DROPPED` or :data:`OUT_OF_RANGE`.
+
         """
         if self.faults.out_of_range(j, own_r, their_r):
             outcome = OUT_OF_RANGE
@@ -164,7 +181,7 @@ class Inbox:
         return outcome
 
     def due(self):
-        """The delayed ``(j, message)`` whose time has come, in the order they fall due."""
+        """Release the delayed ``(j, message)`` whose time has come, in the order they fall due."""
         now, out = self.clock(), []
         while self.queue and self.queue[0][0] <= now:
             _, _, j, message = heapq.heappop(self.queue)

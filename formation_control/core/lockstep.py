@@ -28,9 +28,8 @@ samples vehicle k's odometry at integration step (k - 1) mod substeps of each pe
 """
 import math
 
-import numpy as np
-
 from formation_control.core.links import Liveness
+import numpy as np
 
 NUDGE_AFTER = 4.0
 """A step is asked again once it lasted this many times the previous one (at least 1 s)."""
@@ -54,6 +53,7 @@ class CommandGate:
     lockstep : bool
         Lockstep (commands are stamped with the step they answer) or real time (the latest
         command of each vehicle is held, whatever its stamp).
+
     """
 
     def __init__(self, n, command_timeout, clock, lockstep=True):
@@ -78,6 +78,7 @@ class CommandGate:
         ----------
         step_ns : int
             Stamp of the step just published (ns).
+
         """
         now = self.clock()
         if math.isfinite(self.since):
@@ -96,6 +97,7 @@ class CommandGate:
             :data:`FRESH` (hold it; it answers the step under way in lockstep),
             :data:`REPEATED` (the second answer to a step asked again: ignore) or
             :data:`STALE` (lockstep: it answers another step, or no step is under way).
+
         """
         self.liveness.heard(i, self.clock())
         if not self.lockstep:
@@ -109,7 +111,7 @@ class CommandGate:
         return FRESH
 
     def close(self):
-        """The run is over: every later command is stale."""
+        """End the run: every later command is stale."""
         self.step_ns = None
 
     def gone(self):
@@ -131,7 +133,7 @@ class CommandGate:
 
     def nudge(self, stopped):
         """
-        The vehicles to ask again for this step, or None when it is not time yet.
+        Return the vehicles to ask again for this step, or None when it is not time yet.
 
         The first time once the step has lasted :data:`NUDGE_AFTER` times the previous one (at
         least a second), then after twice that wait, and so on: a slow start-up of a large fleet
@@ -163,6 +165,7 @@ class Pacer:
         Integration steps per control period.
     t0_wall : float
         Wall time of simulated t = 0 (s).
+
     """
 
     def __init__(self, tick_rate, substeps, t0_wall):
@@ -205,4 +208,3 @@ def sample_slots(n, substeps):
     would be: the fleet's control callbacks are spread over the period.
     """
     return np.arange(n) % substeps
-

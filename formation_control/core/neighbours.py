@@ -32,11 +32,10 @@ the link is mutual (it hears this vehicle too), so the sums stay symmetric howev
 """
 import math
 
-import numpy as np
-
 from formation_control.core.laws import View
 from formation_control.core.links import Liveness
 from formation_control.core.lockstep import FRESH, REPEATED, STALE
+import numpy as np
 
 
 class NeighbourTable:
@@ -66,6 +65,7 @@ class NeighbourTable:
         Stamp of each vehicle's state (ns); -1 = never heard.
     hears_me : (n,) bool
         Whether each vehicle's latest state says it hears this one (True until told).
+
     """
 
     def __init__(self, n, own, timeout, clock, lockstep=True):
@@ -91,6 +91,7 @@ class NeighbourTable:
             :data:`~lockstep.FRESH` (a new step or sample), :data:`~lockstep.REPEATED` (lockstep:
             the plant asks the same step again; answer with the same state and command) or
             :data:`~lockstep.STALE` (older than the last one: drop it).
+
         """
         if ns < self.odom_ns:
             return STALE
@@ -107,9 +108,14 @@ class NeighbourTable:
 
         Parameters
         ----------
+        j : int
+            The vehicle's id (1-based).
+        ns : int
+            The stamp of its state (ns).
         row : tuple
             ``(r, phase, rate, speed)``: position (complex, m), phase (rad), rate (rad/s),
             speed (m/s).
+
         """
         i = j - 1
         self.r[i] = row[0]
@@ -118,7 +124,7 @@ class NeighbourTable:
 
     def hear(self, j, ns, row, hears_me=True):
         """
-        A neighbour's state: kept and ``j`` marked live, unless older than the last one.
+        Keep a neighbour's state and mark ``j`` live, unless the state is older than the last.
 
         ``hears_me``: whether the state says ``j`` hears this vehicle.
 
@@ -126,6 +132,7 @@ class NeighbourTable:
         -------
         bool
             False when the state is stale (dropped).
+
         """
         if ns < self.stamp[j - 1]:
             return False
@@ -192,7 +199,7 @@ class NeighbourTable:
 
     def view(self, members, speed_dot):
         """
-        The particle view of the vehicles ``members`` and this vehicle's index in it.
+        Return the particle view of the vehicles ``members`` and this vehicle's index in it.
 
         Parameters
         ----------
@@ -205,6 +212,7 @@ class NeighbourTable:
         Returns
         -------
         (laws.View, int)
+
         """
         own = int(np.count_nonzero(members[:self.own]))
         s_dot = np.zeros(np.count_nonzero(members))

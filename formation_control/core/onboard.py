@@ -19,9 +19,8 @@ The simulator commands the whole fleet with one :class:`control.Controller`; a v
 commands itself with an :class:`Onboard`, which calls the same controller on the view of the
 vehicles it hears.
 """
-import numpy as np
-
 from formation_control.core.control import Controller
+import numpy as np
 
 
 class Onboard:
@@ -36,6 +35,7 @@ class Onboard:
         The steering force (or turn input) it holds, which the full law's view reads.
     speed_dot : float
         Its own s' (m/s^2) at the latest state.
+
     """
 
     def __init__(self, sc):
@@ -63,6 +63,7 @@ class Onboard:
         -------
         tuple
             ``(r, phase, rate, speed)`` of its particle view (complex m, rad, rad/s, m/s).
+
         """
         self.X = np.asarray(X, float)[:, None]
         view = self.ctrl.view(self.X, self.F_held)
@@ -71,7 +72,7 @@ class Onboard:
 
     def command(self, view, own, members):
         """
-        The vehicle's input from the view of the ``members`` it hears.
+        Compute the vehicle's input from the view of the ``members`` it hears.
 
         Parameters
         ----------
@@ -87,6 +88,7 @@ class Onboard:
         (u, saturated) : ((2,) float, bool)
             The input column (:func:`control.command_limits` applied) and whether it sits on a
             limit.
+
         """
         U = self.ctrl.command(view, self.X, [own], members=members)
         self.F_held = U[1].copy()

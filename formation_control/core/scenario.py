@@ -1,3 +1,17 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Scenarios: one ROS 2 parameter file drives the offline simulator and the ROS nodes alike.
 
@@ -185,17 +199,17 @@ class Scenario:
 
     @property
     def flow_c(self):
-        """The flow as a complex number ``fx + i fy`` (m/s)."""
+        """Return the flow as a complex number ``fx + i fy`` (m/s)."""
         return complex(self.flow[0], self.flow[1])
 
     @property
     def c0_c(self):
-        """The prescribed centre as a complex number (m)."""
+        """Return the prescribed centre as a complex number (m)."""
         return complex(self.c0[0], self.c0[1])
 
     @property
     def informed_mask(self):
-        """The a_k0 of (7.17), (N,) floats over vehicles 1..N: 1 for the informed ones."""
+        """Return a_k0 of (7.17), (N,) floats over vehicles 1..N: 1 for the informed ones."""
         mask = np.zeros(self.num_vehicles)
         mask[[k - 1 for k in self.informed]] = 1.0
         return mask

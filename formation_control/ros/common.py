@@ -16,19 +16,19 @@
 import collections
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from formation_control.ros import interface as itf
 import numpy as np
 from rclpy.clock import Clock, ClockType
-
-from formation_control.ros import interface as itf
 
 
 def wall_clock():
     """
-    The steady wall clock of this process, for timers, and a callable reading it in seconds.
+    Return the steady wall clock of this process, for timers, and a reader in seconds.
 
     Returns
     -------
     (rclpy.clock.Clock, callable)
+
     """
     clock = Clock(clock_type=ClockType.STEADY_TIME)
     return clock, lambda: clock.now().nanoseconds * 1e-9
@@ -43,6 +43,7 @@ class Rejections:
     logger : rclpy logger
     kinds : iterable of str
         The kinds of rejected input that are counted.
+
     """
 
     def __init__(self, logger, kinds):
@@ -61,13 +62,13 @@ class Rejections:
 
 
 def status(name, level, message, values, hardware_id=''):
-    """A DiagnosticStatus with ``values`` (dict) as its key/value pairs."""
+    """Build a DiagnosticStatus with ``values`` (dict) as its key/value pairs."""
     return DiagnosticStatus(level=level, name=name, message=message, hardware_id=hardware_id,
                             values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
 
 
 def diagnostics_publisher(node):
-    """The node's publisher on ``/diagnostics``."""
+    """Create the node's publisher on ``/diagnostics``."""
     return node.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
 
 
@@ -86,6 +87,7 @@ class Latencies:
     ----------
     names : tuple of str
         One name per latency of a sample.
+
     """
 
     def __init__(self, names, size=1000):

@@ -1,3 +1,17 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 Topics, QoS and message conversions shared by the plant and the vehicle nodes.
 
@@ -27,15 +41,15 @@ import copy
 import math
 import struct
 
-import numpy as np
+from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position,
+                                           ROW_OMEGA, ROW_THETA)
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-
-from formation_control.core.models import PARTICLE_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
 
 MAP_FRAME = 'map'
 DIAGNOSTICS_TOPIC = '/diagnostics'
@@ -64,8 +78,9 @@ neighbour j of the sender: 1 while it hears j, else 0 (:func:`state_names`)."""
 
 
 def state_names(hears=()):
-    """The names of a formation_state whose sender's graph neighbours are ``hears`` (ids)."""
+    """Return the names of a formation_state whose sender's graph neighbours are ``hears``."""
     return STATE_FIELDS + tuple(f'hears_{j}' for j in hears)
+
 
 STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                        reliability=ReliabilityPolicy.RELIABLE,
@@ -101,7 +116,7 @@ STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
 
 
 def yaw_quaternion(orientation, theta):
-    """Write the quaternion of a rotation by yaw ``theta`` (rad, CCW about z) into ``orientation``."""
+    """Write the quaternion of a yaw ``theta`` (rad, CCW about z) into ``orientation``."""
     orientation.z = math.sin(0.5 * theta)
     orientation.w = math.cos(0.5 * theta)
 
@@ -129,16 +144,17 @@ def odom_msg(k, ns, X, flow):
     msg.header.frame_id = MAP_FRAME
     msg.child_frame_id = base_link(k)
     theta = float(X[ROW_THETA])
-    msg.pose.pose.position.x, msg.pose.pose.position.y = float(X[0]), float(X[1])
+    r = complex(position(X))
+    msg.pose.pose.position.x, msg.pose.pose.position.y = r.real, r.imag
     yaw_quaternion(msg.pose.pose.orientation, theta)
-    body = complex(X[ROW_U], X[ROW_V]) + flow * complex(math.cos(theta), -math.sin(theta))
+    body = complex(ground_velocity(X, flow)) * complex(math.cos(theta), -math.sin(theta))
     msg.twist.twist.linear.x, msg.twist.twist.linear.y = body.real, body.imag
     msg.twist.twist.angular.z = float(X[ROW_OMEGA])
     return msg
 
 
 def state_from_odom(msg, flow, model):
-    """The state column (6,) of a vehicle from its Odometry and the flow it measures."""
+    """Return the state column (6,) of a vehicle from its Odometry and the flow it measures."""
     q = msg.pose.pose.orientation
     theta = 2.0 * math.atan2(q.z, q.w)
     tw = msg.twist.twist
@@ -158,7 +174,7 @@ def flow_msg(k, ns, flow):
 
 
 def cmd_msg(k, ns, u, model):
-    """WrenchStamped of one vehicle's input column u (2,)."""
+    """Build the WrenchStamped of one vehicle's input column u (2,)."""
     msg = WrenchStamped()
     set_stamp(msg.header, ns)
     msg.header.frame_id = base_link(k)
@@ -191,7 +207,7 @@ def state_msg(k, ns, X, view_row, hears=(), hearing=()):
 
 
 def state_values(X, view_row, hearing=()):
-    """The values of one vehicle's formation_state (:func:`state_names` order)."""
+    """Return the values of one vehicle's formation_state (:func:`state_names` order)."""
     r, phase, rate, speed = view_row
     return (r.real, r.imag, float(X[ROW_THETA]), float(X[ROW_OMEGA]), phase, rate, speed,
             *(float(h) for h in hearing))
@@ -228,7 +244,7 @@ class StateWire:
         self.tail = bytes(8)                              # velocity and effort: empty
 
     def encode(self, ns, values):
-        """The bytes of a formation_state stamped ``ns`` (ns) with ``values``."""
+        """Return the bytes of a formation_state stamped ``ns`` (ns) with ``values``."""
         sec, nanosec = divmod(ns, 1_000_000_000)
         return b''.join((self.HEADER, struct.pack('<iI', sec, nanosec), self.middle,
                          self.values.pack(*values), self.tail))

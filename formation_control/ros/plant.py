@@ -35,6 +35,9 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from formation_control.core import lockstep
+from formation_control.core.fleet import FleetPlant
+from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -42,10 +45,6 @@ from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, String
-
-from formation_control.core import lockstep
-from formation_control.core.fleet import FleetPlant
-from formation_control.ros import common, interface as itf, parameters
 
 NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start',
                    'wait_for_fleet', 'command_timeout')
@@ -157,7 +156,7 @@ class PlantNode(Node):
         self._publish_odom(self.slot == 0, self.t0_ns)
 
     def _stamp_ns(self, t):
-        """The stamp of simulated time ``t`` (s)."""
+        """Return the stamp (ns) of simulated time ``t`` (s)."""
         return self.t0_ns + int(round(t * 1e9))
 
     def _publish_step(self):
@@ -178,7 +177,7 @@ class PlantNode(Node):
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')
         if msg.header.frame_id != itf.base_link(k):
-            return self.reject('wrong_frame', f'a command on vehicle {k}\'s topic in frame '
+            return self.reject('wrong_frame', f"a command on vehicle {k}'s topic in frame "
                                f'{msg.header.frame_id!r}')
         kind = self.gate.command(k - 1, itf.stamp_ns(msg.header.stamp))
         if kind == lockstep.REPEATED:

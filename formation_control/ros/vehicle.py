@@ -30,6 +30,11 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from formation_control.core import links, lockstep
+from formation_control.core.neighbours import NeighbourTable
+from formation_control.core.onboard import Onboard
+from formation_control.core.scenario import ScenarioError
+from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -37,12 +42,6 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
-
-from formation_control.core import links, lockstep
-from formation_control.core.onboard import Onboard
-from formation_control.core.neighbours import NeighbourTable
-from formation_control.core.scenario import ScenarioError
-from formation_control.ros import common, interface as itf, parameters
 
 LINK_PARAMETERS = ('neighbor_timeout', 'drop_probability', 'delay', 'delay_jitter', 'comm_range',
                    'fault_links', 'fault_seed')
@@ -91,7 +90,7 @@ class VehicleNode(Node):
 
     def _declare(self, vehicle_id):
         self.declare_parameter('vehicle_id', vehicle_id, ParameterDescriptor(
-            description='this vehicle\'s id k, 1..num_vehicles', read_only=True))
+            description="this vehicle's id k, 1..num_vehicles", read_only=True))
         self.declare_parameter('mode', 'lockstep', ParameterDescriptor(
             description='lockstep (waits for every live neighbour at each step) | '
                         'realtime (commands on each odometry from the latest states)',
@@ -151,13 +150,13 @@ class VehicleNode(Node):
             self._try_command()
 
     def _answer_again(self):
-        """The plant asks the same step again: send the same state (and command, if sent)."""
+        """Answer a step asked again with the same state (and command, if sent)."""
         self.state_pub.publish(self.last_state)
         if self.known.commanded_ns == self.known.odom_ns:
             self.cmd_pub.publish(self.last_cmd)
 
     def _on_state(self, j, data):
-        """A neighbour's formation_state, as bytes: read in place when in the canonical layout."""
+        """Take a neighbour's formation_state bytes, read in place in the canonical layout."""
         got = self.wires[j - 1].decode(data) or self._checked_state(j, data)
         if got is None:
             return
@@ -178,7 +177,7 @@ class VehicleNode(Node):
             return self.reject('malformed', f'a malformed formation_state of vehicle {j}')
         if msg.header.frame_id != itf.base_link(j):
             kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
-            return self.reject(kind, f'a formation_state on vehicle {j}\'s topic from '
+            return self.reject(kind, f"a formation_state on vehicle {j}'s topic from "
                                f'{msg.header.frame_id!r}')
         return itf.stamp_ns(msg.header.stamp), tuple(msg.position)
 
