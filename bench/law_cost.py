@@ -1,6 +1,22 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Control-law cost per vehicle per step as a vehicle node computes it: its own view from its
-odometry, then its command from the views of N vehicles.
+Measure the control-law cost per vehicle per step as a vehicle node computes it.
+
+The node computes its own view from its odometry, then its command from the views of N
+vehicles.
 
     .venv/bin/python bench/law_cost.py [--sizes 5 16 64]
 """
@@ -9,10 +25,9 @@ from pathlib import Path
 import statistics
 import timeit
 
-import numpy as np
-
 from formation_control.core import laws, scenario
 from formation_control.core.control import Controller
+import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 

@@ -1,7 +1,23 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Offline simulator throughput on one core: a Stepper runs control periods, each one
-``command()`` (every vehicle's command) then ``advance()`` (``substeps`` RK4 steps of
-``dt_integration`` with the command held; 10 steps of 2 ms in the scenarios measured).
+Measure the offline simulator's throughput on one core.
+
+A Stepper runs control periods, each one ``command()`` (every vehicle's command) then
+``advance()`` (``substeps`` RK4 steps of ``dt_integration`` with the command held; 10 steps of
+2 ms in the scenarios measured).
 
 Two rates are printed, both dividing by the time of whole periods (command + integration):
 
@@ -9,8 +25,8 @@ Two rates are printed, both dividing by the time of whole periods (command + int
   period veh-steps/s  one vehicle through ONE control period (command + substeps RK4 steps):
                       N / (s per period)
 
-The first is the headline (issue #7: >= 5e6 at N = 100 000). ``cmd %`` is the share of the
-period spent in ``command()`` (views and control law).
+The first is the headline figure (target: >= 5e6 RK4 veh-steps/s at N = 100 000). ``cmd %``
+is the share of the period spent in ``command()`` (views and control law).
 
     .venv/bin/python bench/sim_throughput.py [--sizes 10 100 1000 10000 100000] [--repeat 5]
 """
@@ -20,10 +36,9 @@ from pathlib import Path
 import statistics
 import time
 
-import numpy as np
-
 from formation_control.core import scenario
 from formation_control.core.simulator import Stepper
+import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 SCENARIOS = ('rigid_circular_flow', 'particle_circular')

@@ -1,6 +1,22 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-``formation-control swarm``: a fleet as real processes, the plant, one ``vehicle`` process per
-vehicle and the ``monitor`` (the executables ``ros2 run`` starts), optionally recorded to a bag.
+``formation-control swarm``: a fleet as real processes, optionally recorded to a bag.
+
+The processes are the plant, one ``vehicle`` process per vehicle and the ``monitor`` (the
+executables ``ros2 run`` starts).
 """
 import os
 from pathlib import Path
@@ -11,22 +27,30 @@ import sys
 import tempfile
 import time
 
-import yaml
-
 from formation_control.core import simulator
+import yaml
 
 MONITOR_TOPICS = ('/formation/metrics',)
 
 
 def write_params(sc, path):
-    """The resolved scenario as a ROS 2 parameter file (empty lists left out: ROS types them)."""
+    """
+    Write the resolved scenario as a ROS 2 parameter file at ``path``; return the path.
+
+    Empty lists are left out: ROS types them.
+    """
     values = {k: v for k, v in sc.to_dict().items() if v != []}
     Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': values}}))
     return str(path)
 
 
 def executable(name):
-    """A console script beside the running one (colcon lib/), the interpreter (venv) or on PATH."""
+    """
+    Return the path of the console script ``name``.
+
+    It is looked for beside the running one (colcon lib/), beside the interpreter (venv), then
+    on PATH.
+    """
     near = [Path(sys.argv[0]).resolve().parent / name, Path(sys.executable).parent / name]
     found = next((str(p) for p in near if p.exists()), None) or shutil.which(name)
     if found is None:
@@ -35,7 +59,7 @@ def executable(name):
 
 
 def stop(procs, grace=(5.0, 3.0)):
-    """SIGINT, SIGINT again, then SIGKILL, each after its deadline; returns the exit codes."""
+    """Send SIGINT, SIGINT again, then SIGKILL, each after its deadline; return the exit codes."""
     for deadline in (*grace, None):
         alive = [p for p in procs if p.poll() is None]
         if not alive:
@@ -117,7 +141,7 @@ class Swarm:
         return '\n'.join(text[-lines:])
 
     def result(self):
-        """The recorded run and its summary with the real-time factor."""
+        """Return the recorded run and its summary with the real-time factor."""
         run = simulator.load_run(self.record)
         out = simulator.summary(run)
         out['real_time_factor'] = run.meta['simulated_time'] / max(run.meta['wall_time'], 1e-9)
@@ -148,8 +172,10 @@ def wait_plant(swarm, timeout, recorder=None):
 
 class Recording:
     """
-    A bag recorder node on its own context, spun by :func:`wait_plant`. The plant holds step 0
-    until the recorder has discovered every publisher of the fleet, so the bag misses nothing.
+    A bag recorder node on its own context, spun by :func:`wait_plant`.
+
+    The plant holds step 0 until the recorder has discovered every publisher of the fleet, so
+    the bag misses nothing.
     """
 
     def __init__(self, path, n, sim_time, monitor=True):
@@ -196,7 +222,8 @@ class Recording:
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
               monitor=True, node_params=(), per_process=1, place=None, env=None):
     """
-    Run a fleet as processes; returns (run, summary). Every process is stopped on exit.
+    Run a fleet as processes; return (run, summary). Every process is stopped on exit.
+
     ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
     ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
     ``env`` replaces the environment of every process.

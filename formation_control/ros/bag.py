@@ -1,8 +1,25 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Record topics of a run into a rosbag2 bag (MCAP storage, metadata version 9, what Jazzy's
-``ros2 bag info`` / ``ros2 bag play`` read) with the ``rosbags`` library. Messages are written
-as received (CDR bytes), each topic with the QoS its publishers offer.
+Record topics of a run into a rosbag2 bag with the ``rosbags`` library.
+
+The bag has MCAP storage and metadata version 9, what Jazzy's ``ros2 bag info`` /
+``ros2 bag play`` read. Messages are written as received (CDR bytes), each topic with the QoS
+its publishers offer.
 """
+from formation_control.ros import interface as itf
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability
@@ -10,12 +27,9 @@ from rosbags.interfaces import QosTime
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
 
-from formation_control.ros import interface as itf
-
-
 
 def fleet_topics(n):
-    """(topic, ROS type name, QoS) of every topic a fleet of n vehicles uses."""
+    """Return (topic, ROS type name, QoS) of every topic a fleet of n vehicles uses."""
     topics = [('/clock', 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
               (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
@@ -30,7 +44,7 @@ def fleet_topics(n):
 
 
 def bag_qos(qos):
-    """The rosbags form of an rclpy QoS profile (written to metadata.yaml)."""
+    """Return the rosbags form of an rclpy QoS profile (written to metadata.yaml)."""
     zero = QosTime(sec=0, nsec=0)
     return Qos(history=QosHistory.KEEP_LAST, depth=qos.depth,
                reliability=QosReliability[qos.reliability.name],
@@ -51,7 +65,7 @@ def _msg_class(type_name):
 
 
 class BagRecorder(Node):
-    """Subscribes to ``topics`` ((name, type, QoS)) and writes every message to a bag at ``path``."""
+    """A node writing every message of ``topics`` ((name, type, QoS)) to a bag at ``path``."""
 
     def __init__(self, path, topics, **kwargs):
         super().__init__('formation_bag_recorder', **kwargs)

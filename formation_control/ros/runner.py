@@ -1,3 +1,17 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """The main loop every node shares: spin_once until done or asked to stop, exit 0 on SIGINT."""
 import contextlib
 import fcntl
@@ -6,13 +20,12 @@ import signal
 import sys
 import tempfile
 
+from formation_control.core.scenario import ScenarioError
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-
-from formation_control.core.scenario import ScenarioError
 
 
 class _StopFlag:
@@ -30,10 +43,12 @@ class _StopFlag:
 @contextlib.contextmanager
 def one_participant_at_a_time():
     """
-    Hold a lock file while this process creates its DDS participant. Fast DDS participants
-    created at the same instant on one host race for shared-memory ports (2.14.5 here), and a
-    reader can be left matched but never handed a sample (docs/benchmarks.md, section 3); the
-    lock lets fleets of processes start together, in any order, from any launcher.
+    Hold a lock file while this process creates its DDS participant.
+
+    Fast DDS participants created at the same instant on one host race for shared-memory ports
+    (2.14.5 here), and a reader can be left matched but never handed a sample
+    (docs/benchmarks.md, section 3); the lock lets fleets of processes start together, in any
+    order, from any launcher.
     """
     path = os.path.join(tempfile.gettempdir(), f'formation_control_participant_{os.getuid()}.lock')
     with open(path, 'a') as lock:
@@ -46,8 +61,10 @@ def one_participant_at_a_time():
 
 def _participant(context):
     """
-    A hidden node that creates the context's DDS participant (rmw_fastrtps creates it with the
-    first node and destroys it with the last), kept until the real nodes exist.
+    Return a hidden node that creates the context's DDS participant.
+
+    rmw_fastrtps creates the participant with the first node and destroys it with the last;
+    this node is kept until the real nodes exist.
     """
     return Node(f'_participant_{os.getpid()}', context=context,
                 start_parameter_services=False, enable_rosout=False)
@@ -55,8 +72,10 @@ def _participant(context):
 
 def run(make_node, args=None):
     """
-    Create the node (or list of nodes) with ``make_node(context)`` and spin them on one events
-    executor; a bad scenario exits 2 with the reason.
+    Create the node (or list of nodes) with ``make_node(context)`` and spin them.
+
+    The nodes share one events executor until one is done, SIGINT or SIGTERM arrives or the
+    context shuts down (exit code 0); a bad scenario exits 2 with the reason.
     """
     stop = _StopFlag()
     nodes = []
