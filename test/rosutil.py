@@ -87,6 +87,13 @@ class Probe:
             self.executor.spin_once(timeout_sec=0.05)
         return True
 
+    def spin_for(self, seconds):
+        """Spin ``seconds``: only where the property is a span of time (a silence longer than a
+        timeout), never to wait for something to happen (``spin_until`` that)."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=min(0.05, max(0.0, end - time.monotonic())))
+
     def collect(self, msg_type, topic, qos):
         box = []
         self.node.create_subscription(msg_type, topic, box.append, qos)
@@ -124,9 +131,13 @@ class Nodes(Probe):
     def __init__(self, domain_id):
         super().__init__(domain_id, executor=EventsExecutor)
         self.nodes = []
+        self.silent = []
         self.rosout = self.collect(Log, '/rosout', ROSOUT_QOS)
 
     def add(self, node):
+        for old in [n for n in self.silent if n.get_name() == node.get_name()]:
+            self.silent.remove(old)
+            old.destroy_node()
         self.executor.add_node(node)
         self.nodes.append(node)
         return node
@@ -145,10 +156,15 @@ class Nodes(Probe):
         return self.add(MonitorNode(context=self.context, cli_args=node_args(None, *params)))
 
     def remove(self, node):
-        """Take ``node`` out of the fleet (destroyed: its topics and timers are gone)."""
+        """
+        Silence ``node``: out of the executor, it hears and says nothing more, as a process
+        that stopped. It is destroyed when a node of the same name is added (the events
+        executor may still hold events of the node just removed: destroyed now, their callbacks
+        would fail) or at teardown.
+        """
         self.executor.remove_node(node)
         self.nodes.remove(node)
-        node.destroy_node()
+        self.silent.append(node)
 
     def logged(self, node, text):
         """Whether ``node`` has logged a line containing ``text``."""
@@ -158,8 +174,10 @@ class Nodes(Probe):
     def close(self):
         for node in reversed(self.nodes):
             self.executor.remove_node(node)
+        self.executor.shutdown()
+        for node in self.nodes + self.silent:
             node.destroy_node()
-        self.nodes = []
+        self.nodes, self.silent = [], []
         super().close()
 
 

@@ -89,7 +89,8 @@ def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(nodes
     sc = scenario.load(PARTICLE)
     period, step = (round(dt * 1e9) for dt in (sc.dt_control, sc.dt_integration))
     assert sc.substeps == 10
-    stamps = {k: np.array([itf.stamp_ns(m.header.stamp) for m in msgs]) for k, msgs in odom.items()}
+    stamps = {k: np.array([itf.stamp_ns(m.header.stamp) for m in msgs])
+              for k, msgs in odom.items()}
     start = stamps[1][0]
     for k in ids:
         gaps = np.diff(stamps[k])                    # a slow probe may lose one from its history
@@ -233,6 +234,7 @@ def test_state_wire_bytes_are_the_formation_state_message(k):
     data = wire.encode(ns, itf.state_values(X, row))
     assert deserialize_message(data, JointState) == itf.state_msg(k, ns, X, row)
     assert wire.decode(data) == (ns, itf.state_values(X, row))
-    assert wire.decode(serialize_message(itf.state_msg(k, ns, X, row))) in (None, wire.decode(data))
+    assert wire.decode(serialize_message(itf.state_msg(k, ns, X, row))) in (
+        None, wire.decode(data))
     assert itf.StateWire(k + 1).decode(data) is None
     assert wire.decode(data[:-20]) is None
