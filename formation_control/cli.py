@@ -11,7 +11,7 @@ import json
 from pathlib import Path
 import sys
 
-from formation_control.core import report, scenario, simulator
+from formation_control.core import node_parameters, report, scenario, simulator
 
 
 def find_scenario(name):
@@ -138,7 +138,7 @@ def cmd_report(args):
 
 
 def cmd_params(args):
-    print(scenario.markdown(), end='')
+    print(scenario.markdown() + node_parameters.markdown(), end='')
     return 0
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formation_control.core import scenario
+from formation_control.core import node_parameters, scenario
 from formation_control.core.scenario import (held_force_loop_gain, initial_state, load,
                                              PARAMETER_NAMES, parse_override, read_params,
                                              resolve, rhp_zero, Scenario, ScenarioError)
@@ -418,7 +418,8 @@ def test_particles_keep_unit_speed_whatever_init_u():
 def test_parameter_doc_is_the_generated_table():
     """docs/parameters.md is what ``formation-control params`` prints (it cannot drift)."""
     doc = Path(__file__).resolve().parents[1] / 'docs' / 'parameters.md'
-    assert doc.read_text(encoding='utf-8') == scenario.markdown(), (
+    generated = scenario.markdown() + node_parameters.markdown()
+    assert doc.read_text(encoding='utf-8') == generated, (
         'docs/parameters.md is stale: run formation-control params > docs/parameters.md')
 
 

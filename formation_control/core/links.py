@@ -23,31 +23,38 @@ import heapq
 import itertools
 import math
 
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.scenario import ScenarioError, Spec
 import numpy as np
 
 PARAMETERS = {
-    'neighbor_timeout': (1.0, 0.01, 3600.0,
-                         'wall seconds of silence after which a neighbour leaves the formation '
-                         'sums until it speaks again'),
-    'command_timeout': (2.0, 0.01, 3600.0,
-                        'plant: wall seconds without a command after which a vehicle that was '
-                        'heard is gone (lockstep: no longer waited for; both modes: zero '
-                        'command); keep it above neighbor_timeout'),
-    'drop_probability': (0.0, 0.0, 1.0, 'probability that a neighbour message is dropped'),
-    'delay': (0.0, 0.0, 10.0, 'fixed delay added to every neighbour message (s)'),
-    'delay_jitter': (0.0, 0.0, 10.0, 'random extra delay, uniform in [0, delay_jitter] (s)'),
-    'comm_range': (0.0, 0.0, 1e9, 'neighbours farther than this are not heard (m); 0 = no limit'),
-    'fault_links': ((), None, None, 'neighbour ids the faults apply to; empty = every neighbour'),
-    'fault_seed': (0, 0, 2 ** 31 - 1, 'seed of the drops and delays (with the vehicle id)'),
+    'neighbor_timeout': (1.0, Spec('s', 'wall seconds of silence after which a neighbour leaves '
+                                   'the formation sums until it speaks again',
+                                   low=0.01, high=3600.0)),
+    'command_timeout': (2.0, Spec('s', 'plant: wall seconds without a command after which a '
+                                  'vehicle that was heard is gone (lockstep: no longer waited '
+                                  'for; both modes: zero command); keep it above '
+                                  'neighbor_timeout', low=0.01, high=3600.0)),
+    'drop_probability': (0.0, Spec('', 'probability that a neighbour message is dropped',
+                                   low=0.0, high=1.0)),
+    'delay': (0.0, Spec('s', 'fixed delay added to every neighbour message', low=0.0,
+                        high=10.0)),
+    'delay_jitter': (0.0, Spec('s', 'random extra delay, uniform in [0, delay_jitter]',
+                               low=0.0, high=10.0)),
+    'comm_range': (0.0, Spec('m', 'neighbours farther than this are not heard; 0 = no limit',
+                             low=0.0, high=1e9)),
+    'fault_links': ((), Spec('', 'neighbour ids the faults apply to; empty = every neighbour',
+                             rule='ids in 1..num_vehicles other than its own')),
+    'fault_seed': (0, Spec('', 'seed of the drops and delays (with the vehicle id)', low=0,
+                           high=2 ** 31 - 1)),
 }
-"""name -> (default, lowest, highest, description)."""
+"""name -> (default, :class:`scenario.Spec`): node parameters of the links (not scenario
+parameters: the offline simulator has no links)."""
 
 
 def check(values, n, own):
     """Validate link parameters of vehicle ``own`` in a fleet of n; returns the values."""
     for name, value in values.items():
-        default, low, high, _ = PARAMETERS[name]
+        low, high = PARAMETERS[name][1].low, PARAMETERS[name][1].high
         if low is not None and not (math.isfinite(value) and low <= value <= high):
             raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: allowed range "
                                 f'[{low:g}, {high:g}]')

@@ -17,18 +17,17 @@ Times in the reports count from the first step the monitor heard.
 import json
 import sys
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import laws, metrics
 from formation_control.core.control import Controller
 from formation_control.core.models import ground_velocity, position
+from formation_control.core.node_parameters import MONITOR
 from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.ros import common, markers, parameters
 from formation_control.ros import interface as itf
-from formation_control.ros import markers, parameters
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -38,32 +37,9 @@ OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.E
 PREFIX = 'formation_control/'
 
 
-def _descriptor(text, low, high, integer=False):
-    d = ParameterDescriptor(description=text, read_only=True)
-    if integer:
-        d.integer_range = [IntegerRange(from_value=low, to_value=high, step=1)]
-    else:
-        d.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
-    return d
-
-
-NODE_PARAMETERS = {
-    'period': (0.1, _descriptor('fleet time between metrics samples (s)', 0.0, 3600.0)),
-    'stale_timeout': (2.0, _descriptor('wall seconds of silence before a stream is stale',
-                                       0.01, 3600.0)),
-    'converge_within': (60.0, _descriptor('fleet seconds after which a formation or vehicle '
-                                          'that has not converged is reported', 0.0, 1e6)),
-    'diagnostics_period': (1.0, _descriptor('wall seconds between /diagnostics', 0.01, 60.0)),
-    'markers_period': (0.2, _descriptor('wall seconds between /formation/markers', 0.01, 60.0)),
-    'trail_length': (300, _descriptor("points of each vehicle's trail marker", 2, 100_000,
-                                      integer=True)),
-}
-
-
 def _status(name, level, message, values):
-    return DiagnosticStatus(level=level, name=PREFIX + name, message=message,
-                            hardware_id=name if name.startswith('vehicle_') else '',
-                            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+    return common.status(PREFIX + name, level, message, values,
+                         hardware_id=name if name.startswith('vehicle_') else '')
 
 
 class MonitorNode(Node):
@@ -71,33 +47,23 @@ class MonitorNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('formation_monitor', **kwargs)
-        for name, (default, descriptor) in NODE_PARAMETERS.items():
-            self.declare_parameter(name, default, descriptor)
-        parameters.reject_unknown(self, tuple(NODE_PARAMETERS))
-        self.p = {name: self.get_parameter(name).value for name in NODE_PARAMETERS}
-        self.wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self.p = parameters.declare_node(self, MONITOR)
+        parameters.reject_unknown(self, MONITOR)
+        self.wall, self.now = common.wall_clock()
         self.sc = None
-        self.rejected = 0
+        self.reject = common.Rejections(self.get_logger(),
+                                        ('malformed', 'non_finite', 'wrong_frame'))
         self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC,
-                                              itf.STREAM_QOS)
+        self.diag_pub = common.diagnostics_publisher(self)
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
         self.get_logger().info(f"waiting for the fleet's scenario on {itf.SCENARIO_TOPIC}")
-
-    def _now(self):
-        return self.wall.now().nanoseconds * 1e-9
-
-    def _reject(self, what):
-        self.rejected += 1
-        self.get_logger().warn(f'dropped {what} (total dropped: {self.rejected})',
-                               throttle_duration_sec=2.0)
 
     def _on_scenario(self, msg):
         try:
             sc = resolve(json.loads(msg.data))
         except (ValueError, ScenarioError) as err:
-            return self._reject(f'a scenario that does not parse ({err})')
+            return self.reject('malformed', f'a scenario that does not parse ({err})')
         if self.sc is None:
             self._setup(sc)
         elif sc != self.sc:
@@ -112,7 +78,7 @@ class MonitorNode(Node):
         self.U = np.zeros((2, n))
         self.odom_ns = np.full(n, -1, np.int64)
         self.heard = {stream: np.full(n, np.nan) for stream in ('odom', 'cmd', 'state')}
-        self.started = self._now()
+        self.started = self.now()
         self.t0_ns = self.next_ns = None
         self.t = 0.0
         self.trails = np.full((self.p['trail_length'], n), np.nan, complex)
@@ -135,21 +101,22 @@ class MonitorNode(Node):
         self.get_logger().info(f'monitoring {n} x {sc.model}, {sc.formation}')
 
     def _heard(self, stream, k):
-        self.heard[stream][k - 1] = self._now()
+        self.heard[stream][k - 1] = self.now()
 
     def _on_cmd(self, k, msg):
         u = np.array(itf.input_from_cmd(msg, self.sc.model))
         if not np.all(np.isfinite(u)):
-            return self._reject(f'a non-finite command of vehicle {k}')
+            return self.reject('non_finite', f'a non-finite command of vehicle {k}')
         self.U[:, k - 1] = u
         self._heard('cmd', k)
 
     def _on_odom(self, k, msg):
         if msg.header.frame_id != itf.MAP_FRAME:
-            return self._reject(f'an odometry of vehicle {k} in frame {msg.header.frame_id!r}')
+            return self.reject('wrong_frame', f'an odometry of vehicle {k} in frame '
+                               f'{msg.header.frame_id!r}')
         x = itf.state_from_odom(msg, self.sc.flow_c, self.sc.model)
         if not np.all(np.isfinite(x)):
-            return self._reject(f'a non-finite odometry of vehicle {k}')
+            return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
         ns = itf.stamp_ns(msg.header.stamp)
         self.X[:, k - 1] = x
         self.odom_ns[k - 1] = ns
@@ -205,7 +172,7 @@ class MonitorNode(Node):
         return _status(f'vehicle_{i + 1}', level, '; '.join(reasons) or 'ok', values)
 
     def _formation_status(self):
-        values = {'time': f'{self.t:.3f}', 'rejected_messages': self.rejected}
+        values = {'time': f'{self.t:.3f}', 'rejected_messages': self.reject.total}
         values.update({k: f'{v:.6g}' for k, v in self.values.items()})
         if self.since is not None:
             values['convergence_time'] = f'{self.since:.3f}'
@@ -215,15 +182,14 @@ class MonitorNode(Node):
         return _status('formation', OK, 'converging', values)
 
     def publish_diagnostics(self):
-        msg = DiagnosticArray()
-        msg.header.stamp = self.get_clock().now().to_msg()
+        """Publish the formation's status and every vehicle's on ``/diagnostics``."""
         if self.sc is None:
-            msg.status = [_status('formation', WARN, f'waiting for {itf.SCENARIO_TOPIC}', {})]
+            statuses = [_status('formation', WARN, f'waiting for {itf.SCENARIO_TOPIC}', {})]
         else:
-            now = self._now()
-            msg.status = [self._formation_status()] + [
+            now = self.now()
+            statuses = [self._formation_status()] + [
                 self._vehicle_status(i, now) for i in range(self.sc.num_vehicles)]
-        self.diag_pub.publish(msg)
+        common.publish_diagnostics(self, self.diag_pub, statuses)
 
     def publish_markers(self):
         if self.samples == 0 or self.markers_pub.get_subscription_count() == 0:

@@ -6,13 +6,11 @@ core's :func:`scenario.resolve` (one source of truth); gains and references can 
 time (:data:`scenario.RUNTIME`).
 """
 from formation_control.core import links, scenario
+from formation_control.core.node_parameters import MODES  # noqa: F401 (re-exported)
 from formation_control.core.scenario import Scenario, ScenarioError
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
-
-MODES = ('lockstep', 'realtime')
-"""Time modes of the plant and the vehicles."""
 
 FLOAT_BOUND = 1e9
 """Descriptor range ends of a number that the scenario leaves unbounded on that side."""
@@ -38,9 +36,13 @@ def descriptor(name):
         unless the parameter may change at run time.
 
     """
-    spec, default = scenario.PARAMETERS[name], getattr(Scenario(), name)
-    d = ParameterDescriptor(description=scenario.describe(name),
-                            additional_constraints=scenario.allowed(name),
+    spec = scenario.PARAMETERS[name]
+    return _descriptor(spec, getattr(Scenario(), name), scenario.describe(name),
+                       scenario.allowed(name))
+
+
+def _descriptor(spec, default, description, constraints=''):
+    d = ParameterDescriptor(description=description, additional_constraints=constraints,
                             read_only=not spec.runtime)
     if (spec.low, spec.high) == (None, None):
         return d
@@ -113,21 +115,38 @@ def validator(node):
     return on_set
 
 
-def declare_links(node, names, n, own=0):
-    """Declare the link parameters ``names`` (:data:`links.PARAMETERS`); returns their values."""
+def declare_node(node, table, names=None):
+    """
+    Declare node parameters from a table of :mod:`node_parameters` and return their values.
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+    table : dict
+        ``name -> (default, scenario.Spec)``.
+    names : iterable of str, optional
+        The entries to declare (default: all).
+
+    Returns
+    -------
+    dict
+        name -> value (an empty array default gives a tuple).
+
+    """
     values = {}
-    for name in names:
-        default, low, high, text = links.PARAMETERS[name]
-        d = ParameterDescriptor(description=text, read_only=True)
-        if isinstance(default, float):
-            d.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
-        elif isinstance(default, int):
-            d.integer_range = [IntegerRange(from_value=low, to_value=high, step=1)]
+    for name in table if names is None else names:
+        default, spec = table[name]
+        text = f'{spec.text} [{spec.unit}]' if spec.unit else spec.text
+        d = _descriptor(spec, default, text, ' | '.join(spec.choices) or spec.rule)
         if default == ():
             node.declare_parameter(name, Parameter.Type.INTEGER_ARRAY, d)
-            value = node.get_parameter_or(name, Parameter(name)).value
-            values[name] = tuple(value or ())
+            values[name] = tuple(node.get_parameter_or(name, Parameter(name)).value or ())
         else:
             node.declare_parameter(name, default, d)
             values[name] = node.get_parameter(name).value
-    return links.check(values, n, own)
+    return values
+
+
+def declare_links(node, names, n, own=0):
+    """Declare the link parameters ``names`` (:data:`links.PARAMETERS`); returns their values."""
+    return links.check(declare_node(node, links.PARAMETERS, names), n, own)

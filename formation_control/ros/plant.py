@@ -35,20 +35,17 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import lockstep
+from formation_control.core import links, lockstep
 from formation_control.core.fleet import FleetPlant
+from formation_control.core.node_parameters import PLANT, START_TOPIC
 from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, String
 
-NODE_PARAMETERS = ('mode', 'real_time_factor', 'record_path', 'exit_when_done', 'wait_for_start',
-                   'wait_for_fleet', 'command_timeout')
-START_TOPIC = '/formation/start'
 REJECTS = ('non_finite', 'wrong_frame', 'stale')
 
 
@@ -57,12 +54,14 @@ class PlantNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('plant', **kwargs)
-        self._declare()
+        self.p = parameters.declare_node(self, PLANT)
+        parameters.declare(self)
+        parameters.reject_unknown(self, PLANT)
         self.sc = sc = parameters.current(self)
         for note in sc.warnings:
             self.get_logger().warn(note)
         self.mode = parameters.choice(self, 'mode', parameters.MODES)
-        timeout = parameters.declare_links(self, ('command_timeout',), sc.num_vehicles)
+        timeout = links.check({'command_timeout': self.p['command_timeout']}, sc.num_vehicles, 0)
         self.wall, self.now = common.wall_clock()
         self.gate = lockstep.CommandGate(sc.num_vehicles, timeout['command_timeout'], self.now,
                                          self.mode == 'lockstep')
@@ -78,31 +77,10 @@ class PlantNode(Node):
         if self.mode == 'lockstep':
             self.create_timer(min(0.05, self.gate.liveness.timeout / 4), self._try_advance,
                               clock=self.wall)
-        if self.get_parameter('wait_for_start').value:
+        if self.p['wait_for_start']:
             self.create_subscription(Empty, START_TOPIC, self._start, itf.LATCHED_QOS)
         else:
             self._start()
-
-    def _declare(self):
-        self.declare_parameter('mode', 'lockstep', ParameterDescriptor(
-            description='lockstep (plant owns /clock, waits for every command) | realtime',
-            read_only=True))
-        self.declare_parameter('real_time_factor', 1.0, ParameterDescriptor(
-            description='realtime mode: simulated seconds per wall second', read_only=True,
-            floating_point_range=[FloatingPointRange(from_value=0.01, to_value=1000.0)]))
-        self.declare_parameter('record_path', '', ParameterDescriptor(
-            description='write the run here as .npz (simulator layout) when it ends',
-            read_only=True))
-        self.declare_parameter('exit_when_done', True, ParameterDescriptor(
-            description='exit once duration is simulated', read_only=True))
-        self.declare_parameter('wait_for_start', False, ParameterDescriptor(
-            description=f'hold step 0 until a std_msgs/Empty on {START_TOPIC} (lets a recorder '
-                        'discover every topic first)', read_only=True))
-        self.declare_parameter('wait_for_fleet', True, ParameterDescriptor(
-            description='realtime mode: hold t = 0 until every vehicle has a writer on its '
-                        'command topic', read_only=True))
-        parameters.declare(self)
-        parameters.reject_unknown(self, NODE_PARAMETERS)
 
     def _create_topics(self):
         sc, ids = self.sc, range(1, self.sc.num_vehicles + 1)
@@ -128,7 +106,7 @@ class PlantNode(Node):
         self.started = True
         if self.mode == 'lockstep':
             self._publish_step()
-        elif self.get_parameter('wait_for_fleet').value:
+        elif self.p['wait_for_fleet']:
             self.fleet_timer = self.create_timer(0.05, self._start_when_fleet_is_up,
                                                  clock=self.wall)
         else:
@@ -149,7 +127,7 @@ class PlantNode(Node):
         """Real time: t = 0 now; the first integration step is one tick away."""
         sc = self.sc
         self.t0_ns = self.get_clock().now().nanoseconds
-        tick_rate = self.get_parameter('real_time_factor').value / sc.dt_integration
+        tick_rate = self.p['real_time_factor'] / sc.dt_integration
         self.pacer = lockstep.Pacer(tick_rate, sc.substeps, self.now())
         self.slot = lockstep.sample_slots(sc.num_vehicles, sc.substeps)
         self.create_timer(1.0 / tick_rate, self._on_tick, clock=self.wall)
@@ -250,7 +228,7 @@ class PlantNode(Node):
     def _finish(self):
         wall = time.perf_counter() - self.wall_start
         simulated = self.fleet.time
-        path = self.get_parameter('record_path').value
+        path = self.p['record_path']
         if path:
             meta = {'mode': self.mode, 'wall_time': wall, 'simulated_time': simulated}
             self.fleet.run(meta).save(path)
@@ -258,7 +236,7 @@ class PlantNode(Node):
                                f'(real-time factor {simulated / max(wall, 1e-9):.3g})')
         self.finished = True
         self.gate.close()
-        self.done = self.get_parameter('exit_when_done').value
+        self.done = self.p['exit_when_done']
 
 
 def main(args=None):

@@ -32,19 +32,18 @@ import time
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import links, lockstep
 from formation_control.core.neighbours import NeighbourTable
+from formation_control.core.node_parameters import VEHICLE
 from formation_control.core.onboard import Onboard
 from formation_control.core.scenario import ScenarioError
 from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-LINK_PARAMETERS = ('neighbor_timeout', 'drop_probability', 'delay', 'delay_jitter', 'comm_range',
-                   'fault_links', 'fault_seed')
+LINK_PARAMETERS = tuple(name for name in links.PARAMETERS if name != 'command_timeout')
 REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
 LATENCIES = ('odom_to_command', 'stamp_to_command')
 """Real time, last 1000 commands: odometry handed to the node -> command sent (the node's own
@@ -89,14 +88,10 @@ class VehicleNode(Node):
                                f'({sc.controller}), {self.mode}')
 
     def _declare(self, vehicle_id):
-        self.declare_parameter('vehicle_id', vehicle_id, ParameterDescriptor(
-            description="this vehicle's id k, 1..num_vehicles", read_only=True))
-        self.declare_parameter('mode', 'lockstep', ParameterDescriptor(
-            description='lockstep (waits for every live neighbour at each step) | '
-                        'realtime (commands on each odometry from the latest states)',
-            read_only=True))
+        parameters.declare_node(self, {'vehicle_id': (vehicle_id, VEHICLE['vehicle_id'][1]),
+                                       'mode': VEHICLE['mode']})
         parameters.declare(self)
-        parameters.reject_unknown(self, ('vehicle_id', 'vehicle_ids', 'mode', *LINK_PARAMETERS))
+        parameters.reject_unknown(self, VEHICLE)
 
     def _create_topics(self):
         k, qos = self.k, itf.state_qos_kwargs
