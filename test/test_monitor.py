@@ -2,10 +2,12 @@
 Seeing a run: the monitor's metrics, diagnostics and markers, a recorded bag (its metadata as
 Jazzy's rosbag2 reads it), and plot / report from the bag and from the plant's .npz.
 """
+import itertools
 import json
 import math
 import re
 import subprocess
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 import numpy as np
@@ -24,7 +26,8 @@ from formation_control.ros import interface as itf
 from rosutil import BIN, CONFIG, domains, interrupt, ros_environment, shm_clean
 
 SCENARIO = 'rigid_parallel_flow'
-DURATION = 12.0
+DURATION = 9.0
+"""Lockstep equals the offline run, which converges at t = 7 s."""
 
 
 @pytest.fixture(scope='module')
@@ -163,7 +166,7 @@ def test_bag_metadata_is_what_jazzy_ros2_bag_info_reads(recorded):
     assert (odom['durability'], odom['depth']) == ('transient_local', itf.STATE_QOS.depth)
 
 
-# ---- the monitor on its own, fed by a test publisher ---------------------------------------
+# ---- the monitor on its own, fed by a test publisher (in this process but for one test) ----
 
 def _scenario(**values):
     return scenario.load(CONFIG / 'particle_circular.yaml', [], **values)
@@ -176,20 +179,25 @@ def _odom(k, ns, x, y, theta, frame='map'):
     return msg
 
 
-def _start_monitor(ros, sc, *params):
-    args = ['--ros-args', '-p', 'stale_timeout:=2.0', '-p', 'diagnostics_period:=0.1',
-            '-p', 'markers_period:=0.1', '-p', 'period:=0.0']
-    for p in params:
-        args += ['-p', p]
-    proc = ros.procs.start('monitor', *args)
-    node = ros.probe.node
+MONITOR_PARAMS = ('stale_timeout:=2.0', 'diagnostics_period:=0.1', 'markers_period:=0.1',
+                  'period:=0.0')
+
+
+def _feed(probe, sc):
+    """Announce ``sc`` and wait until the monitor hears every vehicle's odometry topic."""
+    node = probe.node
     announce = node.create_publisher(String, itf.SCENARIO_TOPIC, itf.LATCHED_QOS)
     announce.publish(itf.scenario_msg(sc))
     odom = {k: node.create_publisher(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS)
             for k in range(1, sc.num_vehicles + 1)}
-    assert ros.probe.spin_until(lambda: all(p.get_subscription_count() for p in odom.values())
-                                and node.count_publishers(itf.METRICS_TOPIC))
-    return proc, odom
+    assert probe.spin_until(lambda: all(p.get_subscription_count() for p in odom.values())
+                            and node.count_publishers(itf.METRICS_TOPIC))
+    return odom
+
+
+def _start_monitor(nodes, sc):
+    nodes.monitor(*MONITOR_PARAMS)
+    return _feed(nodes, sc)
 
 
 def _latest(box, name):
@@ -200,34 +208,38 @@ def _latest(box, name):
     return None
 
 
-def test_vehicle_whose_odom_stops_goes_stale(ros):
+def test_vehicle_whose_odom_stops_goes_stale(nodes):
     sc = _scenario(num_vehicles=2)
-    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
-    monitor, odom = _start_monitor(ros, sc)
+    diags = nodes.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+    odom = _start_monitor(nodes, sc)
 
     def feed(ks, ns):
         for k in ks:
             odom[k].publish(_odom(k, ns, k, 0.0, 0.5))
 
     feed((1, 2), 0)
-    step = iter(range(1, 10_000))
+    step, fed = itertools.count(1), [time.monotonic()]
 
     def stale_2():
-        feed((1,), next(step) * 20_000_000)
+        if time.monotonic() - fed[0] >= 0.02:          # vehicle 1 goes on at 50 Hz
+            feed((1,), next(step) * 20_000_000)
+            fed[0] = time.monotonic()
         status = _latest(diags, 'vehicle_2')
         return status is not None and 'stale odom' in status.message
-    assert ros.probe.spin_until(stale_2, timeout=15)
+    assert nodes.spin_until(stale_2, timeout=15)
     assert _latest(diags, 'vehicle_2').level == DiagnosticStatus.ERROR
     first = _latest(diags, 'vehicle_1')
     assert 'stale odom' not in first.message
     assert 'stale cmd' in first.message
-    assert interrupt(monitor) == 0
 
 
 def test_markers_show_each_vehicle_its_circle_centre_and_the_target(ros):
+    """The ``monitor`` executable: markers, then exit 0 on SIGINT."""
     sc = _scenario(num_vehicles=2, c0=[1.0, -2.0], informed=[1])
     markers = ros.probe.collect(MarkerArray, itf.MARKERS_TOPIC, itf.STREAM_QOS)
-    _, odom = _start_monitor(ros, sc)
+    monitor = ros.procs.start('monitor', '--ros-args',
+                              *[a for p in MONITOR_PARAMS for a in ('-p', p)])
+    odom = _feed(ros.probe, sc)
     poses = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0)}
     for k, (x, y, theta) in poses.items():
         odom[k].publish(_odom(k, 0, x, y, theta))
@@ -247,13 +259,14 @@ def test_markers_show_each_vehicle_its_circle_centre_and_the_target(ros):
     np.testing.assert_allclose(centres, expected, atol=1e-12)
     target = by_key[('target_centre', 0)]
     assert (target.pose.position.x, target.pose.position.y) == (1.0, -2.0)
+    assert interrupt(monitor) == 0
 
 
-def test_monitor_drops_and_counts_bad_odometry(ros):
+def test_monitor_drops_and_counts_bad_odometry(nodes):
     sc = _scenario(num_vehicles=2)
-    diags = ros.probe.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
-    metrics_box = ros.probe.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
-    monitor, odom = _start_monitor(ros, sc)
+    diags = nodes.collect(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+    metrics_box = nodes.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
+    odom = _start_monitor(nodes, sc)
     odom[1].publish(_odom(1, 0, math.nan, 0.0, 0.0))
     odom[2].publish(_odom(2, 0, 0.0, 0.0, 0.0, frame='odom'))
     odom[1].publish(_odom(1, 0, 0.0, 1.0, 0.0))
@@ -263,8 +276,7 @@ def test_monitor_drops_and_counts_bad_odometry(ros):
         status = _latest(diags, 'formation')
         return status is not None and {v.key: v.value for v in status.values}.get(
             'rejected_messages') == '2' and metrics_box
-    assert ros.probe.spin_until(counted)
-    assert monitor.poll() is None
+    assert nodes.spin_until(counted)
     X = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 1.0], [0.0, 0.0]])
     expected = metrics.snapshot(Controller(sc), X, np.zeros((2, 2))).values()
     got = dict(zip(metrics_box[0].name, metrics_box[0].position))
