@@ -69,15 +69,16 @@ def dropped_lines(logs):
             for line in path.read_text(errors='replace').splitlines() if 'dropped' in line]
 
 
-def test_fleet_across_hosts_converges_as_offline(hosts):
-    sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=12.0')
+def test_fleet_across_hosts_equals_the_offline_run(hosts):
+    """Lockstep equals the offline run from the first step: 4 s show it (the fleet across
+    hosts converges in the link-cut test)."""
+    sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=4.0')
     with domains(1) as (did,):
         try:
             run, out = run_swarm(sc, place=placer(hosts), env=fleet_env(did), timeout=120,
                                  node_params=EXACT)
         finally:
             shm_clean(fleet_env(did))
-    assert out['converged'], out
     assert_equals_simulator(run, sc)
     assert dropped_lines(out['logs']) == []
 
@@ -112,10 +113,9 @@ def test_link_cut_mid_run_and_the_formation_recovers(hosts):
         try:
             with Swarm(sc, 'realtime', monitor=False, place=placer(hosts), env=env) as swarm:
                 first_commands(swarm, sc.num_vehicles, 60)
-                time.sleep(1.0)
                 hosts.link(cut_host, up=False)
                 try:
-                    time.sleep(cut_for)
+                    time.sleep(cut_for)                   # the cut itself lasts cut_for
                     swarm.check()
                 finally:
                     hosts.link(cut_host, up=True)
@@ -139,9 +139,10 @@ def test_link_cut_mid_run_and_the_formation_recovers(hosts):
 
 def test_two_fleets_on_two_domains_never_hear_each_other(hosts):
     """Same hosts, same topics, same steps, different initial states: each equals its own run."""
-    fleets = [load('particle_circular', 'num_vehicles:=6', 'duration:=8.0', seed=seed)
+    fleets = [load('particle_circular', 'num_vehicles:=6', 'duration:=3.0', seed=seed)
               for seed in (1, 2)]
-    assert not np.allclose(simulator.simulate(fleets[0]).X[-1], simulator.simulate(fleets[1]).X[-1])
+    assert not np.allclose(simulator.simulate(fleets[0]).X[-1],
+                           simulator.simulate(fleets[1]).X[-1])
     results = [None, None]
 
     def fly(i, did):
@@ -177,15 +178,30 @@ def discovery_server(hosts, did):
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
+def unmatched_reports(swarm, k):
+    """How often vehicle k has said it has no odometry and no publisher of it matched (every
+    5 s from STALL = 3 s after it started)."""
+    text = (swarm.dir / f'vehicle_{k}.log').read_text(errors='replace')
+    return text.count(f'no odometry yet on /vehicle_{k}/odom (0 publishers matched)')
+
+
 def test_discovery_server_without_multicast(hosts):
-    """Multicast off on every host: no discovery, until a Fast DDS discovery server runs."""
+    """
+    Multicast off on every host: no discovery (every vehicle still alone after 8 s, twice the
+    longest discovery across hosts seen), until a Fast DDS discovery server runs.
+    """
     hosts.multicast(False)
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=4.0')
     with domains(1) as (did,):
         try:
-            with pytest.raises(TimeoutError):
-                run_swarm(sc, monitor=False, place=placer(hosts), env=fleet_env(did),
-                          timeout=15)
+            with Swarm(sc, monitor=False, place=placer(hosts), env=fleet_env(did)) as alone:
+                end = time.monotonic() + 60
+                while not all(unmatched_reports(alone, k) >= 2 for k in range(1, 7)):
+                    alone.check()
+                    assert alone.plant.poll() is None, alone.log_tail()
+                    assert time.monotonic() < end, 'the vehicles did not report in time'
+                    time.sleep(0.1)
+                assert alone.plant.poll() is None
             server = discovery_server(hosts, did)
             try:
                 env = fleet_env(did, ROS_DISCOVERY_SERVER=f'{hosts.address(0)}:{DISCOVERY_PORT}')
