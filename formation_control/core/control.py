@@ -281,10 +281,12 @@ class Controller:
         self.sc = sc
         self.plant = Plant.of(sc)
         self.rigid = sc.model in RIGID_MODELS
+        coupling = None if sc.all_to_all else sc.comm_graph.coupling()
         if sc.formation == 'parallel':
-            self.formation = laws.Parallel(sc.K)
+            self.formation = laws.Parallel(sc.K, coupling)
         else:
-            self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask)
+            self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling)
+        self._couplings = {}
         self.use_heading = sc.formation == 'parallel' and sc.flow_c == 0
         self.full = uses_held_force(sc)
         self.integral = None
@@ -321,11 +323,27 @@ class Controller:
         return rigid_view(X, U_applied, self.plant, self.use_heading, self.full)
 
     def formation_of(self, members=None):
-        """Return the formation law over the fleet vehicles ``members`` (bool mask; None = all)."""
+        """
+        Return the formation law over the fleet vehicles ``members`` (bool mask; None = all).
+
+        The informed vehicles and the communication graph are restricted to the members (a
+        vehicle's view holds itself and the neighbours it hears).
+        """
         f = self.formation
-        if members is None or not isinstance(f, laws.Circular):
+        if members is None:
             return f
-        return replace(f, informed=np.asarray(f.informed)[members])
+        members = np.asarray(members, bool)
+        changes = {}
+        if isinstance(f, laws.Circular):
+            changes['informed'] = np.asarray(f.informed)[members]
+        if f.coupling is not None:
+            key = members.tobytes()
+            if key not in self._couplings:
+                if len(self._couplings) > 64:
+                    self._couplings.clear()
+                self._couplings[key] = self.sc.comm_graph.coupling(members)
+            changes['coupling'] = self._couplings[key]
+        return replace(f, **changes)
 
     def phase_accel(self, view, idx, members=None):
         """

@@ -25,7 +25,6 @@ all-to-all laws), ``ring``, ``circulant`` (vehicle k hears k +- d for each d in
 ``graph_offsets``), ``random`` (connected, mean degree ``graph_degree``, seeded by
 ``graph_seed``) and ``explicit`` (``graph_edges``: 1-based id pairs).
 """
-from dataclasses import dataclass
 import math
 
 import numpy as np
@@ -41,28 +40,35 @@ def _fail(name, value, reason):
     raise GraphError(f"parameter '{name}' = {value!r} is invalid: {reason}")
 
 
-@dataclass(frozen=True)
 class Graph:
     """
     An undirected communication graph on vehicles 1..n.
 
-    Attributes
+    Parameters
     ----------
     n : int
         Number of vehicles.
-    edges : (E, 2) int
-        Each undirected edge once, as 0-based indices (i < j).
+    edges : (E, 2) int or None
+        Each undirected edge once, as 0-based indices (i < j); None = the complete graph,
+        whose edges are only listed when asked for.
     nu : float
         The fleet-wide normalising constant of the Laplacian laws (> 0).
-    complete : bool
-        Every pair is linked: the laws take their O(N) all-to-all form.
 
     """
 
-    n: int
-    edges: np.ndarray
-    nu: float
-    complete: bool = False
+    def __init__(self, n, edges, nu):
+        self.n = n
+        self.complete = edges is None or len(edges) == n * (n - 1) // 2
+        self._edges = edges
+        self.nu = nu
+
+    @property
+    def edges(self):
+        """(E, 2) int: each undirected edge once, as 0-based indices (i < j)."""
+        if self._edges is None:
+            i, j = np.triu_indices(self.n, 1)
+            self._edges = np.stack([i, j], axis=1)
+        return self._edges
 
     @property
     def arcs(self):
@@ -72,10 +78,14 @@ class Graph:
 
     def degrees(self):
         """(n,) int: the number of neighbours of each vehicle."""
+        if self._edges is None:
+            return np.full(self.n, self.n - 1)
         return np.bincount(self.edges.ravel(), minlength=self.n)
 
     def neighbours(self, k):
         """Return the ids (1-based, sorted) vehicle ``k`` hears."""
+        if self._edges is None:
+            return [j for j in range(1, self.n + 1) if j != k]
         i, j = self.edges.T
         own = k - 1
         return sorted(int(x) + 1 for x in np.concatenate([j[i == own], i[j == own]]))
@@ -90,6 +100,31 @@ class Graph:
         """(n, n) float: L = D - A."""
         A = self.adjacency()
         return np.diag(A.sum(axis=1)) - A
+
+    def coupling(self, members=None):
+        """
+        Return the :class:`laws.Coupling` of the graph among the vehicles ``members``.
+
+        Parameters
+        ----------
+        members : (n,) bool, optional
+            The vehicles of a view (a vehicle and the neighbours it hears); all by default.
+
+        Returns
+        -------
+        laws.Coupling
+            The arcs between members, as indices into the members in fleet order, with this
+            graph's nu and n.
+
+        """
+        from formation_control.core.laws import Coupling
+        src, dst = self.arcs
+        if members is not None:
+            members = np.asarray(members, bool)
+            keep = members[src] & members[dst]
+            index = np.cumsum(members) - 1
+            src, dst = index[src[keep]], index[dst[keep]]
+        return Coupling(src, dst, self.nu, self.n)
 
 
 def algebraic_connectivity(A):
@@ -165,7 +200,8 @@ def _explicit(n, flat):
     twice = sorted({p for p in seen if seen.count(p) > 1})
     if twice:
         _fail(name, flat, f'edges {twice} are given more than once (edges are undirected: '
-              '[1, 2] and [2, 1] are the same edge)')
+              '[1, 2] and [2, 1] are the same edge; a one-way link cannot be expressed, as the '
+              "one-way Laplacian law is not a gradient and diverges at the thesis' gains)")
     return np.array(sorted(seen)) - 1
 
 
@@ -203,10 +239,11 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     """
     if graph not in GRAPHS:
         _fail('graph', graph, f"allowed values: {' | '.join(GRAPHS)}")
+    if not (math.isfinite(nu) and nu >= 0):
+        _fail('graph_nu', nu, 'must be >= 0 (0 = max degree + 1)')
     if graph == 'complete':
-        i, j = np.triu_indices(n, 1)
-        pairs = np.stack([i, j], axis=1)
-    elif graph == 'ring':
+        return Graph(n, None, float(nu) if nu > 0 else float(n))
+    if graph == 'ring':
         if n < 3:
             _fail('graph', graph, f'a ring needs num_vehicles >= 3 (got {n})')
         pairs = _circulant(n, [1])
@@ -222,9 +259,6 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
         value = {'graph_edges': list(edges), 'graph_offsets': list(offsets)}.get(where, graph)
         _fail(where, value, f'the graph on {n} vehicles is not connected: the Laplacian laws '
               f'need every vehicle linked to every other through some path')
-    if not (math.isfinite(nu) and nu >= 0):
-        _fail('graph_nu', nu, 'must be >= 0 (0 = max degree + 1)')
     degrees = np.bincount(pairs.ravel(), minlength=n)
     nu = float(nu) if nu > 0 else float(degrees.max(initial=0) + 1)
-    return Graph(n, pairs.astype(np.int64), nu, complete=graph == 'complete' or
-                 len(pairs) == n * (n - 1) // 2)
+    return Graph(n, pairs.astype(np.int64), nu)

@@ -7,6 +7,12 @@ with ``s'``. The laws return, for the vehicles ``idx`` only, the desired phase r
 (first-order laws) or the desired phase acceleration (backstepping, proportional). All-to-all
 sums are O(N) means, so the same call serves one vehicle that knows the views it has
 received (``idx=[k]``) and the whole fleet (``idx=None``).
+
+On a communication graph (a :class:`Coupling`), the means become the Laplacian sums of
+Sepulchre, Paley and Leonard, "Stabilization of planar collective motion with limited
+communication", IEEE TAC 53(3), 2008: each vehicle sums over its neighbours only, divided by
+a fleet-wide nu; on the complete graph with nu = N they are the all-to-all laws. The
+derivations are in docs/errata.md, "Laplacian laws".
 """
 from dataclasses import dataclass
 
@@ -42,6 +48,37 @@ class View:
 
 
 @dataclass(frozen=True)
+class Coupling:
+    """
+    The communication graph among the M vehicles of a view, for the Laplacian laws.
+
+    Attributes
+    ----------
+    src, dst : (2E,) int
+        Every undirected edge in both directions, as indices into the view (a_kj = 1).
+    nu : float
+        The fleet-wide constant the neighbour sums are divided by (> 0).
+    n : int
+        The fleet size N of the parallel potential ``<e, L e> / (2 N nu)``.
+
+    """
+
+    src: np.ndarray
+    dst: np.ndarray
+    nu: float
+    n: int
+
+    def total(self, per_arc, m):
+        """Return ``sum_j a_kj x_kj`` for each of the m vehicles, from the values on the arcs."""
+        return np.bincount(self.src, weights=per_arc, minlength=m)
+
+    def laplacian(self, x):
+        """Return ``(L x)_k = sum_j a_kj (x_k - x_j)`` of the complex values x (M,)."""
+        d = x[self.src] - x[self.dst]
+        return self.total(d.real, x.size) + 1j * self.total(d.imag, x.size)
+
+
+@dataclass(frozen=True)
 class Terms:
     """
     The terms of a formation law for the vehicles ``idx`` of a view.
@@ -65,10 +102,13 @@ class Parallel:
     Phase synchronisation, ``phi_k = -K <p, i e_k>`` with K < 0 (1.12), (1.18), (3.1), (4.1).
 
     Potential ``V = (1 - |p|^2) / 2`` (1.11); ``sigma_k = <p, i e_k> / N`` is the term
-    ``-dV/dphase_k`` that the backstepping law (3.7), (4.3) adds.
+    ``-dV/dphase_k`` that the backstepping law (3.7), (4.3) adds. On a graph (``coupling``):
+    ``q_k = (1/nu) sum_j a_kj sin(phase_j - phase_k)``, ``phi_k = -K q_k``,
+    ``sigma_k = q_k / N``, ``V = <e, L e> / (2 N nu)``.
     """
 
     K: float
+    coupling: Coupling = None
 
     def terms(self, view, idx=slice(None)):
         """
@@ -89,6 +129,8 @@ class Parallel:
             form of the pairwise sum in (3.7), (4.3); ``sigma_k = <p, i e_k> / N``.
 
         """
+        if self.coupling is not None:
+            return self._graph_terms(view, idx)
         e = view.e
         p = e.mean()
         pw = (e * view.rate).mean()
@@ -96,6 +138,15 @@ class Parallel:
         q = inner(p, 1j * ek)
         phi_dot = -self.K * (inner(pw, ek) - wk * inner(p, ek))
         return Terms(-self.K * q, phi_dot, q / e.size)
+
+    def _graph_terms(self, view, idx):
+        """Return the terms on the graph: phi_k' = -(K/nu) sum_j a_kj cos(dphase)(w_j - w_k)."""
+        g, m = self.coupling, view.phase.size
+        d = view.phase[g.dst] - view.phase[g.src]
+        q = g.total(np.sin(d), m)[idx] / g.nu
+        dw = view.rate[g.dst] - view.rate[g.src]
+        phi_dot = -self.K * g.total(np.cos(d) * dw, m)[idx] / g.nu
+        return Terms(-self.K * q, phi_dot, q / g.n)
 
     def potential(self, view):
         """
@@ -109,9 +160,14 @@ class Parallel:
         Returns
         -------
         float
-            ``V = (1 - |p|^2) / 2`` (1.11), in [0, 1/2]; 0 when all phases agree.
+            ``V = (1 - |p|^2) / 2`` (1.11), in [0, 1/2]; 0 when all phases agree. On a graph
+            ``<e, L e> / (2 N nu) = sum_arcs (1 - cos(phase_j - phase_k)) / (2 N nu)``.
 
         """
+        g = self.coupling
+        if g is not None:
+            d = view.phase[g.dst] - view.phase[g.src]
+            return float(np.sum(1.0 - np.cos(d))) / (2.0 * g.n * g.nu)
         return 0.5 * (1.0 - abs(view.e.mean()) ** 2)
 
 
@@ -124,6 +180,8 @@ class Circular:
     (1.16), (1.19), (3.9), (4.4); the prescribed-centre term of (7.17), (7.18) is switched on
     per vehicle by ``informed``. Potential (7.18): ``<c, P c>/2 + sum a_k0 |c_k - c0|^2 / 2``.
     ``sigma_k = G_k / omega0`` is the cross term of the backstepping laws (3.14), (4.8), (7.25).
+    On a graph (``coupling``) ``P_k c`` becomes ``C_k / nu`` with
+    ``C_k = sum_j a_kj (c_k - c_j)``, and the potential ``<c, L c> / (2 nu) + ...``.
 
     Attributes
     ----------
@@ -135,6 +193,8 @@ class Circular:
         Prescribed centre (m).
     informed : array_like of float, shape (N,), or None
         a_k0: 1 for the vehicles that know c0, 0 for the others; None = nobody.
+    coupling : Coupling or None
+        The communication graph among the view's vehicles; None = all-to-all.
 
     """
 
@@ -142,6 +202,7 @@ class Circular:
     omega0: float
     c0: complex = 0j
     informed: np.ndarray = None
+    coupling: Coupling = None
 
     def centres(self, view):
         """
@@ -193,11 +254,16 @@ class Circular:
         c_dot = e * (view.speed - view.rate / self.omega0)
         ek, wk, ck = e[idx], view.rate[idx], c[idx]
         a0 = self._a0(e.size, idx)
-        pc = ck - c.mean()
+        if self.coupling is None:
+            pc = ck - c.mean()                                       # P_k c
+            pc_dot = c_dot[idx] - c_dot.mean()
+        else:
+            pc = self.coupling.laplacian(c)[idx] / self.coupling.nu   # C_k / nu
+            pc_dot = self.coupling.laplacian(c_dot)[idx] / self.coupling.nu
         dc0 = ck - self.c0
         g = inner(ek, pc) + a0 * inner(ek, dc0)
         ck_dot_along = view.speed[idx] - wk / self.omega0            # <e_k, c_k'>
-        g_dot = (wk * inner(1j * ek, pc) + ck_dot_along - inner(c_dot.mean(), ek)
+        g_dot = (wk * inner(1j * ek, pc) + inner(ek, pc_dot)
                  + a0 * (wk * inner(1j * ek, dc0) + ck_dot_along))
         phi = self.omega0 * (view.speed[idx] + self.K * g)
         phi_dot = self.omega0 * (view.speed_dot[idx] + self.K * g_dot)
@@ -220,8 +286,11 @@ class Circular:
 
         """
         c = self.centres(view)
-        pc = c - c.mean()
-        return 0.5 * (np.sum(abs(pc) ** 2) + np.sum(self._a0(c.size) * abs(c - self.c0) ** 2))
+        prescribed = 0.5 * np.sum(self._a0(c.size) * abs(c - self.c0) ** 2)
+        g = self.coupling
+        if g is not None:
+            return float(np.sum(abs(c[g.src] - c[g.dst]) ** 2)) / (4.0 * g.nu) + prescribed
+        return 0.5 * np.sum(abs(c - c.mean()) ** 2) + prescribed
 
 
 def first_order(formation, view, idx=slice(None)):

@@ -20,6 +20,7 @@ error names the parameter and the values it may take, before anything runs. The 
 their defaults, units and ranges are one table, the fields of :class:`Scenario`.
 """
 from dataclasses import asdict, dataclass, field, fields, replace
+from functools import cached_property
 import json
 import math
 import re
@@ -165,6 +166,23 @@ class Scenario:
         "full (adds s' and beta' computed from the model)", choices=LAW_VARIANTS)
     cancel_drag_moment: bool = _param(True, '', 'cancel the drag moment of the centre of '
                                       'pressure, rigid_cop (A.20)')
+    # Communication graph (Sepulchre, Paley and Leonard 2008: limited communication)
+    graph: str = _param('complete', '', 'who hears whom: complete (all-to-all, the thesis), '
+                        'ring, circulant, random (connected) or explicit',
+                        choices=('complete', 'ring', 'circulant', 'random', 'explicit'),
+                        rule='undirected and connected')
+    graph_offsets: tuple = _param((1,), '', 'circulant: vehicle k hears k +- d for each offset d',
+                                  rule='distinct integers 1 <= d < num_vehicles/2')
+    graph_degree: float = _param(4.0, '', 'random: the mean number of neighbours',
+                                 rule='2 <= degree <= num_vehicles - 1')
+    graph_seed: int = _param(0, '', 'random: the seed of the graph', low=0)
+    graph_edges: tuple = _param((), '', 'explicit: undirected edges as a flat list of 1-based id '
+                                'pairs [i1, j1, i2, j2, ...]', rule='ids in 1..num_vehicles, no '
+                                'self or repeated edges')
+    graph_nu: float = _param(0.0, '', 'the constant nu of the Laplacian laws (sums over '
+                             'neighbours divided by nu)', low=0.0,
+                             zero='max degree + 1 (num_vehicles on the complete graph: the '
+                             'all-to-all laws)')
     # Command limits
     max_thrust: float = _param(0.0, 'N', 'thrust limit |T|, rigid bodies', **_LIMIT)
     max_steering_force: float = _param(0.0, 'N', 'steering-force limit |F|, rigid bodies',
@@ -206,6 +224,18 @@ class Scenario:
     def c0_c(self):
         """Return the prescribed centre as a complex number (m)."""
         return complex(self.c0[0], self.c0[1])
+
+    @cached_property
+    def comm_graph(self):
+        """Return the communication graph (:func:`graphs.build`; validated by :func:`resolve`)."""
+        from formation_control.core import graphs
+        return graphs.build(self.num_vehicles, self.graph, self.graph_offsets, self.graph_degree,
+                            self.graph_seed, self.graph_edges, self.graph_nu)
+
+    @property
+    def all_to_all(self):
+        """Return whether the laws take their all-to-all form (complete graph, default nu)."""
+        return self.graph == 'complete' and self.graph_nu == 0
 
     @property
     def informed_mask(self):
@@ -275,7 +305,7 @@ def _coerce(name, value):
         return value
     if not isinstance(value, (list, tuple)):
         _fail(name, value, 'must be a list')
-    if name == 'informed':
+    if name in ('informed', 'graph_offsets', 'graph_edges'):
         return tuple(_coerce_int_item(name, v) for v in value)
     out = []
     for v in value:
@@ -287,7 +317,8 @@ def _coerce(name, value):
 
 def _coerce_int_item(name, v):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
-        _fail(name, v, 'must be a list of vehicle ids (integers)')
+        _fail(name, v, 'must be a list of vehicle ids (integers)' if name != 'graph_offsets'
+              else 'must be a list of integers')
     return int(v)
 
 
@@ -425,6 +456,11 @@ def _check_structure(sc):
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
         _fail('informed', list(sc.informed), f'vehicle ids must lie in 1..{sc.num_vehicles}')
+    from formation_control.core.graphs import GraphError
+    try:
+        sc.comm_graph
+    except GraphError as err:
+        raise ScenarioError(str(err)) from None
 
 
 def _check_gains(sc):
