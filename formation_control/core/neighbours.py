@@ -54,6 +54,8 @@ class NeighbourTable:
         Returns the wall time (s), monotonic.
     lockstep : bool
         Lockstep (wait for every neighbour's state of the step) or real time.
+    neighbours : iterable of int, optional
+        The ids this vehicle hears on the communication graph; every other vehicle by default.
 
     Attributes
     ----------
@@ -68,8 +70,13 @@ class NeighbourTable:
 
     """
 
-    def __init__(self, n, own, timeout, clock, lockstep=True):
+    def __init__(self, n, own, timeout, clock, lockstep=True, neighbours=None):
         self.own = own - 1
+        self.linked = np.ones(n, bool)
+        if neighbours is not None:
+            self.linked[:] = False
+            self.linked[[j - 1 for j in neighbours]] = True
+        self.linked[self.own] = True
         self.clock = clock
         self.lockstep = lockstep
         self.liveness = Liveness(n, timeout)
@@ -174,7 +181,7 @@ class NeighbourTable:
 
     def waiting(self):
         """(n,) bool: lockstep, the vehicles whose state of the step under way is still awaited."""
-        return ~self.gone() & ~self.answered()
+        return ~self.gone() & ~self.answered() & self.linked
 
     def ready(self):
         """

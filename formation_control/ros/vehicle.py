@@ -66,15 +66,18 @@ class VehicleNode(Node):
         link = parameters.declare_links(self, LINK_PARAMETERS, sc.num_vehicles, vehicle_id)
         self.wall, self.now = common.wall_clock()
         self.born = self.now()
+        self.neighbours = sc.comm_graph.neighbours(vehicle_id)
         self.known = NeighbourTable(sc.num_vehicles, vehicle_id, link.pop('neighbor_timeout'),
-                                    self.now, self.mode == 'lockstep')
+                                    self.now, self.mode == 'lockstep', self.neighbours)
         self.inbox = links.Inbox(links.Faults(**link, vehicle_id=vehicle_id), self.now)
         self.reject = common.Rejections(self.get_logger(), REJECTS)
         self.saturated = 0
         self.latency = common.Latencies(LATENCIES)
         self.onboard = Onboard(sc)
         self.flow = sc.flow_c
-        self.wires = [itf.StateWire(j) for j in range(1, sc.num_vehicles + 1)]
+        self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
+                      for j in (*self.neighbours, vehicle_id)}
+        self.wires = {j: itf.StateWire(j, hears) for j, hears in self.hears.items()}
         self._create_topics()
         self.add_on_set_parameters_callback(parameters.validator(self))
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -101,11 +104,10 @@ class VehicleNode(Node):
         self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, **qos())
         self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
                                  itf.LATCHED_QOS)
-        for j in range(1, self.sc.num_vehicles + 1):
-            if j != k:
-                self.create_subscription(JointState, itf.topic(j, 'formation_state'),
-                                         lambda data, j=j: self._on_state(j, data), raw=True,
-                                         **qos())
+        for j in self.neighbours:
+            self.create_subscription(JointState, itf.topic(j, 'formation_state'),
+                                     lambda data, j=j: self._on_state(j, data), raw=True,
+                                     **qos())
         self.diag_pub = common.diagnostics_publisher(self)
 
     def _apply_parameters(self, _params):
@@ -137,7 +139,8 @@ class VehicleNode(Node):
             return self._answer_again()
         row = self.onboard.observe(X)
         self.known.store(self.k, ns, row)
-        self.last_state = self.wires[self.k - 1].encode(ns, itf.state_values(X, row))
+        hearing = self.known.hearing()[[j - 1 for j in self.hears[self.k]]]
+        self.last_state = self.wires[self.k].encode(ns, itf.state_values(X, row, hearing))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
@@ -152,7 +155,7 @@ class VehicleNode(Node):
 
     def _on_state(self, j, data):
         """Take a neighbour's formation_state bytes, read in place in the canonical layout."""
-        got = self.wires[j - 1].decode(data) or self._checked_state(j, data)
+        got = self.wires[j].decode(data) or self._checked_state(j, data)
         if got is None:
             return
         ns, values = got
@@ -168,7 +171,8 @@ class VehicleNode(Node):
             msg = deserialize_message(data, JointState)
         except Exception:
             return self.reject('malformed', f'undecodable formation_state bytes of vehicle {j}')
-        if len(msg.position) != len(itf.STATE_FIELDS) or list(msg.name) != list(itf.STATE_FIELDS):
+        names = self.wires[j].names
+        if len(msg.position) != len(names) or tuple(msg.name) != names:
             return self.reject('malformed', f'a malformed formation_state of vehicle {j}')
         if msg.header.frame_id != itf.base_link(j):
             kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
@@ -181,8 +185,10 @@ class VehicleNode(Node):
             self._accept(j, ns, values)
 
     def _accept(self, j, ns, values):
-        x, y, _, _, phase, rate, speed = values
-        if not self.known.hear(j, ns, (complex(x, y), phase, rate, speed)):
+        x, y, _, _, phase, rate, speed = values[:len(itf.STATE_FIELDS)]
+        hears = self.hears[j]
+        hears_me = not hears or values[len(itf.STATE_FIELDS) + hears.index(self.k)] > 0.5
+        if not self.known.hear(j, ns, (complex(x, y), phase, rate, speed), hears_me):
             return self.reject('stale', f'a formation_state of vehicle {j} stamped '
                                f'{ns * 1e-9:.3f} s, older than the last one')
         if self.mode == 'lockstep':

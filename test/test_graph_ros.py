@@ -1,0 +1,106 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Communication graphs through ROS: a vehicle listens to its graph neighbours only, its state
+says whom it hears, a one-sided link leaves the sums, and lockstep equals the simulator.
+"""
+from formation_control.core import scenario, simulator
+from formation_control.ros import interface as itf
+from geometry_msgs.msg import WrenchStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+import pytest
+from rosutil import CONFIG
+from sensor_msgs.msg import JointState
+
+
+def _assert_equal_runs(fleet, offline):
+    assert fleet.t.shape == offline.t.shape
+    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(fleet.U, offline.U, rtol=0, atol=1e-6)
+
+
+def test_a_ring_vehicle_process_subscribes_to_its_two_neighbours_only(ros):
+    cfg = CONFIG / 'particle_circular_ring.yaml'
+    ros.procs.start('vehicle', '--ros-args', '--params-file', cfg, '-p', 'vehicle_id:=1')
+    node = ros.probe.node
+
+    def states():
+        try:
+            topics = node.get_subscriber_names_and_types_by_node('vehicle_1', '/')
+        except Exception:                        # not discovered yet
+            return None
+        return sorted(t for t, _ in topics if t.endswith('/formation_state'))
+    assert ros.probe.spin_until(lambda: states() is not None and len(states()) >= 2, 30)
+    assert states() == ['/vehicle_12/formation_state', '/vehicle_2/formation_state']
+
+
+@pytest.mark.parametrize('name, overrides', [
+    ('rigid_circular_ring', ['duration:=3.0']),
+    ('particle_parallel_random', ['num_vehicles:=8', 'duration:=3.0']),
+])
+def test_lockstep_fleet_on_a_graph_equals_the_offline_simulator(nodes, tmp_path, name,
+                                                                overrides):
+    cfg, record = CONFIG / f'{name}.yaml', tmp_path / 'run.npz'
+    plant = nodes.plant(cfg, *overrides, f'record_path:={record}')
+    for k in range(1, plant.sc.num_vehicles + 1):
+        nodes.vehicle(k, cfg, *overrides)
+    assert nodes.spin_until(lambda: plant.done, timeout=120)
+    _assert_equal_runs(simulator.load_run(record),
+                       simulator.simulate(scenario.load(cfg, overrides)))
+
+
+def test_formation_state_says_whom_the_vehicle_hears(nodes):
+    cfg = CONFIG / 'particle_circular_ring.yaml'
+    states = nodes.collect(JointState, itf.topic(5, 'formation_state'), itf.STATE_QOS)
+    nodes.plant(cfg)
+    nodes.vehicle(5, cfg)
+    assert nodes.spin_until(lambda: states, timeout=20)
+    msg = states[0]
+    assert list(msg.name) == [*itf.STATE_FIELDS, 'hears_4', 'hears_6']
+    assert list(msg.position[-2:]) == [1.0, 1.0]         # lockstep: neighbours awaited
+
+
+def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
+    """Vehicle 1 of a ring hears 2 and 12; 12 says it does not hear 1: 1 commands without 12."""
+    cfg = CONFIG / 'particle_circular_ring.yaml'
+    sc = scenario.load(cfg)
+    node = nodes.vehicle(1, cfg)
+    cmds = nodes.collect(WrenchStamped, itf.topic(1, 'cmd'), itf.STATE_QOS)
+    X = scenario.initial_state(sc)
+    pubs = {j: nodes.node.create_publisher(JointState, itf.topic(j, 'formation_state'),
+                                           itf.STATE_QOS) for j in (2, 12)}
+    odom = nodes.node.create_publisher(Odometry, itf.topic(1, 'odom'), itf.STATE_QOS)
+    view = node.onboard.ctrl.view(X)
+
+    def row(j):
+        i = j - 1
+        return view.r[i], view.phase[i], view.rate[i], view.speed[i]
+    hears = {2: (1, 3), 12: (1, 11)}
+    hearing = {2: (True, True), 12: (False, True)}
+    assert nodes.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values())
+                            and odom.get_subscription_count(), timeout=20)
+    odom.publish(itf.odom_msg(1, 0, X[:, 0], 0j))
+    for j, pub in pubs.items():
+        pub.publish(itf.state_msg(j, 0, X[:, j - 1], row(j), hears[j], hearing[j]))
+    assert nodes.spin_until(lambda: cmds, timeout=20)
+    members = np.zeros(12, bool)
+    members[[0, 1]] = True
+    ctrl = node.onboard.ctrl
+    expected = ctrl.command(ctrl.view(X[:, members]), X[:, [0]], [0], members=members)
+    assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
+    members[11] = True
+    with_12 = ctrl.command(ctrl.view(X[:, members]), X[:, [0]], [0], members=members)
+    assert abs(with_12[1, 0] - expected[1, 0]) > 1e-3
