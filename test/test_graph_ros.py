@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 from rosutil import CONFIG
 from sensor_msgs.msg import JointState
+from visualization_msgs.msg import MarkerArray
 
 
 def _assert_equal_runs(fleet, offline):
@@ -104,3 +105,25 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
     members[11] = True
     with_12 = ctrl.command(ctrl.view(X[:, members]), X[:, [0]], [0], members=members)
     assert abs(with_12[1, 0] - expected[1, 0]) > 1e-3
+
+
+def test_monitor_reports_the_live_graph_and_draws_its_links(nodes):
+    cfg = CONFIG / 'rigid_circular_ring.yaml'
+    n = scenario.load(cfg).num_vehicles
+    box = nodes.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
+    marks = nodes.collect(MarkerArray, itf.MARKERS_TOPIC, itf.STREAM_QOS)
+    nodes.monitor('stale_timeout:=0.5', 'markers_period:=0.05')
+    nodes.plant(cfg, 'duration:=30.0')
+    fleet = [nodes.vehicle(k, cfg, 'duration:=30.0', 'neighbor_timeout:=0.3') for k in
+             range(1, n + 1)]
+
+    def latest(name):
+        return dict(zip(box[-1].name, box[-1].position)).get(name) if box else None
+    assert nodes.spin_until(lambda: latest('live_links') == n, timeout=30)
+    assert latest('algebraic_connectivity') == pytest.approx(2 - 2 * np.cos(2 * np.pi / n))
+    assert nodes.spin_until(lambda: any(m.ns == 'links' and len(m.points) == 2 * n
+                                        for a in marks for m in a.markers), timeout=10)
+    nodes.remove(fleet[3])                     # vehicle 4 goes silent: links 3-4, 4-5 go
+    assert nodes.spin_until(lambda: latest('live_links') == n - 2, timeout=30)
+    assert latest('algebraic_connectivity') == pytest.approx(
+        2 - 2 * np.cos(np.pi / (n - 1)), abs=1e-9)            # a path of n - 1 vehicles

@@ -71,12 +71,15 @@ def test_metrics_topic_agrees_with_the_core_on_the_recorded_run(recorded):
         if j.size == 0:
             continue
         expected = metrics.snapshot(ctrl, run.X[j[0]], run.U[j[0]]).values()
-        assert set(expected) == set(values)
+        assert set(expected) | {'live_links', 'algebraic_connectivity'} == set(values)
         for name, value in expected.items():
             assert values[name][i] == pytest.approx(value, abs=1e-9), (name, ti)
         matched += 1
     assert matched >= 0.9 * len(run.t)
     assert values['order_parameter'][-1] > metrics.ORDER_TOL
+    n = run.sc.num_vehicles                               # the complete graph, every link live
+    assert values['live_links'][-1] == n * (n - 1) / 2
+    assert values['algebraic_connectivity'][-1] == pytest.approx(n)
 
 
 def test_formation_status_turns_converged_with_the_time_it_took(recorded):
@@ -279,5 +282,6 @@ def test_monitor_drops_and_counts_bad_odometry(nodes):
     assert nodes.spin_until(counted)
     X = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 1.0], [0.0, 0.0]])
     expected = metrics.snapshot(Controller(sc), X, np.zeros((2, 2))).values()
+    expected.update(live_links=0.0, algebraic_connectivity=0.0)     # no formation state heard
     got = dict(zip(metrics_box[0].name, metrics_box[0].position))
     assert got == pytest.approx(expected)

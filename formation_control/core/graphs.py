@@ -262,3 +262,52 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     degrees = np.bincount(pairs.ravel(), minlength=n)
     nu = float(nu) if nu > 0 else float(degrees.max(initial=0) + 1)
     return Graph(n, pairs.astype(np.int64), nu)
+
+
+def live_edges(graph, hearing, fresh):
+    """
+    Return the edges of ``graph`` that are live: both ends fresh and each hearing the other.
+
+    Parameters
+    ----------
+    graph : Graph
+        The communication graph.
+    hearing : (n, n) bool
+        ``hearing[k, j]``: vehicle k's latest state says it hears j.
+    fresh : (n,) bool
+        The vehicles whose state is recent.
+
+    Returns
+    -------
+    (L, 2) int
+        The live edges, 0-based (i < j).
+
+    """
+    i, j = graph.edges.T
+    live = fresh[i] & fresh[j] & hearing[i, j] & hearing[j, i]
+    return graph.edges[live]
+
+
+def connectivity(members, edges):
+    """
+    Return the algebraic connectivity of the graph of unit-weight ``edges`` among ``members``.
+
+    Parameters
+    ----------
+    members : (n,) bool
+        The vehicles of the graph (the live ones).
+    edges : (L, 2) int
+        Edges between members, 0-based fleet indices.
+
+    Returns
+    -------
+    float
+        lambda_2 of its Laplacian (:func:`algebraic_connectivity`): 0 when disconnected; the
+        formation laws converge at a rate of about K lambda_2 / nu.
+
+    """
+    index = np.cumsum(members) - 1
+    m = int(np.count_nonzero(members))
+    A = np.zeros((m, m))
+    A[index[edges[:, 0]], index[edges[:, 1]]] = 1.0
+    return algebraic_connectivity(A + A.T)

@@ -70,6 +70,10 @@ METRIC_DOC = {
     'speed_error': 'rigid bodies: mean_k |u_k - u0| (m/s)',
     'crab_angle': 'rigid bodies: mean_k beta_k = atan2(v_k, u_k) (rad), flow-relative',
     'crab_angle_inertial': 'rigid bodies: mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)',
+    'live_links': 'links of the communication graph that are live (both ends heard recently, '
+                  'each hearing the other)',
+    'algebraic_connectivity': 'lambda_2 of the Laplacian of the live graph (the vehicles heard '
+                              'recently and their live links); 0 = disconnected',
 }
 STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
 """formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s);

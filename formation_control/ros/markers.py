@@ -15,6 +15,7 @@ VELOCITY = ColorRGBA(r=0.9, g=0.1, b=0.1, a=1.0)
 TRAIL = ColorRGBA(r=0.4, g=0.4, b=0.4, a=0.8)
 CENTRE = ColorRGBA(r=0.1, g=0.7, b=0.2, a=1.0)
 TARGET = ColorRGBA(r=1.0, g=0.6, b=0.0, a=0.8)
+LINK = ColorRGBA(r=0.5, g=0.2, b=0.7, a=0.6)
 
 
 def _marker(ns, name, ident, kind, color):
@@ -62,6 +63,26 @@ def centre_markers(ns, centres, target):
         disc.scale.z = 0.02
         out.append(disc)
     return out
+
+
+def link_marker(ns, positions, edges):
+    """
+    Return the live links of the communication graph as one LINE_LIST marker.
+
+    Parameters
+    ----------
+    ns : int
+        Stamp (ns).
+    positions : array_like of complex, shape (N,)
+        Vehicle positions (m).
+    edges : array_like of int, shape (L, 2)
+        The live links, 0-based vehicle indices.
+
+    """
+    line = _marker(ns, 'links', 0, Marker.LINE_LIST, LINK)
+    line.points = [_point(positions[i]) for edge in edges for i in edge]
+    line.scale.x = 0.02
+    return line
 
 
 def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):

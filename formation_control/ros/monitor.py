@@ -18,7 +18,7 @@ import json
 import sys
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import laws, metrics
+from formation_control.core import graphs, laws, metrics
 from formation_control.core.control import Controller
 from formation_control.core.models import ground_velocity, position
 from formation_control.core.node_parameters import MONITOR
@@ -29,6 +29,7 @@ from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -87,13 +88,17 @@ class MonitorNode(Node):
         self.vehicle_ok = np.zeros(n, bool)
         self.saturated = np.zeros(n, bool)
         self.values = {}
+        self.graph = sc.comm_graph
+        self.hearing = np.ones((n, n), bool)
+        self.wires = {k: itf.StateWire(k, () if sc.all_to_all else self.graph.neighbours(k))
+                      for k in range(1, n + 1)}
         for k in range(1, n + 1):
             self.create_subscription(Odometry, itf.topic(k, 'odom'),
                                      lambda m, k=k: self._on_odom(k, m), **itf.state_qos_kwargs())
             self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
                                      lambda m, k=k: self._on_cmd(k, m), **itf.state_qos_kwargs())
             self.create_subscription(JointState, itf.topic(k, 'formation_state'),
-                                     lambda _, k=k: self._heard('state', k), raw=True,
+                                     lambda data, k=k: self._on_state(k, data), raw=True,
                                      **itf.state_qos_kwargs())
         self.metrics_pub = self.create_publisher(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, itf.MARKERS_TOPIC, itf.STREAM_QOS)
@@ -102,6 +107,29 @@ class MonitorNode(Node):
 
     def _heard(self, stream, k):
         self.heard[stream][k - 1] = self.now()
+
+    def _on_state(self, k, data):
+        """Note a vehicle's formation state and which of its graph neighbours it hears."""
+        wire = self.wires[k]
+        got = wire.decode(data)
+        if got is None:
+            try:
+                msg = deserialize_message(data, JointState)
+            except Exception:
+                return self.reject('malformed', f'undecodable formation_state of vehicle {k}')
+            if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
+                return self.reject('malformed', f'a malformed formation_state of vehicle {k}')
+            got = itf.stamp_ns(msg.header.stamp), tuple(msg.position)
+        hears = wire.names[len(itf.STATE_FIELDS):]
+        if hears:
+            heard = np.array(got[1][len(itf.STATE_FIELDS):]) > 0.5
+            self.hearing[k - 1, [int(name.split('_')[1]) - 1 for name in hears]] = heard
+        self._heard('state', k)
+
+    def live_graph(self):
+        """Return the live vehicles (N,) bool and the live links (L, 2), 0-based."""
+        fresh = self.now() - self.heard['state'] <= self.p['stale_timeout']
+        return fresh, graphs.live_edges(self.graph, self.hearing, fresh)
 
     def _on_cmd(self, k, msg):
         u = np.array(itf.input_from_cmd(msg, self.sc.model))
@@ -131,7 +159,9 @@ class MonitorNode(Node):
         self.next_ns = ns + int(round(self.p['period'] * 1e9))
         self.t = (ns - self.t0_ns) * 1e-9
         snap = metrics.snapshot(self.ctrl, self.X, self.U)
-        self.values = snap.values()
+        fresh, live = self.live_graph()
+        self.values = {**snap.values(), 'live_links': float(len(live)),
+                       'algebraic_connectivity': graphs.connectivity(fresh, live)}
         self.metrics_pub.publish(itf.metrics_msg(ns, self.values))
         self.trails[self.samples % len(self.trails)] = position(self.X)
         self.samples += 1
@@ -206,7 +236,9 @@ class MonitorNode(Node):
             centres = self.ctrl.formation.centres(self.ctrl.view(X, self.U[1]))
             target = sc.c0_c if sc.informed else None
         ns = self.t0_ns + int(round(self.t * 1e9))
-        self.markers_pub.publish(markers.fleet_markers(ns, X, ground, trails, centres, target))
+        msg = markers.fleet_markers(ns, X, ground, trails, centres, target)
+        msg.markers.append(markers.link_marker(ns, position(X), self.live_graph()[1]))
+        self.markers_pub.publish(msg)
 
 
 def main(args=None):
