@@ -10,6 +10,7 @@ from formation_control.core.report import series
 import matplotlib
 
 matplotlib.use('Agg')
+from matplotlib.collections import LineCollection  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -24,9 +25,22 @@ def _arrows(ax, d, flow, length):
                   scale=1.0 / length, width=0.005, label='ground velocity')
 
 
+def _links(ax, d, sc):
+    """Draw the communication graph between the final positions; return its segments."""
+    if sc.all_to_all:
+        return np.zeros((0, 2), complex)
+    r = d['x'][-1] + 1j * d['y'][-1]
+    segments = r[sc.comm_graph.edges]
+    ax.add_collection(LineCollection([[(z.real, z.imag) for z in s] for s in segments],
+                                     colors='tab:purple', linewidths=1.2, alpha=0.8, zorder=3,
+                                     label=f'{sc.graph} graph ({len(segments)} links)'))
+    return segments
+
+
 def _trajectories(ax, d, sc):
     ax.plot(d['x'], d['y'], lw=0.8)
     ax.plot(d['x'][0], d['y'][0], 'o', color='0.5', ms=3, label='start')
+    d['links'] = _links(ax, d, sc)
     span = np.ptp(d['x']) + np.ptp(d['y'])
     _arrows(ax, d, sc.flow_c, 0.04 * span)
     ax.legend(loc='upper right', fontsize='small')
@@ -68,7 +82,8 @@ def plot_run(run, path):
     Returns
     -------
     dict
-        The data drawn, :func:`report.series`.
+        The data drawn, :func:`report.series`, and ``links``: the communication graph's
+        links between the final positions, (L, 2) complex (none on the all-to-all graph).
 
     """
     sc = run.sc

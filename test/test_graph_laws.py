@@ -210,3 +210,16 @@ def test_bad_graphs_fail_before_anything_runs(params, message):
 def test_a_graph_is_refused_with_the_reason_it_must_be_undirected():
     with pytest.raises(graphs.GraphError, match='a one-way'):
         graphs.build(4, 'explicit', edges=[1, 2, 2, 1, 2, 3, 3, 4])
+
+
+def test_the_plot_draws_the_communication_graph(tmp_path):
+    from formation_control.plotting import plot_run
+    sc = load(CONFIG / 'particle_circular_ring.yaml', ['duration:=1.0'])
+    run = simulator.simulate(sc)
+    links = plot_run(run, tmp_path / 'ring.png')['links']
+    assert (tmp_path / 'ring.png').stat().st_size > 0
+    assert links.shape == (sc.num_vehicles, 2)
+    r = run.X[-1, 0] + 1j * run.X[-1, 1]
+    np.testing.assert_array_equal(links, r[sc.comm_graph.edges])
+    complete = simulator.simulate(load(CONFIG / 'particle_circular.yaml', ['duration:=0.1']))
+    assert plot_run(complete, tmp_path / 'all.png')['links'].size == 0
