@@ -223,3 +223,17 @@ def test_the_plot_draws_the_communication_graph(tmp_path):
     np.testing.assert_array_equal(links, r[sc.comm_graph.edges])
     complete = simulator.simulate(load(CONFIG / 'particle_circular.yaml', ['duration:=0.1']))
     assert plot_run(complete, tmp_path / 'all.png')['links'].size == 0
+
+
+def test_a_parallel_ring_has_a_stable_twisted_state():
+    """Documented pitfall: phases winding once around a ring of 12 are a stable equilibrium."""
+    n = 12
+    rng = np.random.default_rng(1)
+    theta = 2 * np.pi * np.arange(n) / n + 0.05 * rng.standard_normal(n)
+    sc = resolve(dict(num_vehicles=n, model='second_order', formation='parallel', graph='ring',
+                      duration=60.0, init_theta=theta.tolist()))
+    run = simulator.simulate(sc)
+    final = metrics.snapshot(Controller(sc), run.X[-1], run.U[-1])
+    assert final.order < 1e-2 and final.max_rate < 1e-3      # still, but not synchronised
+    steps = np.angle(np.exp(1j * np.diff(np.append(run.X[-1, 2], run.X[-1, 2, 0]))))
+    np.testing.assert_allclose(steps, 2 * np.pi / n, atol=1e-3)
