@@ -105,8 +105,11 @@ def zero_spans(t, U, k):
 
 
 def test_link_cut_mid_run_and_the_formation_recovers(hosts):
-    """Host 1 (vehicles 1 and 4) is unplugged for 5 s, in real time, before convergence."""
-    sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=30.0')
+    """
+    Host 1 (vehicles 1 and 4) is unplugged for 5 s, in real time, before convergence (seen: their
+    commands stop from 2.2 s to 5.6 s, the six converge at 13.2 s).
+    """
+    sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=24.0')
     cut_host, cut_for = 1, 5.0
     with domains(1) as (did,):
         env = fleet_env(did)
