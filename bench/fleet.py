@@ -18,13 +18,16 @@ Benchmark a fleet as ROS 2 processes (``formation-control swarm``).
 Measured:
 
 - ``rtf``: lockstep real-time factor (simulated s per wall s) at a 50 Hz control rate and
-  500 Hz integration, for N vehicles and M vehicle nodes per process;
+  500 Hz integration, for N vehicles, M vehicle nodes per process and each communication
+  graph (``--graphs complete ring circulant:1,2``: degree d = N - 1, 2, 4), with the message
+  deliveries a step costs, N d + 2 N;
 - ``latency``: real-time mode, from the vehicles' diagnostics (median and p99): odometry handed
   to the node -> command sent (the node's latency), and, at real-time factor 1, odometry stamp
   -> command sent (adds transport, queueing and any lag of the plant behind the wall clock);
 - ``startup``: from starting ``swarm`` until every vehicle has published its first command.
 
     .venv/bin/python bench/fleet.py rtf --sizes 5 16 32 --per-process 1 [--repeat 3]
+    .venv/bin/python bench/fleet.py rtf --sizes 64 --per-process 8 --graphs complete ring
     .venv/bin/python bench/fleet.py latency --sizes 16 --per-process 4 --real-time-factor 0.25
     .venv/bin/python bench/fleet.py startup --sizes 16
 
@@ -48,6 +51,25 @@ BIN = Path(sys.executable).parent
 SCENARIO = 'particle_circular'
 
 
+def graph_params(spec):
+    """Return the ``-p`` arguments of a graph spec: ``complete``, ``ring``, ``circulant:1,2``."""
+    kind, _, offsets = spec.partition(':')
+    out = ['-p', f'graph:={kind}']
+    if offsets:
+        out += ['-p', f'graph_offsets:=[{offsets}]']
+    return out
+
+
+def degree(n, spec):
+    """Return the degree of every vehicle on the graph ``spec`` of n vehicles."""
+    from formation_control.core.scenario import resolve
+    kind, _, offsets = spec.partition(':')
+    params = {'num_vehicles': n, 'graph': kind}
+    if offsets:
+        params['graph_offsets'] = [int(d) for d in offsets.split(',')]
+    return int(resolve(params).comm_graph.degrees().max())
+
+
 def swarm(n, *args, domain, timeout=900):
     """Run swarm; returns (summary dict, wall seconds from start, start time.time())."""
     summary = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'summary.json'
@@ -65,18 +87,21 @@ def swarm(n, *args, domain, timeout=900):
 def rtf(args):
     print(f'# lockstep, {SCENARIO}, dt_control 0.02 s, dt_integration 0.002 s, '
           f'{os.cpu_count()} cores, median of {args.repeat}')
-    print(f"{'N':>4s} {'per process':>11s} {'RTF':>7s} {'ms/step':>8s} {'deliveries/step':>16s}"
-          f" {'us/delivery':>12s}")
+    print(f"{'N':>4s} {'graph':>14s} {'d':>4s} {'per process':>11s} {'RTF':>7s} {'ms/step':>8s}"
+          f" {'deliveries/step':>16s} {'us/delivery':>12s}")
     for n in args.sizes:
-        for m in args.per_process:
-            runs = [swarm(n, '--duration', args.duration, '--no-monitor',
-                          '--vehicles-per-process', m, domain=args.domain)[0]['real_time_factor']
-                    for _ in range(args.repeat)]
-            factor = statistics.median(runs)
-            step_ms = 20.0 / factor
-            deliveries = n * (n - 1) + 2 * n
-            print(f'{n:4d} {m:11d} {factor:7.3f} {step_ms:8.2f} {deliveries:16d} '
-                  f'{1e3 * step_ms / deliveries:12.1f}', flush=True)
+        for spec in args.graphs:
+            d = degree(n, spec)
+            for m in args.per_process:
+                runs = [swarm(n, '--duration', args.duration, '--no-monitor',
+                              '--vehicles-per-process', m, *graph_params(spec),
+                              domain=args.domain)[0]['real_time_factor']
+                        for _ in range(args.repeat)]
+                factor = statistics.median(runs)
+                step_ms = 20.0 / factor
+                deliveries = n * d + 2 * n
+                print(f'{n:4d} {spec:>14s} {d:4d} {m:11d} {factor:7.3f} {step_ms:8.2f} '
+                      f'{deliveries:16d} {1e3 * step_ms / deliveries:12.1f}', flush=True)
 
 
 def latency(args):
@@ -92,10 +117,10 @@ def latency(args):
                     runs[name].append(figures)
         for name, figures in runs.items():
             for p50, p99, worst in figures:
-                print(f'N={n}, {args.per_process[0]} per process, {name}: median {p50:.2f}, '
+                print(f'N={n}, {args.graphs[0]}, {args.per_process[0]} per process, {name}: median {p50:.2f}, '
                       f'p99 {p99:.2f}, worst p99 {worst:.2f}')
             p50, p99, worst = np.median(figures, axis=0)
-            print(f'N={n}, {args.per_process[0]} per process, {name}, median of '
+            print(f'N={n}, {args.graphs[0]}, {args.per_process[0]} per process, {name}, median of '
                   f'{len(figures)} runs: median {p50:.2f} ms, p99 {p99:.2f} ms, worst p99 '
                   f'{worst:.2f} ms', flush=True)
 
@@ -105,7 +130,7 @@ def _latency_run(n, args):
     from formation_control.bagfile import diagnostics
     bag = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'bag'
     swarm(n, '--mode', 'realtime', '--duration', args.duration, '--bag', bag,
-          '--real-time-factor', args.real_time_factor,
+          '--real-time-factor', args.real_time_factor, *graph_params(args.graphs[0]),
           '--no-monitor', '--vehicles-per-process', args.per_process[0], domain=args.domain)
     last = {}
     for _, statuses in diagnostics(bag):
@@ -147,6 +172,9 @@ def main():
     parser.add_argument('what', choices=('rtf', 'latency', 'startup'))
     parser.add_argument('--sizes', type=int, nargs='+', default=[5, 16, 32])
     parser.add_argument('--per-process', type=int, nargs='+', default=[1])
+    parser.add_argument('--graphs', nargs='+', default=['complete'],
+                        help='communication graphs: complete, ring, circulant:1,2 '
+                             '(latency: the first)')
     parser.add_argument('--duration', type=float, default=10.0)
     parser.add_argument('--repeat', type=int, default=3)
     parser.add_argument('--real-time-factor', type=float, default=1.0)

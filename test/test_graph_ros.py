@@ -33,19 +33,16 @@ def _assert_equal_runs(fleet, offline):
     np.testing.assert_allclose(fleet.U, offline.U, rtol=0, atol=1e-6)
 
 
-def test_a_ring_vehicle_process_subscribes_to_its_two_neighbours_only(ros):
-    cfg = CONFIG / 'particle_circular_ring.yaml'
-    ros.procs.start('vehicle', '--ros-args', '--params-file', cfg, '-p', 'vehicle_id:=1')
-    node = ros.probe.node
-
-    def states():
-        try:
-            topics = node.get_subscriber_names_and_types_by_node('vehicle_1', '/')
-        except Exception:                        # not discovered yet
-            return None
-        return sorted(t for t, _ in topics if t.endswith('/formation_state'))
-    assert ros.probe.spin_until(lambda: states() is not None and len(states()) >= 2, 30)
-    assert states() == ['/vehicle_12/formation_state', '/vehicle_2/formation_state']
+def test_a_ring_vehicle_subscribes_to_its_two_neighbours_states_only(nodes):
+    """What the ROS graph shows of vehicle 1 of a ring of 12: two formation-state readers."""
+    nodes.vehicle(1, CONFIG / 'particle_circular_ring.yaml')
+    topics = nodes.node.get_subscriber_names_and_types_by_node('vehicle_1', '/')
+    states = sorted(t for t, _ in topics if t.endswith('/formation_state'))
+    assert states == ['/vehicle_12/formation_state', '/vehicle_2/formation_state']
+    everyone = nodes.vehicle(2, CONFIG / 'particle_circular.yaml')      # all-to-all: 15
+    topics = nodes.node.get_subscriber_names_and_types_by_node('vehicle_2', '/')
+    assert everyone.sc.num_vehicles == 16
+    assert len([t for t, _ in topics if t.endswith('/formation_state')]) == 15
 
 
 @pytest.mark.parametrize('name, overrides', [

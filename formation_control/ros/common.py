@@ -14,6 +14,7 @@
 
 """What every node of the package does alike: wall time, dropped input, diagnostics."""
 import collections
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from formation_control.ros import interface as itf
@@ -25,13 +26,15 @@ def wall_clock():
     """
     Return the steady wall clock of this process, for timers, and a reader in seconds.
 
+    The reader is :func:`time.monotonic`, the clock rclpy's steady time reads (CLOCK_MONOTONIC),
+    without building a Time object per call.
+
     Returns
     -------
     (rclpy.clock.Clock, callable)
 
     """
-    clock = Clock(clock_type=ClockType.STEADY_TIME)
-    return clock, lambda: clock.now().nanoseconds * 1e-9
+    return Clock(clock_type=ClockType.STEADY_TIME), time.monotonic
 
 
 class Rejections:

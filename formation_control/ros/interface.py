@@ -39,6 +39,7 @@ Every stamp is the time of the state it carries; in lockstep it names the step.
 """
 import copy
 import math
+from operator import attrgetter
 import struct
 
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position,
@@ -48,6 +49,7 @@ from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
@@ -141,32 +143,78 @@ def set_stamp(header, ns):
     header.stamp.sec, header.stamp.nanosec = divmod(int(ns), 1_000_000_000)
 
 
+ODOM_FIELDS = ('pose.pose.position.x', 'pose.pose.position.y', 'pose.pose.orientation.z',
+               'pose.pose.orientation.w', 'twist.twist.linear.x', 'twist.twist.linear.y',
+               'twist.twist.angular.z')
+"""The fields of an Odometry the package writes (the others stay zero)."""
+CMD_FIELDS = ('wrench.force.x', 'wrench.force.y', 'wrench.torque.z')
+"""The fields of a WrenchStamped command (the others stay zero)."""
+
+
+def _get(msg, fields):
+    return tuple(attrgetter(name)(msg) for name in fields)
+
+
+def _set(msg, fields, values):
+    for name, value in zip(fields, values):
+        owner, _, attr = name.rpartition('.')
+        setattr(attrgetter(owner)(msg), attr, float(value))
+    return msg
+
+
+def odom_values(X, flow):
+    """
+    Return the :data:`ODOM_FIELDS` of a vehicle's state column X (6,) in a flow (m/s).
+
+    Position, the quaternion of the heading, the ground velocity in the body frame, yaw rate.
+    """
+    theta = float(X[ROW_THETA])
+    r = complex(position(X))
+    body = complex(ground_velocity(X, flow)) * complex(math.cos(theta), -math.sin(theta))
+    return (r.real, r.imag, math.sin(0.5 * theta), math.cos(0.5 * theta), body.real,
+            body.imag, float(X[ROW_OMEGA]))
+
+
+def state_from_odom_values(values, flow, model):
+    """Return the state column (6,) of a vehicle from its :data:`ODOM_FIELDS` and the flow."""
+    x, y, qz, qw, vx, vy, yaw_rate = values
+    theta = 2.0 * math.atan2(qz, qw)
+    rel = complex(vx, vy) - flow * complex(math.cos(theta), -math.sin(theta))
+    if model in PARTICLE_MODELS:
+        rel = 1.0 + 0j
+    return np.array([x, y, theta, yaw_rate, rel.real, rel.imag])
+
+
+def cmd_values(u, model):
+    """Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,)."""
+    if model in PARTICLE_MODELS:
+        return 0.0, 0.0, float(u[1])
+    return float(u[0]), float(u[1]), 0.0
+
+
+def input_from_cmd_values(values, model):
+    """Return the input column (2,) of the :data:`CMD_FIELDS` of a command."""
+    fx, fy, tz = values
+    return (0.0, tz) if model in PARTICLE_MODELS else (fx, fy)
+
+
 def odom_msg(k, ns, X, flow):
     """Odometry of vehicle k from its state column X (6,): ground velocity in the body frame."""
     msg = Odometry()
     set_stamp(msg.header, ns)
     msg.header.frame_id = MAP_FRAME
     msg.child_frame_id = base_link(k)
-    theta = float(X[ROW_THETA])
-    r = complex(position(X))
-    msg.pose.pose.position.x, msg.pose.pose.position.y = r.real, r.imag
-    yaw_quaternion(msg.pose.pose.orientation, theta)
-    body = complex(ground_velocity(X, flow)) * complex(math.cos(theta), -math.sin(theta))
-    msg.twist.twist.linear.x, msg.twist.twist.linear.y = body.real, body.imag
-    msg.twist.twist.angular.z = float(X[ROW_OMEGA])
-    return msg
+    return _set(msg, ODOM_FIELDS, odom_values(X, flow))
+
+
+def odom_values_of(msg):
+    """Return the :data:`ODOM_FIELDS` of an Odometry."""
+    return _get(msg, ODOM_FIELDS)
 
 
 def state_from_odom(msg, flow, model):
     """Return the state column (6,) of a vehicle from its Odometry and the flow it measures."""
-    q = msg.pose.pose.orientation
-    theta = 2.0 * math.atan2(q.z, q.w)
-    tw = msg.twist.twist
-    rel = complex(tw.linear.x, tw.linear.y) - flow * complex(math.cos(theta), -math.sin(theta))
-    if model in PARTICLE_MODELS:
-        rel = 1.0 + 0j
-    p = msg.pose.pose.position
-    return np.array([p.x, p.y, theta, tw.angular.z, rel.real, rel.imag])
+    return state_from_odom_values(odom_values_of(msg), flow, model)
 
 
 def flow_msg(k, ns, flow):
@@ -182,18 +230,68 @@ def cmd_msg(k, ns, u, model):
     msg = WrenchStamped()
     set_stamp(msg.header, ns)
     msg.header.frame_id = base_link(k)
-    if model in PARTICLE_MODELS:
-        msg.wrench.torque.z = float(u[1])
-    else:
-        msg.wrench.force.x, msg.wrench.force.y = float(u[0]), float(u[1])
-    return msg
+    return _set(msg, CMD_FIELDS, cmd_values(u, model))
 
 
 def input_from_cmd(msg, model):
-    w = msg.wrench
-    if model in PARTICLE_MODELS:
-        return 0.0, w.torque.z
-    return w.force.x, w.force.y
+    """Return the input column (2,) of a WrenchStamped command."""
+    return input_from_cmd_values(_get(msg, CMD_FIELDS), model)
+
+
+def odom_wire(k):
+    """Return the :class:`MessageWire` of vehicle k's odometry (:data:`ODOM_FIELDS`)."""
+    msg = Odometry()
+    msg.header.frame_id, msg.child_frame_id = MAP_FRAME, base_link(k)
+    return MessageWire(msg, ODOM_FIELDS)
+
+
+def cmd_wire(k):
+    """Return the :class:`MessageWire` of vehicle k's command (:data:`CMD_FIELDS`)."""
+    msg = WrenchStamped()
+    msg.header.frame_id = base_link(k)
+    return MessageWire(msg, CMD_FIELDS)
+
+
+class MessageWire:
+    """
+    A stamped message of fixed layout as CDR bytes, its stamp and float64 ``fields`` in place.
+
+    The plant sends N odometries and hears N commands each step, the vehicles the reverse:
+    writing and reading them as bytes skips building message objects. The byte offsets of the
+    fields are found by serializing ``msg`` with a distinct value in each. ``decode`` returns
+    None for bytes whose other content (frame ids, the zero fields) differs from ``msg``'s,
+    which the caller then deserializes and checks as a message.
+    """
+
+    def __init__(self, msg, fields):
+        marked = copy.deepcopy(msg)
+        marks = [(i + 1) * 1.2345678901234567e-250 for i in range(len(fields))]
+        data = serialize_message(_set(marked, fields, marks))
+        self.offsets = [data.find(struct.pack('<d', v)) for v in marks]
+        if min(self.offsets) < 12 or any(data.count(struct.pack('<d', v)) != 1 for v in marks):
+            raise ValueError(f'cannot locate the fields {fields} in {type(msg).__name__}')
+        self.template = serialize_message(_set(copy.deepcopy(msg), fields, [0.0] * len(fields)))
+        cuts = sorted([(4, 12)] + [(o, o + 8) for o in self.offsets])
+        ends = [0] + [b for _, b in cuts]
+        self.constant = [(a, c) for a, (c, _) in zip(ends, cuts + [(len(self.template), 0)])
+                         if c > a]
+
+    def encode(self, ns, values):
+        """Return the bytes of the message stamped ``ns`` (ns) with the field ``values``."""
+        buf = bytearray(self.template)
+        struct.pack_into('<iI', buf, 4, *divmod(ns, 1_000_000_000))
+        for offset, value in zip(self.offsets, values):
+            struct.pack_into('<d', buf, offset, value)
+        return bytes(buf)
+
+    def decode(self, data):
+        """Return (stamp in ns, field values) of bytes in this layout, else None."""
+        if len(data) != len(self.template) or any(
+                data[a:b] != self.template[a:b] for a, b in self.constant):
+            return None
+        sec, nanosec = struct.unpack_from('<iI', data, 4)
+        return (sec * 1_000_000_000 + nanosec,
+                tuple(struct.unpack_from('<d', data, o)[0] for o in self.offsets))
 
 
 def state_msg(k, ns, X, view_row, hears=(), hearing=()):

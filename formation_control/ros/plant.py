@@ -43,6 +43,7 @@ from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, String
 
@@ -86,8 +87,11 @@ class PlantNode(Node):
         sc, ids = self.sc, range(1, self.sc.num_vehicles + 1)
         self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'),
                                                 **itf.state_qos_kwargs()) for k in ids]
+        self.odom_wires = [itf.odom_wire(k) for k in ids]
+        self.cmd_wires = [itf.cmd_wire(k) for k in ids]
         self.cmd_subs = [self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
-                                                  lambda msg, k=k: self._on_cmd(k, msg),
+                                                  lambda data, k=k: self._on_cmd(k, data),
+                                                  raw=True,
                                                   **itf.state_qos_kwargs()) for k in ids]
         for k in ids:
             flow_pub = self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
@@ -148,16 +152,24 @@ class PlantNode(Node):
     def _publish_odom(self, which, ns):
         X = self.fleet.X
         for i in np.flatnonzero(which & ~self.fleet.stopped):
-            self.odom_pubs[i].publish(itf.odom_msg(i + 1, ns, X[:, i], self.sc.flow_c))
+            values = itf.odom_values(X[:, i], self.sc.flow_c)
+            self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
-    def _on_cmd(self, k, msg):
-        u = itf.input_from_cmd(msg, self.sc.model)
+    def _on_cmd(self, k, data):
+        """Take vehicle k's command bytes, read in place in the canonical layout."""
+        got = self.cmd_wires[k - 1].decode(data)
+        if got is None:
+            msg = deserialize_message(data, WrenchStamped)
+            if msg.header.frame_id != itf.base_link(k):
+                return self.reject('wrong_frame', f"a command on vehicle {k}'s topic in frame "
+                                   f'{msg.header.frame_id!r}')
+            got = itf.stamp_ns(msg.header.stamp), itf.input_from_cmd(msg, self.sc.model)
+        else:
+            got = got[0], itf.input_from_cmd_values(got[1], self.sc.model)
+        ns, u = got
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')
-        if msg.header.frame_id != itf.base_link(k):
-            return self.reject('wrong_frame', f"a command on vehicle {k}'s topic in frame "
-                               f'{msg.header.frame_id!r}')
-        kind = self.gate.command(k - 1, itf.stamp_ns(msg.header.stamp))
+        kind = self.gate.command(k - 1, ns)
         if kind == lockstep.REPEATED:
             return
         if kind == lockstep.STALE:

@@ -101,7 +101,9 @@ class VehicleNode(Node):
         self.state_pub = self.create_publisher(JointState, itf.topic(k, 'formation_state'),
                                                **qos())
         self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(k, 'cmd'), **qos())
-        self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, **qos())
+        self.odom_wire, self.cmd_wire = itf.odom_wire(k), itf.cmd_wire(k)
+        self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, raw=True,
+                                 **qos())
         self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
                                  itf.LATCHED_QOS)
         for j in self.neighbours:
@@ -122,15 +124,26 @@ class VehicleNode(Node):
             return self.reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
         self.flow = flow
 
-    def _on_odom(self, msg):
-        self.odom_in = time.perf_counter_ns()
+    def _odometry(self, data):
+        """(stamp, ODOM_FIELDS) of odometry bytes, or None once rejected."""
+        got = self.odom_wire.decode(data)
+        if got is not None:
+            return got
+        msg = deserialize_message(data, Odometry)
         if (msg.header.frame_id, msg.child_frame_id) != (itf.MAP_FRAME, itf.base_link(self.k)):
             return self.reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
                                f' -> {msg.child_frame_id!r}')
-        X = itf.state_from_odom(msg, self.flow, self.sc.model)
+        return itf.stamp_ns(msg.header.stamp), itf.odom_values_of(msg)
+
+    def _on_odom(self, data):
+        self.odom_in = time.perf_counter_ns()
+        got = self._odometry(data)
+        if got is None:
+            return
+        ns, values = got
+        X = itf.state_from_odom_values(values, self.flow, self.sc.model)
         if not np.all(np.isfinite(X)):
             return self.reject('non_finite', 'a non-finite odometry')
-        ns = itf.stamp_ns(msg.header.stamp)
         kind = self.known.odometry(ns)
         if kind == lockstep.STALE:
             return self.reject('stale', f'an odometry stamped {ns * 1e-9:.3f} s, older than '
@@ -207,7 +220,7 @@ class VehicleNode(Node):
         if self.known.commanded_ns < 0:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.known.commanded()
-        self.last_cmd = itf.cmd_msg(self.k, ns, u, self.sc.model)
+        self.last_cmd = self.cmd_wire.encode(ns, itf.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
             self.latency.add(time.perf_counter_ns() - self.odom_in,
