@@ -1,3 +1,17 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 import os
 from pathlib import Path
 from types import SimpleNamespace
@@ -17,7 +31,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
 @pytest.fixture
 def ros(monkeypatch):
-    """A private ROS_DOMAIN_ID, the processes the test starts, and a probe node."""
+    """Give the test a private ROS_DOMAIN_ID, the processes it starts and a probe node."""
     from rosutil import domains, Probe, Processes, ros_environment, shm_clean
     with domains() as (did,):
         env = ros_environment(did)
@@ -35,9 +49,11 @@ def ros(monkeypatch):
 @pytest.fixture
 def nodes():
     """
-    In-process nodes on a private ROS_DOMAIN_ID: ``nodes.plant(...)``, ``nodes.vehicle(k,
-    ...)``, ``nodes.monitor(...)`` with the probe's ``collect`` and ``spin_until``; every node is
-    destroyed and the context shut down at teardown.
+    Give the test in-process nodes on a private ROS_DOMAIN_ID.
+
+    ``nodes.plant(...)``, ``nodes.vehicle(k, ...)``, ``nodes.monitor(...)``, with the probe's
+    ``collect`` and ``spin_until``; every node is destroyed and the context shut down at
+    teardown.
     """
     from rosutil import domains, Nodes
     with domains() as (did,):

@@ -1,7 +1,23 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Several hosts on one machine: a network namespace per host, each joined by a veth pair to a
-bridge in a switch namespace. The test subnet exists only inside the namespaces; deleting
-them (always, also when a test fails) removes every link and address made here.
+Several hosts on one machine, for the multi-host tests.
+
+A network namespace per host, each joined by a veth pair to a bridge in a switch namespace.
+The test subnet exists only inside the namespaces; deleting them (always, also when a test
+fails) removes every link and address made here.
 """
 import os
 import re
@@ -90,7 +106,7 @@ class Hosts:
         return f'{SUBNET}.{i + 1}'
 
     def prefix(self, i):
-        """The command prefix that runs a program on host ``i``."""
+        """Return the command prefix that runs a program on host ``i``."""
         return ['ip', 'netns', 'exec', self.names[i]]
 
     def link(self, i, up):
@@ -98,7 +114,7 @@ class Hosts:
         ip('link', 'set', self.port(i), 'up' if up else 'down', ns=self.switch)
 
     def multicast(self, enabled):
-        """Make the switch forward multicast (how DDS discovers by default) or drop it."""
+        """Make the switch forward the multicast packets DDS discovers with, or drop them."""
         for i in range(len(self.names)):
             done = subprocess.run(['bridge', '-n', self.switch, 'link', 'set', 'dev', self.port(i),
                                    'mcast_flood', 'on' if enabled else 'off'],

@@ -1,4 +1,18 @@
-"""Test harness for real ROS 2 processes: a private domain, probe nodes, clean shutdown."""
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""Test harness for ROS 2 nodes: a private domain, processes, in-process nodes, probes."""
 import contextlib
 import os
 from pathlib import Path
@@ -7,13 +21,12 @@ import sys
 import tempfile
 import time
 
+from formation_control.swarm import stop
 from rcl_interfaces.msg import Log
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-from formation_control.swarm import stop
 
 BIN = Path(sys.executable).parent
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
@@ -88,8 +101,12 @@ class Probe:
         return True
 
     def spin_for(self, seconds):
-        """Spin ``seconds``: only where the property is a span of time (a silence longer than a
-        timeout), never to wait for something to happen (``spin_until`` that)."""
+        """
+        Spin for ``seconds``.
+
+        Only where the property is a span of time (a silence longer than a timeout), never to
+        wait for something to happen (``spin_until`` that).
+        """
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=min(0.05, max(0.0, end - time.monotonic())))
@@ -106,8 +123,7 @@ class Probe:
 
 
 def node_args(path=None, *params):
-    """The ``--ros-args`` of a node: a parameter file and ``-p`` overrides, as on the command
-    line of its executable."""
+    """Return a node's ``--ros-args``: a parameter file and ``-p`` overrides, as given to it."""
     out = ['--ros-args']
     if path is not None:
         out += ['--params-file', str(path)]
@@ -123,9 +139,10 @@ ROSOUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
 
 class Nodes(Probe):
     """
-    The package's nodes built in this process, on the probe's context (one DDS participant, so
-    no discovery between processes to wait for) and spun by one events executor, as ``runner``
-    spins the nodes of an executable. Their log lines are collected from ``/rosout``.
+    The package's nodes built in this process, on the probe's context.
+
+    One DDS participant (no discovery between processes to wait for), one events executor, as
+    ``runner`` spins the nodes of an executable. Their log lines are collected from ``/rosout``.
     """
 
     def __init__(self, domain_id):
@@ -157,10 +174,11 @@ class Nodes(Probe):
 
     def remove(self, node):
         """
-        Silence ``node``: out of the executor, it hears and says nothing more, as a process
-        that stopped. It is destroyed when a node of the same name is added (the events
-        executor may still hold events of the node just removed: destroyed now, their callbacks
-        would fail) or at teardown.
+        Silence ``node``: out of the executor, it hears and says nothing more.
+
+        As a process that stopped. It is destroyed when a node of the same name is added (the
+        events executor may still hold events of the node just removed: destroyed now, their
+        callbacks would fail) or at teardown.
         """
         self.executor.remove_node(node)
         self.nodes.remove(node)
@@ -197,8 +215,10 @@ def ros_environment(domain_id):
 @contextlib.contextmanager
 def domains(count=1):
     """
-    ``count`` ROS_DOMAIN_IDs reserved for the block. domain_coordinator's own context swallows
-    an OSError (TimeoutError, FileNotFoundError ...) raised in its block; it is carried past.
+    Reserve ``count`` ROS_DOMAIN_IDs for the block.
+
+    domain_coordinator's own context swallows an OSError (TimeoutError, FileNotFoundError ...)
+    raised in its block; it is carried past.
     """
     from domain_coordinator import domain_id
     error = None

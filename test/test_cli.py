@@ -1,6 +1,21 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-The ``formation-control`` console script run as a real subprocess on short scenarios: its
-printed figures, the .npz / .png / .json it writes, and exit code 2 for a bad scenario.
+The ``formation-control`` console script, run as a real subprocess on short scenarios.
+
+Its printed figures, the .npz / .png / .json it writes, and exit code 2 for a bad scenario.
 """
 import json
 import os
@@ -9,10 +24,9 @@ import struct
 import subprocess
 import sys
 
+from formation_control.core.scenario import initial_state, load, resolve
 import numpy as np
 import pytest
-
-from formation_control.core.scenario import initial_state, load, resolve
 
 CLI = Path(sys.executable).parent / 'formation-control'
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
@@ -37,7 +51,7 @@ def run_cli(cwd, *args, ament=True):
 
 
 def _printed_figures(stdout):
-    """The report rows: name -> (final, predicted or None)."""
+    """Return the report rows: name -> (final, predicted or None)."""
     figures = {}
     for line in stdout.splitlines():
         words = line.split()

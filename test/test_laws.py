@@ -1,11 +1,24 @@
-"""
-Every steering law re-derived in tests: the analytic dphi/dt against a finite difference along
-closed-loop trajectories, composite Lyapunov functions that never increase, the flow transforms
-(5.1)/(5.4), and the O(N) sums serving one vehicle as well as the fleet.
-"""
-import numpy as np
-import pytest
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
+"""
+Every steering law re-derived in tests.
+
+The analytic dphi/dt against a finite difference along closed-loop trajectories, composite
+Lyapunov functions that never increase, the flow transforms (5.1)/(5.4), and the O(N) sums
+serving one vehicle as well as the fleet.
+"""
 from formation_control.core import laws
 from formation_control.core.control import (body_accel_from_inertial, Controller,
                                             particle_speed_terms)
@@ -13,23 +26,26 @@ from formation_control.core.models import (deriv, integrate, Plant, rk4_step, RO
                                            ROW_THETA)
 from formation_control.core.scenario import initial_state, resolve, Scenario
 from formation_control.core.simulator import Stepper
+import numpy as np
+import pytest
 
 H = 1e-4
 
 PARTICLE_CASES = [
-    dict(formation='parallel'),
-    dict(formation='circular'),
-    dict(formation='circular', omega0=-0.7),
-    dict(formation='circular', informed=[1, 3], c0=[1.0, -2.0]),
-    dict(formation='parallel', flow=[0.5, 0.0]),
-    dict(formation='circular', flow=[0.5, 0.0]),
-    dict(formation='circular', flow=[-0.3, 0.4], omega0=0.8, informed=[2], c0=[0.5, 0.5]),
+    {'formation': 'parallel'},
+    {'formation': 'circular'},
+    {'formation': 'circular', 'omega0': -0.7},
+    {'formation': 'circular', 'informed': [1, 3], 'c0': [1.0, -2.0]},
+    {'formation': 'parallel', 'flow': [0.5, 0.0]},
+    {'formation': 'circular', 'flow': [0.5, 0.0]},
+    {'formation': 'circular', 'flow': [-0.3, 0.4], 'omega0': 0.8, 'informed': [2],
+     'c0': [0.5, 0.5]},
 ]
 
 
 def _scenario(**kw):
-    params = dict(num_vehicles=6, model='second_order', controller='backstepping', seed=3,
-                  duration=20.0)
+    params = {'num_vehicles': 6, 'model': 'second_order', 'controller': 'backstepping', 'seed': 3,
+              'duration': 20.0}
     params.update(kw)
     return resolve(params)
 
@@ -64,18 +80,20 @@ def test_phi_dot_matches_finite_difference_particles(case):
 
 
 RIGID_CASES = [
-    dict(model='rigid', formation='parallel'),
-    dict(model='rigid', formation='parallel', flow=[0.5, 0.0], law_variant='full', kappa=2.0),
-    dict(model='rigid', formation='circular', law_variant='full', kappa=2.0),
-    dict(model='rigid_couple', formation='circular', flow=[0.3, 0.2], controller='pi',
-         omega0=0.8, informed=[1], c0=[0.0, 0.0]),
-    dict(model='rigid_cop', formation='circular', law_variant='full', l1=0.2, kappa=2.0),
+    {'model': 'rigid', 'formation': 'parallel'},
+    {'model': 'rigid', 'formation': 'parallel', 'flow': [0.5, 0.0], 'law_variant': 'full',
+     'kappa': 2.0},
+    {'model': 'rigid', 'formation': 'circular', 'law_variant': 'full', 'kappa': 2.0},
+    {'model': 'rigid_couple', 'formation': 'circular', 'flow': [0.3, 0.2], 'controller': 'pi',
+     'omega0': 0.8, 'informed': [1], 'c0': [0.0, 0.0]},
+    {'model': 'rigid_cop', 'formation': 'circular', 'law_variant': 'full', 'l1': 0.2,
+     'kappa': 2.0},
 ]
 
 
 @pytest.mark.parametrize('case', RIGID_CASES, ids=str)
 def test_phi_dot_matches_finite_difference_rigid(case):
-    sc = resolve(dict(num_vehicles=5, seed=4, **case))
+    sc = resolve({'num_vehicles': 5, 'seed': 4, **case})
     ctrl = Controller(sc)
     for X, U in _trajectory_states(sc):
         def phi_at(Xs):
@@ -109,9 +127,9 @@ def test_composite_lyapunov_never_increases_backstepping(case):
 @pytest.mark.parametrize('formation', ['parallel', 'circular'])
 @pytest.mark.parametrize('flow', [[0.0, 0.0], [0.4, -0.2]])
 def test_potential_never_increases_first_order(formation, flow):
-    sc = resolve(dict(num_vehicles=8, model='first_order', controller='first_order',
-                      formation=formation, flow=flow, seed=2, dt_control=0.002,
-                      dt_integration=0.002, duration=8.0))
+    sc = resolve({'num_vehicles': 8, 'model': 'first_order', 'controller': 'first_order',
+                  'formation': formation, 'flow': flow, 'seed': 2, 'dt_control': 0.002,
+                  'dt_integration': 0.002, 'duration': 8.0})
     st = Stepper(sc)
     v = []
     for _ in range(4000):
@@ -125,18 +143,18 @@ def test_potential_never_increases_first_order(formation, flow):
 @pytest.mark.parametrize('model', ['rigid', 'rigid_cop'])
 def test_rigid_parallel_lyapunov_exact(model):
     """(7.3) with (3.7), and (A.20) with the drag moment cancelled, give omega' = a exactly."""
-    sc = resolve(dict(num_vehicles=5, model=model, formation='parallel', l1=0.2, seed=5,
-                      dt_control=0.002, dt_integration=0.002, duration=8.0))
+    sc = resolve({'num_vehicles': 5, 'model': model, 'formation': 'parallel', 'l1': 0.2, 'seed': 5,
+                  'dt_control': 0.002, 'dt_integration': 0.002, 'duration': 8.0})
     v = _lyapunov_series(sc)
     assert v[-1] < 0.5 * v[0]
     assert np.max(np.diff(v)) <= 1e-6 * v[0]
 
 
 def test_drag_moment_uncancelled_breaks_lyapunov():
-    sc = resolve(dict(num_vehicles=5, model='rigid_cop', formation='parallel', l1=0.3,
-                      cancel_drag_moment=False, seed=5, dt_control=0.002,
-                      dt_integration=0.002, duration=8.0,
-                      init_v=[0.5, -0.5, 0.3, -0.2, 0.4]))
+    sc = resolve({'num_vehicles': 5, 'model': 'rigid_cop', 'formation': 'parallel', 'l1': 0.3,
+                  'cancel_drag_moment': False, 'seed': 5, 'dt_control': 0.002,
+                  'dt_integration': 0.002, 'duration': 8.0,
+                  'init_v': [0.5, -0.5, 0.3, -0.2, 0.4]})
     assert np.max(np.diff(_lyapunov_series(sc))) > 1e-4
 
 
@@ -213,7 +231,7 @@ def test_one_vehicle_command_equals_fleet_command(case):
 @pytest.mark.parametrize('formation', ['parallel', 'circular'])
 def test_fleet_sums_need_no_pairwise_matrix(formation):
     """At N = 200 000 an N x N array would need 320 GB: the O(N) sums must still run."""
-    sc = resolve(dict(num_vehicles=200_000, formation=formation, flow=[0.2, 0.1]))
+    sc = resolve({'num_vehicles': 200_000, 'formation': formation, 'flow': [0.2, 0.1]})
     ctrl = Controller(sc)
     X = initial_state(sc)
     U = ctrl.command(ctrl.view(X), X)

@@ -1,6 +1,22 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Seeing a run: the monitor's metrics, diagnostics and markers, a recorded bag (its metadata as
-Jazzy's rosbag2 reads it), and plot / report from the bag and from the plant's .npz.
+Seeing a run: the monitor's metrics, diagnostics and markers, a bag, plots and reports.
+
+A recorded bag (its metadata as Jazzy's rosbag2 reads it), and plot / report from the bag and
+from the plant's .npz.
 """
 import itertools
 import json
@@ -10,20 +26,19 @@ import subprocess
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-import numpy as np
-from nav_msgs.msg import Odometry
-import pytest
-from sensor_msgs.msg import JointState
-from std_msgs.msg import String
-from visualization_msgs.msg import Marker, MarkerArray
-import yaml
-
 from formation_control import bagfile
 from formation_control.cli import load_source
 from formation_control.core import metrics, report, scenario
 from formation_control.core.control import Controller
 from formation_control.ros import interface as itf
+from nav_msgs.msg import Odometry
+import numpy as np
+import pytest
 from rosutil import BIN, CONFIG, domains, interrupt, ros_environment, shm_clean
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+import yaml
 
 SCENARIO = 'rigid_parallel_flow'
 DURATION = 9.0

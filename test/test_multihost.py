@@ -1,9 +1,24 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-The fleet across hosts: the plant on one network namespace, the vehicles spread over three
-others, discovery over the private test subnet (``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET``).
-Fast DDS would carry data between processes of one machine through shared memory, which
-namespaces do not separate; ``FASTDDS_BUILTIN_TRANSPORTS=UDPv4`` keeps every byte on the
-(cuttable) network, as between real computers.
+The fleet across hosts: the plant on one network namespace, the vehicles over three others.
+
+Discovery over the private test subnet (``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET``). Fast DDS
+would carry data between processes of one machine through shared memory, which namespaces do
+not separate; ``FASTDDS_BUILTIN_TRANSPORTS=UDPv4`` keeps every byte on the (cuttable) network,
+as between real computers.
 """
 import os
 from pathlib import Path
@@ -12,12 +27,11 @@ import sys
 import threading
 import time
 
+from formation_control.core import scenario, simulator
+from formation_control.swarm import run_swarm, stop, Swarm, wait_plant
+from hosts import Hosts, HostsUnavailable
 import numpy as np
 import pytest
-
-from formation_control.core import scenario, simulator
-from formation_control.swarm import Swarm, run_swarm, stop, wait_plant
-from hosts import Hosts, HostsUnavailable
 from rosutil import CONFIG, domains, shm_clean
 
 VEHICLE_HOSTS = 3
@@ -44,7 +58,7 @@ def fleet_env(did, **extra):
 
 
 def host_of(name):
-    """The plant and monitor on host 0; vehicle k on host 1 + (k - 1) mod 3."""
+    """Place the plant and monitor on host 0, vehicle k on host 1 + (k - 1) mod 3."""
     if name.startswith('vehicle_'):
         return 1 + (int(name.split('_')[1]) - 1) % VEHICLE_HOSTS
     assert name in ('plant', 'monitor'), name
@@ -70,8 +84,11 @@ def dropped_lines(logs):
 
 
 def test_fleet_across_hosts_equals_the_offline_run(hosts):
-    """Lockstep equals the offline run from the first step: 4 s show it (the fleet across
-    hosts converges in the link-cut test)."""
+    """
+    Lockstep across hosts equals the offline run.
+
+    From the first step: 4 s show it (the fleet across hosts converges in the link-cut test).
+    """
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=4.0')
     with domains(1) as (did,):
         try:
@@ -94,8 +111,10 @@ def first_commands(swarm, n, timeout):
 
 def zero_spans(t, U, k):
     """
-    The (start, end) times of the runs of exactly zero command of vehicle ``k`` after its first
-    command (before it, the real-time plant runs while discovery across hosts goes on: 3 s seen).
+    Return the (start, end) times of the runs of exactly zero command of vehicle ``k``.
+
+    After its first command (before it, the real-time plant runs while discovery across hosts
+    goes on: 3 s seen).
     """
     zero = np.all(U[:, :, k - 1] == 0.0, axis=1)
     assert not zero.all(), f'vehicle {k} never commanded'
@@ -106,8 +125,9 @@ def zero_spans(t, U, k):
 
 def test_link_cut_mid_run_and_the_formation_recovers(hosts):
     """
-    Host 1 (vehicles 1 and 4) is unplugged for 5 s, in real time, before convergence (seen: their
-    commands stop from 2.2 s to 5.6 s, the six converge at 13.2 s).
+    Host 1 (vehicles 1 and 4) is unplugged for 5 s, in real time, before convergence.
+
+    Seen: their commands stop from 2.2 s to 5.6 s, the six converge at 13.2 s.
     """
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=24.0')
     cut_host, cut_for = 1, 5.0
@@ -133,7 +153,7 @@ def test_link_cut_mid_run_and_the_formation_recovers(hosts):
             (start, end), = spans[k]
             assert 1.5 < end - start < cut_for + 2.0, spans[k]
         else:
-            assert spans[k] == [], f'vehicle {k} on the plant\'s side stopped commanding'
+            assert spans[k] == [], f"vehicle {k} on the plant's side stopped commanding"
     after = run.t > end + 0.5
     assert np.all(np.any(run.U[after][:, :, [k - 1 for k in cut]] != 0.0, axis=1))
     assert out['converged'], out
@@ -182,16 +202,20 @@ def discovery_server(hosts, did):
 
 
 def unmatched_reports(swarm, k):
-    """How often vehicle k has said it has no odometry and no publisher of it matched (every
-    5 s from STALL = 3 s after it started)."""
+    """
+    Count vehicle k's reports of no odometry and no publisher of it matched.
+
+    A vehicle says so every 5 s from STALL = 3 s after it started.
+    """
     text = (swarm.dir / f'vehicle_{k}.log').read_text(errors='replace')
     return text.count(f'no odometry yet on /vehicle_{k}/odom (0 publishers matched)')
 
 
 def test_discovery_server_without_multicast(hosts):
     """
-    Multicast off on every host: no discovery (every vehicle still alone after 8 s, twice the
-    longest discovery across hosts seen), until a Fast DDS discovery server runs.
+    Multicast off on every host: no discovery, until a Fast DDS discovery server runs.
+
+    Every vehicle is still alone after 8 s, twice the longest discovery across hosts seen.
     """
     hosts.multicast(False)
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=4.0')

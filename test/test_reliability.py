@@ -1,27 +1,42 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Reliability with fixed seeds: a vehicle killed and restarted, lossy and late links, every kind of
-bad message, a non-finite plant state, saturated commands, start order. Fleets run as real
-processes where the property needs them (a process killed and started again, processes started
-in any order, the swarm in real time); single nodes fed by the test, and fleets whose property is
-the nodes' logic, are built in this process (the ``nodes`` fixture).
+Reliability with fixed seeds.
+
+A vehicle killed and restarted, lossy and late links, every kind of bad message, a non-finite
+plant state, saturated commands, start order. Fleets run as real processes where the property
+needs them (a process killed and started again, processes started in any order, the swarm in
+real time); single nodes fed by the test, and fleets whose property is the nodes' logic, are
+built in this process (the ``nodes`` fixture).
 """
 import json
 from pathlib import Path
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-import numpy as np
-from geometry_msgs.msg import WrenchStamped
-from nav_msgs.msg import Odometry
-import pytest
-from rclpy.qos import DurabilityPolicy, QoSProfile
-from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
-
 from formation_control.core import links, metrics, scenario, simulator
 from formation_control.core.control import Controller
 from formation_control.ros import interface as itf
+from geometry_msgs.msg import WrenchStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+import pytest
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from rosgraph_msgs.msg import Clock
 from rosutil import CONFIG, output
+from sensor_msgs.msg import JointState
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
 RIGID = CONFIG / 'rigid_parallel.yaml'
@@ -162,7 +177,7 @@ def _sub_converged(sc, X, members):
 
 
 def _assert_reconverged(record, t_kill, t_back):
-    """The five converge without vehicle 6 (zero command meanwhile), the six once it is back."""
+    """Check the five converged without vehicle 6 (zero command), the six once it is back."""
     run = simulator.load_run(record)
     sc = run.sc
     five = np.array([True] * 5 + [False])
@@ -176,7 +191,7 @@ def _assert_reconverged(record, t_kill, t_back):
 
 
 def _clock(node):
-    """The fleet's simulated time (s), as /clock messages arrive."""
+    """Return the fleet's simulated time (s), as /clock messages arrive."""
     now = []
     node.create_subscription(
         Clock, '/clock', lambda m: now.append(m.clock.sec + 1e-9 * m.clock.nanosec),
@@ -251,15 +266,16 @@ LOSSY = {'drop_probability': 0.2, 'delay': 0.05, 'delay_jitter': 0.1, 'fault_see
                                             ('rigid_parallel_flow', 15)])
 def test_rigid_scenarios_converge_with_lossy_late_links(ros, tmp_path, name, duration):
     """
+    Converge in real time with lossy, late links, the faults seen to act.
+
     rigid_circular converges at 27 s offline and in real time; 60 s leave room under load. The
     parallel ones converge at 6-7 s, with or without the faults; 15 s leave twice that.
 
-    The faults are seen to act: of the neighbour states that reached a vehicle (no more than
-    were sent, nearly as many as reached this probe by then), its ``links`` status counts a
-    share drop_probability as dropped and the others as delayed, by delay + delay_jitter / 2 on
-    average; the jitter
-    (0.1 s, five control periods) delivers many of them after a newer one, so that they are
-    refused as stale (a third of them in theory; none without the delays: DDS keeps the order).
+    Of the neighbour states that reached a vehicle (no more than were sent, nearly as many as
+    reached this probe by then), its ``links`` status counts a share drop_probability as
+    dropped and the others as delayed, by delay + delay_jitter / 2 on average; the jitter (0.1
+    s, five control periods) delivers many of them after a newer one, so that they are refused
+    as stale (a third of them in theory; none without the delays: DDS keeps the order).
     """
     sc = scenario.load(CONFIG / f'{name}.yaml', [f'duration:={float(duration)}'])
     n = sc.num_vehicles
@@ -405,8 +421,8 @@ def test_diagnostics_show_saturation(nodes):
     assert nodes.spin_until(lambda: any('command saturated' in m for _, m in reasons()),
                             timeout=60), reasons()
     assert plant.sc.num_vehicles == 5
-    assert {name for name, _ in reasons()} >= {f'formation_control/vehicle_{k}'
-                                                for k in range(1, 6)}
+    named = {name for name, _ in reasons()}
+    assert named >= {f'formation_control/vehicle_{k}' for k in range(1, 6)}
 
 
 def test_vehicles_first_plant_last(ros, tmp_path):
@@ -429,8 +445,12 @@ def test_vehicles_first_plant_last(ros, tmp_path):
 
 
 def test_vehicles_that_answered_are_not_gone_while_a_slow_one_is_awaited(nodes, tmp_path):
-    """Step 0: vehicle 3 hears its neighbours 2.5 s late (beyond command_timeout); the plant
-    waits for it (never heard before) and keeps the commands the others sent long before."""
+    """
+    Step 0: vehicle 3 hears its neighbours 2.5 s late (beyond command_timeout).
+
+    The plant waits for it (never heard before) and keeps the commands the others sent long
+    before.
+    """
     record = tmp_path / 'run.npz'
     common = ['num_vehicles:=3', 'duration:=0.02', 'record_dt:=0.02']
     cfg = CONFIG / 'particle_circular.yaml'
@@ -468,8 +488,11 @@ def test_a_neighbour_heard_before_the_first_odometry_is_still_waited_for(nodes):
 
 
 def test_formation_states_best_effort_through_qos_overrides(ros, tmp_path):
-    """ROS 2's qos_overrides parameters make the neighbour links best effort (depth 1); the
-    fleet converges at 6.4 s, as offline."""
+    """
+    ROS 2's qos_overrides parameters make the neighbour links best effort (depth 1).
+
+    The fleet converges at 6.4 s, as offline.
+    """
     from rclpy.qos import ReliabilityPolicy
 
     from formation_control.swarm import Swarm, wait_plant

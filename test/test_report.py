@@ -1,13 +1,28 @@
-"""
-The report and figure data of a run, and the command limits: final values meet the steady state
-the thesis predicts, per-vehicle convergence agrees with the fleet's test, limits clip and flag.
-"""
-import numpy as np
-import pytest
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
+"""
+The report and figure data of a run, and the command limits.
+
+Final values meet the steady state the thesis predicts, per-vehicle convergence agrees with the
+fleet's test, limits clip and flag.
+"""
 from formation_control.core import metrics, report, scenario
 from formation_control.core.control import Controller
 from formation_control.core.scenario import ScenarioError
+import numpy as np
+import pytest
 from runs import CONFIG, run_of
 
 CONVERGING = [

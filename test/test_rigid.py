@@ -1,13 +1,27 @@
-"""
-Rigid-body scenarios (Ch. 6-8, App. A) from several seeds: convergence and the steady states
-of the thesis' analysis (with the errata's corrections), and measured bounds where a law is
-only practically stable.
-"""
-import numpy as np
-import pytest
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
 
+"""
+Rigid-body scenarios (Ch. 6-8, App. A) from several seeds.
+
+Convergence and the steady states of the thesis' analysis (with the errata's corrections), and
+measured bounds where a law is only practically stable.
+"""
 from formation_control.core import metrics, models
 from formation_control.core.scenario import Scenario
+import numpy as np
+import pytest
 from runs import run_of, SEEDS, views
 
 U0_TOL = 1e-3
@@ -103,8 +117,10 @@ def _pi_figures(run, seconds=50.0):
 @pytest.mark.parametrize('seed', SEEDS)
 def test_pi_in_flow_is_only_practically_stable(seed):
     """
-    Proposition 1 claims asymptotic stability; measured (errata): the PI (8.24) leaves a periodic
-    tracking error, the centres stay within a few cm of each other, and the common centre drifts.
+    Proposition 1 claims asymptotic stability: measured, the PI is only practically stable.
+
+    Errata: the PI (8.24) leaves a periodic tracking error, the centres stay within a few cm of
+    each other, and the common centre drifts.
     """
     run = run_of('rigid_circular_flow', seed)
     sc = run.sc
@@ -182,9 +198,10 @@ def _assert_close_per_row(new, ref, rtol=1e-12):
 @pytest.mark.parametrize('model', models.MODELS)
 def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch):
     """
-    Both paths of ``integrate``: several blocks (the last one partial), the series turns (2 ms
-    steps), the np.cos fallback (0.1 s steps), negative steps and a long run agree to 1e-12 of
-    each row's magnitude; the inputs are left untouched.
+    Both paths of ``integrate`` agree with the plain RK4 formulas to 1e-12 of each row's size.
+
+    Several blocks (the last one partial), the series turns (2 ms steps), the np.cos fallback
+    (0.1 s steps), negative steps and a long run; the inputs are left untouched.
     """
     monkeypatch.setattr(models, 'PLAIN_BELOW', plain_below)
     monkeypatch.setattr(models, 'BLOCK', 16)

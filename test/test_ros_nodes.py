@@ -1,5 +1,20 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
 The plant and vehicle nodes: what each publishes, how parameters are set, refused and changed.
+
 The executables run as real processes (no launch_testing) where the property is the process'
 own (its command line and parameter file, the participant lock, a clean exit 0 on SIGINT); the
 other properties are tested on the same nodes built in this process (the ``nodes`` fixture).
@@ -8,21 +23,20 @@ import math
 from pathlib import Path
 import re
 
-import numpy as np
-import pytest
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
-from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
-from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
-
 from formation_control.core import scenario
 from formation_control.core.control import Controller
 from formation_control.core.scenario import initial_state, ScenarioError
 from formation_control.ros import interface as itf
+from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+import pytest
+from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
+from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+from rosgraph_msgs.msg import Clock
 from rosutil import CONFIG, interrupt
+from sensor_msgs.msg import JointState
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
 
@@ -150,8 +164,8 @@ def _call(probe, srv_type, name, request, timeout=15.0):
 
 
 def _double(name, value):
-    return ParameterMsg(name=name, value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE,
-                                                       double_value=value))
+    return ParameterMsg(name=name, value=ParameterValue(
+        type=ParameterType.PARAMETER_DOUBLE, double_value=value))
 
 
 def test_parameters_from_yaml_and_run_time_changes(ros, tmp_path):

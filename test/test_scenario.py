@@ -1,22 +1,37 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Scenario validation: every kind of bad input is refused before anything runs, with a message
-that names the parameter and what it may be; the shipped configs, overrides and initial states.
+Scenario validation, the shipped configs, overrides and initial states.
+
+Every kind of bad input is refused before anything runs, with a message that names the
+parameter and what it may be.
 """
 from dataclasses import fields
 import json
 import math
 from pathlib import Path
 
-import numpy as np
-import pytest
-
 from formation_control.core import node_parameters, scenario
 from formation_control.core.scenario import (held_force_loop_gain, initial_state, load,
                                              PARAMETER_NAMES, parse_override, read_params,
                                              resolve, rhp_zero, Scenario, ScenarioError)
+import numpy as np
+import pytest
 
 CONFIGS = sorted((Path(__file__).resolve().parents[1] / 'config').glob('*.yaml'))
-RIGID = dict(model='rigid', num_vehicles=5)
+RIGID = {'model': 'rigid', 'num_vehicles': 5}
 INIT_ARRAYS = ('init_x', 'init_y', 'init_theta', 'init_omega', 'init_u', 'init_v')
 
 
@@ -133,7 +148,7 @@ def test_duration_and_record_dt_are_whole_control_periods(name, value):
 @pytest.mark.parametrize('names', [['kapa'], ['Kp', 'numVehicles'], ['warnings']])
 def test_unknown_parameter_lists_the_allowed_names(names):
     message = _refused(r'unknown parameter\(s\) ' + ', '.join(repr(n) for n in sorted(names))
-                       + '; allowed: num_vehicles, model,', **{n: 1 for n in names})
+                       + '; allowed: num_vehicles, model,', **dict.fromkeys(names, 1))
     listed = message.split('allowed: ', 1)[1].split(', ')
     assert listed == list(PARAMETER_NAMES)
     assert {'K', 'kappa', 'flow', 'init_v', 'cancel_drag_moment'} <= set(listed)
@@ -344,7 +359,7 @@ def test_override_without_assignment_is_refused():
                                   '/**:\n  parameters:\n    num_vehicles: 3\n', ''])
 def test_file_without_ros_parameters_section_is_refused(tmp_path, text):
     path = _write(tmp_path / 'bare.yaml', text)
-    with pytest.raises(ScenarioError, match=r"bare\.yaml: a scenario is a ROS 2 parameter file "
+    with pytest.raises(ScenarioError, match=r'bare\.yaml: a scenario is a ROS 2 parameter file '
                                             r"with a '/\*\*: ros__parameters:' section"):
         load(path)
 

@@ -1,19 +1,34 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-Whole fleets as processes through ``formation-control swarm``: lockstep runs equal the offline
-simulator (from the first step, so a few seconds show it; the lockstep swarm converging is in
-test_monitor), a real-time run converges, the bag holds the run, Ctrl-C stops every process.
+Whole fleets as processes through ``formation-control swarm``.
+
+Lockstep runs equal the offline simulator (from the first step, so a few seconds show it; the
+lockstep swarm converging is in test_monitor), a real-time run converges, the bag holds the
+run, Ctrl-C stops every process.
 """
 import json
 from pathlib import Path
 
+from formation_control.core import scenario, simulator
+from formation_control.ros import interface as itf
 import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
-import yaml
-
-from formation_control.core import scenario, simulator
-from formation_control.ros import interface as itf
 from rosutil import CONFIG
+import yaml
 
 
 def _swarm(ros, tmp_path, name, *args, timeout=300):
@@ -33,8 +48,8 @@ def _assert_equal_runs(fleet, offline):
 
 def test_lockstep_fleet_equals_the_offline_simulator(ros, tmp_path):
     overrides = ['num_vehicles:=6', 'duration:=4.0']
-    out, stdout = _swarm(ros, tmp_path, 'particle_circular', *[a for o in overrides
-                                                                for a in ('-p', o)])
+    args = [a for o in overrides for a in ('-p', o)]
+    out, stdout = _swarm(ros, tmp_path, 'particle_circular', *args)
     assert out['real_time_factor'] > 0 and 'real_time_factor' in stdout
     fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
     offline = simulator.simulate(scenario.load(CONFIG / 'particle_circular.yaml', overrides))
@@ -90,7 +105,7 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
 
 
 def _fleet_pids(domain_id):
-    """Processes of this test's domain running the plant, a vehicle or the monitor."""
+    """Return the processes of this test's domain running the plant, a vehicle or the monitor."""
     pids = []
     for entry in Path('/proc').iterdir():
         try:
