@@ -14,6 +14,7 @@
 
 """The main loop every node shares: spin_once until done or asked to stop, exit 0 on SIGINT."""
 import contextlib
+import gc
 import fcntl
 import os
 import signal
@@ -92,6 +93,8 @@ def run(make_node, args=None):
         executor = EventsExecutor(context=context)
         for node in nodes:
             executor.add_node(node)
+        gc.collect()
+        gc.freeze()                   # what start-up built is never collected again: short pauses
         while (not stop.raised and context.ok()
                and not any(getattr(node, 'done', False) for node in nodes)):
             executor.spin_once(timeout_sec=0.1)
