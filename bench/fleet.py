@@ -117,8 +117,8 @@ def latency(args):
                     runs[name].append(figures)
         for name, figures in runs.items():
             for p50, p99, worst in figures:
-                print(f'N={n}, {args.graphs[0]}, {args.per_process[0]} per process, {name}: median {p50:.2f}, '
-                      f'p99 {p99:.2f}, worst p99 {worst:.2f}')
+                print(f'N={n}, {args.graphs[0]}, {args.per_process[0]} per process, {name}: '
+                      f'median {p50:.2f}, p99 {p99:.2f}, worst p99 {worst:.2f}')
             p50, p99, worst = np.median(figures, axis=0)
             print(f'N={n}, {args.graphs[0]}, {args.per_process[0]} per process, {name}, median of '
                   f'{len(figures)} runs: median {p50:.2f} ms, p99 {p99:.2f} ms, worst p99 '

@@ -1,6 +1,22 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
 """
-The maths core is pure numpy: importing it and running a simulation in a fresh interpreter
-loads nothing from ROS, even though rclpy and ament_index_python are installed alongside.
+The maths core is pure numpy: importing it loads nothing from ROS.
+
+Importing it and running a simulation in a fresh interpreter loads no ROS module, even though
+rclpy and ament_index_python are installed alongside.
 """
 import importlib.util
 import json
@@ -15,14 +31,14 @@ ROS_PREFIXES = ('rclpy', 'rcl', 'rmw', 'geometry_msgs', 'nav_msgs', 'std_msgs',
 CORE_MODULES = ('scenario', 'simulator', 'laws', 'control', 'metrics', 'models', 'links',
                 'lockstep', 'neighbours', 'fleet', 'onboard', 'report', 'geometry')
 
-REPORT = textwrap.dedent(f'''
+REPORT = textwrap.dedent(f"""
     import json
     import sys
     ros = sorted(m for m in sys.modules if m.startswith({ROS_PREFIXES!r}))
     print(json.dumps({{'ros': ros, 'modules': sorted(sys.modules)}}))
-''')
+""")
 
-CORE_RUN = '\n'.join(f'import formation_control.core.{name}' for name in CORE_MODULES) + '''
+CORE_RUN = '\n'.join(f'import formation_control.core.{name}' for name in CORE_MODULES) + """
 from formation_control.core.scenario import resolve
 from formation_control.core.simulator import simulate, summary
 for params in ({'num_vehicles': 3, 'duration': 0.2},
@@ -31,7 +47,7 @@ for params in ({'num_vehicles': 3, 'duration': 0.2},
     run = simulate(resolve(params))
     assert run.X.shape == (3, 6, params['num_vehicles'])
     summary(run)
-'''
+"""
 
 
 def _child(code):

@@ -31,13 +31,13 @@ import pytest
 from runs import CONFIG
 from test_laws import _trajectory_states, H, PARTICLE_CASES, RIGID_CASES
 
-GRAPHS = [dict(graph='ring'), dict(graph='random', graph_degree=3, graph_seed=5),
-          dict(graph='circulant', graph_offsets=[1, 3])]
+GRAPHS = [{'graph': 'ring'}, {'graph': 'random', 'graph_degree': 3, 'graph_seed': 5},
+          {'graph': 'circulant', 'graph_offsets': [1, 3]}]
 
 
 def _sc(case, graph, n=8, **kw):
-    params = dict(num_vehicles=n, model='second_order', controller='backstepping', seed=3,
-                  duration=20.0)
+    params = {'num_vehicles': n, 'model': 'second_order', 'controller': 'backstepping',
+              'seed': 3, 'duration': 20.0}
     params.update(case, **graph, **kw)
     if 'model' in case and case['model'] != 'second_order':
         params.pop('controller') if 'controller' not in case else None
@@ -47,7 +47,7 @@ def _sc(case, graph, n=8, **kw):
 @pytest.mark.parametrize('case', PARTICLE_CASES + RIGID_CASES, ids=str)
 def test_complete_graph_with_nu_n_is_the_all_to_all_law(case):
     base = _sc(case, {}, n=6)
-    graph = _sc(case, dict(graph='complete', graph_nu=6.0), n=6)
+    graph = _sc(case, {'graph': 'complete', 'graph_nu': 6.0}, n=6)
     assert base.all_to_all and not graph.all_to_all
     a, b = Controller(base), Controller(graph)
     for X, U in _trajectory_states(base, times=(0.0, 1.3)):
@@ -123,7 +123,7 @@ def test_composite_lyapunov_never_increases_on_a_fixed_graph(case, graph):
 
 def test_a_vehicle_hearing_its_ring_neighbours_commands_as_the_fleet_does():
     """The law restricted to a vehicle and its two neighbours equals its row of the fleet's."""
-    sc = _sc(dict(formation='circular', informed=[3], c0=[1.0, 0.0]), dict(graph='ring'))
+    sc = _sc({'formation': 'circular', 'informed': [3], 'c0': [1.0, 0.0]}, {'graph': 'ring'})
     ctrl = Controller(sc)
     X = _trajectory_states(sc, times=(1.0,))[0][0]
     fleet = ctrl.command(ctrl.view(X), X)
@@ -191,16 +191,16 @@ def test_a_fleet_converges_while_its_graph_switches_between_connected_graphs():
 
 
 @pytest.mark.parametrize('params, message', [
-    (dict(graph='explicit', graph_edges=[1, 2, 3, 4]), r"'graph_edges' .* is not connected"),
-    (dict(graph='explicit', graph_edges=[1, 2, 2, 1, 2, 3, 3, 4]),
+    ({'graph': 'explicit', 'graph_edges': [1, 2, 3, 4]}, r"'graph_edges' .* is not connected"),
+    ({'graph': 'explicit', 'graph_edges': [1, 2, 2, 1, 2, 3, 3, 4]},
      r"'graph_edges' .* more than once \(edges are undirected"),
-    (dict(graph='explicit', graph_edges=[1, 9, 1, 2]), r"'graph_edges' .* ids must lie in 1"),
-    (dict(graph='explicit', graph_edges=[2, 2, 1, 2, 2, 3, 3, 4]), r"'graph_edges' .* self"),
-    (dict(graph='circulant', graph_offsets=[2]), r"'graph_offsets' = \[2\] is invalid"),
-    (dict(graph='circulant', graph_offsets=[1.5]), r"'graph_offsets' = 1.5 is invalid: must be a "
-                                                  r'list of integers'),
-    (dict(graph='mesh'), r"'graph' = 'mesh' is invalid: allowed values: complete \| ring"),
-    (dict(graph_nu=-2.0), r"'graph_nu' = -2.0 is invalid: must be >= 0"),
+    ({'graph': 'explicit', 'graph_edges': [1, 9, 1, 2]}, r"'graph_edges' .* ids must lie in 1"),
+    ({'graph': 'explicit', 'graph_edges': [2, 2, 1, 2, 2, 3, 3, 4]}, r"'graph_edges' .* self"),
+    ({'graph': 'circulant', 'graph_offsets': [2]}, r"'graph_offsets' = \[2\] is invalid"),
+    ({'graph': 'circulant', 'graph_offsets': [1.5]},
+     r"'graph_offsets' = 1.5 is invalid: must be a list of integers"),
+    ({'graph': 'mesh'}, r"'graph' = 'mesh' is invalid: allowed values: complete \| ring"),
+    ({'graph_nu': -2.0}, r"'graph_nu' = -2.0 is invalid: must be >= 0"),
 ])
 def test_bad_graphs_fail_before_anything_runs(params, message):
     with pytest.raises(ScenarioError, match=message):
@@ -230,8 +230,8 @@ def test_a_parallel_ring_has_a_stable_twisted_state():
     n = 12
     rng = np.random.default_rng(1)
     theta = 2 * np.pi * np.arange(n) / n + 0.05 * rng.standard_normal(n)
-    sc = resolve(dict(num_vehicles=n, model='second_order', formation='parallel', graph='ring',
-                      duration=60.0, init_theta=theta.tolist()))
+    sc = resolve({'num_vehicles': n, 'model': 'second_order', 'formation': 'parallel',
+                  'graph': 'ring', 'duration': 60.0, 'init_theta': theta.tolist()})
     run = simulator.simulate(sc)
     final = metrics.snapshot(Controller(sc), run.X[-1], run.U[-1])
     assert final.order < 1e-2 and final.max_rate < 1e-3      # still, but not synchronised

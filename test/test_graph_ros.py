@@ -12,10 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""
-Communication graphs through ROS: a vehicle listens to its graph neighbours only, its state
-says whom it hears, a one-sided link leaves the sums, and lockstep equals the simulator.
-"""
+"""Communication graphs through ROS: neighbours only, mutual links, lockstep == simulator."""
 from formation_control.core import scenario, simulator
 from formation_control.ros import interface as itf
 from geometry_msgs.msg import WrenchStamped

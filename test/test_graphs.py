@@ -13,11 +13,10 @@
 # limitations under the License.
 
 """Communication graphs: construction, the default nu, connectivity, and refused input."""
-import numpy as np
-import pytest
-
 from formation_control.core import graphs
 from formation_control.core.graphs import GraphError
+import numpy as np
+import pytest
 
 
 def test_ring_and_circulant_link_k_to_k_plus_and_minus_each_offset():
@@ -58,25 +57,26 @@ def test_explicit_edges_and_nu():
 
 
 @pytest.mark.parametrize('kwargs, message', [
-    (dict(graph='star'), r"'graph' = 'star' is invalid: allowed values: complete \| ring"),
-    (dict(graph='explicit', edges=[1, 2, 3, 4]),
+    ({'graph': 'star'}, r"'graph' = 'star' is invalid: allowed values: complete \| ring"),
+    ({'graph': 'explicit', 'edges': [1, 2, 3, 4]},
      r"'graph_edges' = \[1, 2, 3, 4\] is invalid: the graph on 4 vehicles is not connected"),
-    (dict(graph='explicit', edges=[1, 2, 2, 1, 2, 3, 3, 4]),
+    ({'graph': 'explicit', 'edges': [1, 2, 2, 1, 2, 3, 3, 4]},
      r"'graph_edges' = .* edges \[\(1, 2\)\] are given more than once \(edges are undirected"),
-    (dict(graph='explicit', edges=[1, 2, 2, 5]),
+    ({'graph': 'explicit', 'edges': [1, 2, 2, 5]},
      r"'graph_edges' = \[1, 2, 2, 5\] is invalid: vehicle ids must lie in 1..num_vehicles = 4"),
-    (dict(graph='explicit', edges=[1, 1, 1, 2, 2, 3, 3, 4]),
+    ({'graph': 'explicit', 'edges': [1, 1, 1, 2, 2, 3, 3, 4]},
      r"'graph_edges' = .* self edges \[\(1, 1\)\]"),
-    (dict(graph='explicit', edges=[1, 2, 3]), r"'graph_edges' = \[1, 2, 3\] is invalid: a flat "
-                                              r'list of 1-based id pairs'),
-    (dict(graph='circulant', offsets=[2]),
+    ({'graph': 'explicit', 'edges': [1, 2, 3]},
+     r"'graph_edges' = \[1, 2, 3\] is invalid: a flat list of 1-based id pairs"),
+    ({'graph': 'circulant', 'offsets': [2]},
      r"'graph_offsets' = \[2\] is invalid: offsets must be integers with 1 <= d < "
      r'num_vehicles/2 = 2'),
-    (dict(graph='circulant', offsets=[1, 1]), r"'graph_offsets' = \[1, 1\] is invalid: offsets "
-                                              r'must be distinct'),
-    (dict(graph='random', degree=1), r"'graph_degree' = 1 is invalid: a random connected graph "
-                                     r'needs a mean degree in \[2, num_vehicles - 1 = 3\]'),
-    (dict(graph='complete', nu=-1.0), r"'graph_nu' = -1.0 is invalid: must be >= 0"),
+    ({'graph': 'circulant', 'offsets': [1, 1]},
+     r"'graph_offsets' = \[1, 1\] is invalid: offsets must be distinct"),
+    ({'graph': 'random', 'degree': 1},
+     r"'graph_degree' = 1 is invalid: a random connected graph needs a mean degree in "
+     r'\[2, num_vehicles - 1 = 3\]'),
+    ({'graph': 'complete', 'nu': -1.0}, r"'graph_nu' = -1.0 is invalid: must be >= 0"),
 ])
 def test_bad_graphs_are_refused_naming_the_parameter(kwargs, message):
     with pytest.raises(GraphError, match=message):

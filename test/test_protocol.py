@@ -13,15 +13,14 @@
 # limitations under the License.
 
 """The time protocol of the plant and the vehicles, with a fake clock (no ROS, no DDS)."""
-import numpy as np
-import pytest
-
-from formation_control.core import lockstep, links, scenario, simulator
+from formation_control.core import links, lockstep, scenario, simulator
 from formation_control.core.control import Controller
 from formation_control.core.fleet import FleetPlant
 from formation_control.core.lockstep import FRESH, REPEATED, STALE
 from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.onboard import Onboard
+import numpy as np
+import pytest
 from runs import CONFIG
 
 

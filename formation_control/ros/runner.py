@@ -14,8 +14,8 @@
 
 """The main loop every node shares: spin_once until done or asked to stop, exit 0 on SIGINT."""
 import contextlib
-import gc
 import fcntl
+import gc
 import os
 import signal
 import sys
