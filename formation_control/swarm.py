@@ -174,8 +174,8 @@ class Recording:
     """
     A bag recorder node on its own context, spun by :func:`wait_plant`.
 
-    The plant holds step 0 until the recorder has discovered every publisher of the fleet, so
-    the bag misses nothing.
+    The plant holds step 0 until each of the recorder's readers is matched with a publisher of
+    its topic (not merely discovered it), so the bag misses nothing.
     """
 
     def __init__(self, path, n, sim_time, monitor=True):
@@ -200,7 +200,7 @@ class Recording:
 
     def start_when_discovered(self, timeout, check):
         end = time.monotonic() + timeout
-        while any(self.node.count_publishers(t) == 0 for t in self.topics):
+        while any(self.node.readers[t].get_publisher_count() == 0 for t in self.topics):
             check()
             if time.monotonic() > end:
                 raise TimeoutError('the bag recorder did not discover every topic in time')

@@ -73,12 +73,13 @@ class BagRecorder(Node):
         self.writer.open()
         typestore = get_typestore(Stores.ROS2_JAZZY)
         self.count = 0
+        self.readers = {}
         for name, type_name, qos in topics:
             conn = self.writer.add_connection(name, type_name, typestore=typestore,
                                               offered_qos_profiles=[bag_qos(qos)])
-            self.create_subscription(_msg_class(type_name), name,
-                                     lambda data, conn=conn: self._write(conn, data),
-                                     _record_qos(qos), raw=True)
+            self.readers[name] = self.create_subscription(
+                _msg_class(type_name), name, lambda data, conn=conn: self._write(conn, data),
+                _record_qos(qos), raw=True)
 
     def _write(self, conn, data):
         self.writer.write(conn, self.get_clock().now().nanoseconds, data)
