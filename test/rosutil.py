@@ -168,6 +168,19 @@ class Nodes(Probe):
         return self.add(VehicleNode(k, context=self.context,
                                     cli_args=node_args(path, f'vehicle_id:={k}', *params)))
 
+    def lockstep_run(self, cfg, record, *params, timeout=120):
+        """
+        Run the plant and every vehicle of scenario ``cfg`` to the end; return the record.
+
+        The plant writes its record to ``record``; every node takes the ``-p`` ``params``.
+        """
+        from formation_control.core import simulator
+        plant = self.plant(cfg, *params, f'record_path:={record}')
+        for k in range(1, plant.sc.num_vehicles + 1):
+            self.vehicle(k, cfg, *params)
+        assert self.spin_until(lambda: plant.done, timeout=timeout)
+        return simulator.load_run(record)
+
     def monitor(self, *params):
         from formation_control.ros.monitor import MonitorNode
         return self.add(MonitorNode(context=self.context, cli_args=node_args(None, *params)))

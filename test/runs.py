@@ -18,6 +18,7 @@ from pathlib import Path
 
 from formation_control.core import scenario, simulator
 from formation_control.core.control import Controller
+import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 SEEDS = (1, 2, 3)
@@ -41,6 +42,19 @@ def run_of(name, seed, overrides=()):
     sc = scenario.load(CONFIG / f'{name}.yaml', overrides, seed=seed,
                        duration=DURATIONS.get(name))
     return simulator.simulate(sc)
+
+
+def assert_equal_runs(fleet, offline, atol=1e-6):
+    """Assert that a fleet's record equals the offline simulator's run of the same scenario."""
+    assert fleet.t.shape == offline.t.shape
+    np.testing.assert_allclose(fleet.t, offline.t)
+    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=atol)
+    np.testing.assert_allclose(fleet.U, offline.U, rtol=0, atol=atol)
+
+
+def offline_run(cfg, overrides=()):
+    """Return the offline simulator's run of the scenario file ``cfg`` with ``overrides``."""
+    return simulator.simulate(scenario.load(cfg, list(overrides)))
 
 
 def views(run):

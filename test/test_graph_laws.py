@@ -29,7 +29,7 @@ from formation_control.core.simulator import Stepper
 import numpy as np
 import pytest
 from runs import CONFIG
-from test_laws import _trajectory_states, H, PARTICLE_CASES, RIGID_CASES
+from test_laws import _trajectory_states, check_phi_dot_rigid, H, PARTICLE_CASES, RIGID_CASES
 
 GRAPHS = [{'graph': 'ring'}, {'graph': 'random', 'graph_degree': 3, 'graph_seed': 5},
           {'graph': 'circulant', 'graph_offsets': [1, 3]}]
@@ -78,16 +78,7 @@ def test_phi_dot_matches_finite_difference_on_graphs(case, graph):
 @pytest.mark.parametrize('graph', GRAPHS[:2], ids=str)
 @pytest.mark.parametrize('case', RIGID_CASES, ids=str)
 def test_phi_dot_matches_finite_difference_on_graphs_rigid(case, graph):
-    sc = _sc(case, graph, n=7, seed=4)
-    ctrl = Controller(sc)
-    for X, U in _trajectory_states(sc):
-        def phi_at(Xs):
-            return ctrl.formation.terms(ctrl.view(Xs, U[1])).phi
-        U_now = np.vstack([ctrl.thrust(X), U[1]])
-        fd = (phi_at(rk4_step(X, U_now, H, ctrl.plant))
-              - phi_at(rk4_step(X, U_now, -H, ctrl.plant))) / (2 * H)
-        analytic = ctrl.formation.terms(ctrl.view(X, U[1])).phi_dot
-        np.testing.assert_allclose(analytic, fd, atol=2e-5 * (1 + np.max(abs(fd))))
+    check_phi_dot_rigid(_sc(case, graph, n=7, seed=4))
 
 
 @pytest.mark.parametrize('graph', GRAPHS, ids=str)

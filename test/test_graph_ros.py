@@ -13,21 +13,16 @@
 # limitations under the License.
 
 """Communication graphs through ROS: neighbours only, mutual links, lockstep == simulator."""
-from formation_control.core import scenario, simulator
+from formation_control.core import scenario
 from formation_control.ros import interface as itf
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
 from rosutil import CONFIG
+from runs import assert_equal_runs, offline_run
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
-
-
-def _assert_equal_runs(fleet, offline):
-    assert fleet.t.shape == offline.t.shape
-    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(fleet.U, offline.U, rtol=0, atol=1e-6)
 
 
 def test_a_ring_vehicle_subscribes_to_its_two_neighbours_states_only(nodes):
@@ -48,13 +43,9 @@ def test_a_ring_vehicle_subscribes_to_its_two_neighbours_states_only(nodes):
 ])
 def test_lockstep_fleet_on_a_graph_equals_the_offline_simulator(nodes, tmp_path, name,
                                                                 overrides):
-    cfg, record = CONFIG / f'{name}.yaml', tmp_path / 'run.npz'
-    plant = nodes.plant(cfg, *overrides, f'record_path:={record}')
-    for k in range(1, plant.sc.num_vehicles + 1):
-        nodes.vehicle(k, cfg, *overrides)
-    assert nodes.spin_until(lambda: plant.done, timeout=120)
-    _assert_equal_runs(simulator.load_run(record),
-                       simulator.simulate(scenario.load(cfg, overrides)))
+    cfg = CONFIG / f'{name}.yaml'
+    assert_equal_runs(nodes.lockstep_run(cfg, tmp_path / 'run.npz', *overrides),
+                      offline_run(cfg, overrides))
 
 
 def test_formation_state_says_whom_the_vehicle_hears(nodes):

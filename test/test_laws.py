@@ -93,7 +93,11 @@ RIGID_CASES = [
 
 @pytest.mark.parametrize('case', RIGID_CASES, ids=str)
 def test_phi_dot_matches_finite_difference_rigid(case):
-    sc = resolve({'num_vehicles': 5, 'seed': 4, **case})
+    check_phi_dot_rigid(resolve({'num_vehicles': 5, 'seed': 4, **case}))
+
+
+def check_phi_dot_rigid(sc):
+    """Assert phi' of the rigid-body view equals a finite difference along a trajectory."""
     ctrl = Controller(sc)
     for X, U in _trajectory_states(sc):
         def phi_at(Xs):

@@ -22,12 +22,12 @@ run, Ctrl-C stops every process.
 import json
 from pathlib import Path
 
-from formation_control.core import scenario, simulator
+from formation_control.core import simulator
 from formation_control.ros import interface as itf
-import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
 from rosutil import CONFIG
+from runs import assert_equal_runs, offline_run
 import yaml
 
 
@@ -39,33 +39,20 @@ def _swarm(ros, tmp_path, name, *args, timeout=300):
     return json.loads(summary.read_text()), result.stdout
 
 
-def _assert_equal_runs(fleet, offline):
-    assert fleet.t.shape == offline.t.shape
-    np.testing.assert_allclose(fleet.t, offline.t)
-    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(fleet.U, offline.U, rtol=0, atol=1e-6)
-
-
 def test_lockstep_fleet_equals_the_offline_simulator(ros, tmp_path):
     overrides = ['num_vehicles:=6', 'duration:=4.0']
     args = [a for o in overrides for a in ('-p', o)]
     out, stdout = _swarm(ros, tmp_path, 'particle_circular', *args)
     assert out['real_time_factor'] > 0 and 'real_time_factor' in stdout
     fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
-    offline = simulator.simulate(scenario.load(CONFIG / 'particle_circular.yaml', overrides))
-    _assert_equal_runs(fleet, offline)
+    assert_equal_runs(fleet, offline_run(CONFIG / 'particle_circular.yaml', overrides))
 
 
 def test_lockstep_rigid_fleet_in_a_flow_equals_the_offline_simulator(nodes, tmp_path):
     """The same protocol, the plant and the vehicle nodes in one process."""
-    cfg, overrides, record = CONFIG / 'rigid_parallel_flow.yaml', ['duration:=4.0'], \
-        tmp_path / 'run.npz'
-    plant = nodes.plant(cfg, *overrides, f'record_path:={record}')
-    for k in range(1, plant.sc.num_vehicles + 1):
-        nodes.vehicle(k, cfg, *overrides)
-    assert nodes.spin_until(lambda: plant.done, timeout=120)
-    _assert_equal_runs(simulator.load_run(record),
-                       simulator.simulate(scenario.load(cfg, overrides)))
+    cfg, overrides = CONFIG / 'rigid_parallel_flow.yaml', ['duration:=4.0']
+    assert_equal_runs(nodes.lockstep_run(cfg, tmp_path / 'run.npz', *overrides),
+                      offline_run(cfg, overrides))
 
 
 def test_realtime_fleet_converges(ros, tmp_path):
@@ -141,5 +128,4 @@ def test_several_vehicle_nodes_per_process_equal_the_offline_simulator(ros, tmp_
     logs = sorted(p.name for p in Path(out['logs']).glob('*.log'))
     assert logs == ['plant.log', 'vehicles_1-4.log', 'vehicles_5-6.log']
     fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
-    offline = simulator.simulate(scenario.load(CONFIG / 'particle_circular.yaml', overrides))
-    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-6)
+    assert_equal_runs(fleet, offline_run(CONFIG / 'particle_circular.yaml', overrides))
