@@ -59,9 +59,15 @@ bench: setup
 	$(PY) bench/law_cost.py
 	$(PY) bench/fleet.py rtf --sizes 5 16
 	$(PY) bench/fleet.py rtf --sizes 32 --per-process 2 4 --repeat 1 --duration 4
-	$(PY) bench/fleet.py rtf --sizes 64 --per-process 8 --repeat 1 --duration 2
-	$(PY) bench/fleet.py rtf --sizes 128 --per-process 16 --repeat 1 --duration 1
+	$(PY) bench/fleet.py rtf --sizes 16 --graphs complete ring --per-process 1 4 --duration 4
+	$(PY) bench/fleet.py rtf --sizes 64 --graphs complete circulant:1,2 --per-process 8 \
+		--repeat 1 --duration 2
+	$(PY) bench/fleet.py rtf --sizes 128 --graphs complete circulant:1,2 --per-process 16 \
+		--repeat 1 --duration 1
+	$(PY) bench/fleet.py rtf --sizes 32 64 --graphs ring circulant:1,2 circulant:1,2,3,4 \
+		--per-process 8 --repeat 1 --duration 2
 	$(PY) bench/fleet.py latency --sizes 16
+	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
 
 clean:
