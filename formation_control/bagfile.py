@@ -20,7 +20,6 @@ Read a rosbag2 bag written by ``swarm --bag`` with the ``rosbags`` library.
 """
 from collections import defaultdict
 import json
-from pathlib import Path
 
 from formation_control.core.models import ROW_OMEGA
 from formation_control.core.scenario import resolve, ScenarioError
@@ -29,11 +28,6 @@ from formation_control.ros import interface as itf
 import numpy as np
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-
-
-def is_bag(path):
-    """Return whether ``path`` is a rosbag2 bag directory (one with metadata.yaml)."""
-    return Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists()
 
 
 def messages(path, topics):

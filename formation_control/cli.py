@@ -127,8 +127,8 @@ def cmd_swarm(args):
 
 def load_source(path):
     """Return the run of a simulator/plant ``.npz`` or of a rosbag2 bag directory."""
-    from formation_control import bagfile
-    if bagfile.is_bag(path):
+    if Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists():
+        from formation_control import bagfile           # only bags need rosbags
         return bagfile.read_run(path)
     if Path(path).is_file():
         try:

@@ -71,3 +71,22 @@ def test_the_check_sees_ros_modules(module):
     if importlib.util.find_spec(module) is None:
         pytest.skip(f'{module} is not installed')
     assert module in _child(f'import {module}\n')['ros']
+
+
+def test_only_the_bag_code_needs_rosbags(tmp_path):
+    """The nodes and ``formation-control report x.npz`` run with rosbags uninstalled."""
+    code = f"""
+import sys
+sys.modules['rosbags'] = None                      # as if it were not installed
+import formation_control.ros.plant, formation_control.ros.vehicle, formation_control.ros.monitor
+from formation_control import cli
+from formation_control.core import scenario, simulator
+sc = scenario.resolve({{'num_vehicles': 2, 'duration': 0.2}})
+simulator.simulate(sc).save({str(tmp_path / 'run.npz')!r})
+sys.argv = ['formation-control', 'report', {str(tmp_path / 'run.npz')!r}]
+assert cli.main() == 0
+"""
+    proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert 'converged' in proc.stdout

@@ -121,10 +121,14 @@ STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
 """``/formation/metrics``, ``/formation/markers`` and ``/diagnostics``."""
 
 
+def quaternion_zw(theta):
+    """Return (z, w) of the quaternion of a yaw ``theta`` (rad, CCW about z; x = y = 0)."""
+    return math.sin(0.5 * theta), math.cos(0.5 * theta)
+
+
 def yaw_quaternion(orientation, theta):
     """Write the quaternion of a yaw ``theta`` (rad, CCW about z) into ``orientation``."""
-    orientation.z = math.sin(0.5 * theta)
-    orientation.w = math.cos(0.5 * theta)
+    orientation.z, orientation.w = quaternion_zw(theta)
 
 
 def topic(k, name):
@@ -171,8 +175,7 @@ def odom_values(X, flow):
     theta = float(X[ROW_THETA])
     r = complex(position(X))
     body = complex(ground_velocity(X, flow)) * complex(math.cos(theta), -math.sin(theta))
-    return (r.real, r.imag, math.sin(0.5 * theta), math.cos(0.5 * theta), body.real,
-            body.imag, float(X[ROW_OMEGA]))
+    return (r.real, r.imag, *quaternion_zw(theta), body.real, body.imag, float(X[ROW_OMEGA]))
 
 
 def state_from_odom_values(values, flow, model):
