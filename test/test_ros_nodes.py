@@ -252,3 +252,28 @@ def test_state_wire_bytes_are_the_formation_state_message(k):
         None, wire.decode(data))
     assert itf.StateWire(k + 1).decode(data) is None
     assert wire.decode(data[:-20]) is None
+
+
+@pytest.mark.parametrize('k', [1, 12, 345])
+def test_odometry_and_command_bytes_are_the_messages(k):
+    """The odometry and command wires write what rclpy serializes and refuse other layouts."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    X = np.array([1.5, -2.0, 0.3, -0.2, 1.1, 0.05])
+    ns, flow = 1_795_000_123_456_789_012, 0.3 - 0.1j
+    odom = itf.odom_wire(k)
+    data = odom.encode(ns, itf.odom_values(X, flow))
+    assert deserialize_message(data, Odometry) == itf.odom_msg(k, ns, X, flow)
+    assert data == serialize_message(itf.odom_msg(k, ns, X, flow))
+    stamp, values = odom.decode(data)
+    assert stamp == ns
+    np.testing.assert_allclose(itf.state_from_odom_values(values, flow, 'rigid'), X, atol=1e-12)
+    other = itf.odom_msg(k, ns, X, flow)
+    other.pose.covariance[0] = 0.1                             # a real odometry's covariance
+    assert odom.decode(serialize_message(other)) is None
+    assert itf.odom_wire(k + 1).decode(data) is None
+    cmd = itf.cmd_wire(k)
+    for model, u in (('rigid', (0.8, -0.02)), ('second_order', (0.0, 1.7))):
+        data = cmd.encode(ns, itf.cmd_values(u, model))
+        assert deserialize_message(data, WrenchStamped) == itf.cmd_msg(k, ns, u, model)
+        assert itf.input_from_cmd_values(cmd.decode(data)[1], model) == u
+    assert itf.cmd_wire(k + 1).decode(data) is None
