@@ -228,3 +228,28 @@ def test_a_parallel_ring_has_a_stable_twisted_state():
     assert final.order < 1e-2 and final.max_rate < 1e-3      # still, but not synchronised
     steps = np.angle(np.exp(1j * np.diff(np.append(run.X[-1, 2], run.X[-1, 2, 0]))))
     np.testing.assert_allclose(steps, 2 * np.pi / n, atol=1e-3)
+
+
+@pytest.mark.parametrize('formation', ['parallel', 'circular'])
+@pytest.mark.parametrize('flow', [[0.0, 0.0], [0.4, -0.2]])
+def test_potential_never_increases_first_order_on_a_ring(formation, flow):
+    sc = resolve({'num_vehicles': 8, 'model': 'first_order', 'controller': 'first_order',
+                  'formation': formation, 'flow': flow, 'graph': 'ring', 'seed': 2,
+                  'dt_control': 0.002, 'dt_integration': 0.002, 'duration': 8.0})
+    st = Stepper(sc)
+    v = []
+    for _ in range(sc.periods):
+        st.command()
+        v.append(st.ctrl.formation.potential(st.ctrl.view(st.X)))
+        st.advance()
+    assert v[-1] < 0.7 * v[0]
+    assert np.max(np.diff(v)) <= 1e-7 * v[0]
+
+
+@pytest.mark.parametrize('name', ['first_order_circular', 'particle_parallel_proportional',
+                                  'particle_circular_flow'])
+def test_first_order_proportional_and_flow_laws_converge_on_a_circulant_graph(name):
+    sc = load(CONFIG / f'{name}.yaml', ['num_vehicles:=10', 'graph:=circulant',
+                                        'graph_offsets:=[1, 2]', 'duration:=150'], seed=2)
+    run = simulator.simulate(sc)
+    assert simulator.summary(run)['converged'], simulator.summary(run)
