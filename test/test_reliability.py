@@ -80,6 +80,8 @@ def _odom(k, ns, x=0.5, frame='map'):
 BAD_VEHICLE_INPUT = {
     'odom_non_finite': ('odom', lambda: _odom(1, 0, x=float('nan')), 'non_finite'),
     'odom_wrong_frame': ('odom', lambda: _odom(1, 0, frame='odom'), 'wrong_frame'),
+    'odom_undecodable': ('odom', lambda: b'\x00\x01\x00\x00 not an Odometry', 'malformed'),
+    'state_undecodable': ('state', lambda: b'\x00\x01\x00\x00 garbage', 'malformed'),
     'state_non_finite': ('state', lambda: _state(2, 0, [float('inf')] * 7), 'non_finite'),
     'state_malformed': ('state', lambda: _state(2, 0, [1.0] * 5, names=['x'] * 5), 'malformed'),
     'state_foreign_id': ('state', lambda: _state(2, 0, frame='vehicle_9/base_link'),
@@ -129,15 +131,16 @@ def test_plant_drops_and_counts_bad_commands(nodes):
     wrong = itf.cmd_msg(1, 0, (0.0, 0.1), 'second_order')
     wrong.header.frame_id = 'map'
     late = itf.cmd_msg(1, 5 * 20_000_000, (0.0, 0.1), 'second_order')
-    for msg in (bad, wrong, late):
-        cmd[1].publish(msg)
+    for msg in (bad, wrong, late, b'\x00\x01\x00\x00 not a WrenchStamped'):
+        cmd[1].publish(msg)                           # bytes: published as they are
     for k in (1, 2):
         cmd[k].publish(itf.cmd_msg(k, 0, (0.0, 0.1), 'second_order'))
     assert nodes.spin_until(lambda: any(c.clock.nanosec == 20_000_000 for c in clock))
 
     def counted():
         s = _status(diags, 'formation_control/plant')
-        return s and (s[2]['non_finite'], s[2]['wrong_frame'], s[2]['stale']) == ('1', '1', '1')
+        return s and (s[2]['non_finite'], s[2]['wrong_frame'], s[2]['stale'],
+                      s[2]['malformed']) == ('1', '1', '1', '1')
     assert nodes.spin_until(counted), _status(diags, 'formation_control/plant')
 
 

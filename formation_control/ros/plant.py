@@ -47,7 +47,7 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, String
 
-REJECTS = ('non_finite', 'wrong_frame', 'stale')
+REJECTS = ('non_finite', 'wrong_frame', 'stale', 'malformed')
 
 
 class PlantNode(Node):
@@ -159,7 +159,10 @@ class PlantNode(Node):
         """Take vehicle k's command bytes, read in place in the canonical layout."""
         got = self.cmd_wires[k - 1].decode(data)
         if got is None:
-            msg = deserialize_message(data, WrenchStamped)
+            try:
+                msg = deserialize_message(data, WrenchStamped)
+            except Exception:
+                return self.reject('malformed', f'undecodable command bytes of vehicle {k}')
             if msg.header.frame_id != itf.base_link(k):
                 return self.reject('wrong_frame', f"a command on vehicle {k}'s topic in frame "
                                    f'{msg.header.frame_id!r}')

@@ -129,7 +129,10 @@ class VehicleNode(Node):
         got = self.odom_wire.decode(data)
         if got is not None:
             return got
-        msg = deserialize_message(data, Odometry)
+        try:
+            msg = deserialize_message(data, Odometry)
+        except Exception:
+            return self.reject('malformed', 'undecodable odometry bytes')
         if (msg.header.frame_id, msg.child_frame_id) != (itf.MAP_FRAME, itf.base_link(self.k)):
             return self.reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
                                f' -> {msg.child_frame_id!r}')
