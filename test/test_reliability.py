@@ -319,16 +319,22 @@ def test_rigid_scenarios_converge_with_lossy_late_links(ros, tmp_path, name, dur
     assert count['stale'] > 0.1 * count['delayed'], count
 
 
-def test_vehicle_hears_a_neighbour_only_after_the_injected_delay(nodes):
-    """Real time: until the delay has passed, the vehicle commands as if it were alone."""
-    delay = 0.5
-    nodes.vehicle(1, PARTICLE, 'num_vehicles:=2', 'mode:=realtime', f'delay:={delay}')
+def _vehicle_1_of_two(nodes, *params):
+    """Start vehicle 1 of a particle pair; return its odometry, 2's state and its commands."""
+    nodes.vehicle(1, PARTICLE, 'num_vehicles:=2', *params)
     node = nodes.node
     odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
     state = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
     cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom.get_subscription_count()
                             and state.get_subscription_count())
+    return odom, state, cmds
+
+
+def test_vehicle_hears_a_neighbour_only_after_the_injected_delay(nodes):
+    """Real time: until the delay has passed, the vehicle commands as if it were alone."""
+    delay = 0.5
+    odom, state, cmds = _vehicle_1_of_two(nodes, 'mode:=realtime', f'delay:={delay}')
     sc = scenario.load(PARTICLE, ['num_vehicles:=2'])
     X = np.array([[0.5, 1.0], [-1.0, 2.0], [0.2, 0.3], [0.0, 0.2], [1.0, 1.0], [0.0, 0.0]])
     alone = Controller(scenario.resolve({**sc.to_dict(), 'num_vehicles': 1})).command(
@@ -471,13 +477,7 @@ def test_vehicles_that_answered_are_not_gone_while_a_slow_one_is_awaited(nodes, 
 def test_a_neighbour_heard_before_the_first_odometry_is_still_waited_for(nodes):
     """Lockstep: silence counts only once a step has begun for this vehicle."""
     timeout = 1.0
-    nodes.vehicle(1, PARTICLE, 'num_vehicles:=2', f'neighbor_timeout:={timeout}')
-    node = nodes.node
-    odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
-    state = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
-    assert nodes.spin_until(lambda: odom.get_subscription_count()
-                            and state.get_subscription_count())
+    odom, state, cmds = _vehicle_1_of_two(nodes, f'neighbor_timeout:={timeout}')
     state.publish(_state(2, 0))
     nodes.spin_for(1.5 * timeout)                             # silent beyond neighbor_timeout
     odom.publish(_odom(1, 0))
