@@ -162,7 +162,8 @@ def _circulant(n, offsets, name='graph_offsets'):
     bad = [d for d in offsets if not (isinstance(d, int) and 1 <= d < half)]
     if bad:
         _fail(name, offsets, f'offsets must be integers with 1 <= d < num_vehicles/2 = {half:g} '
-              f'(d and num_vehicles - d are the same link)')
+              f'(d and num_vehicles - d give the same links; for d = num_vehicles/2 list the '
+              f'edges with graph: explicit)')
     if len(set(offsets)) != len(offsets):
         _fail(name, offsets, 'offsets must be distinct')
     k = np.arange(n)
@@ -171,6 +172,8 @@ def _circulant(n, offsets, name='graph_offsets'):
 
 def _random(n, degree, seed):
     """Draw a connected graph: a random spanning tree, then random edges up to the degree."""
+    if n < 3:
+        _fail('graph', 'random', f'a random connected graph needs num_vehicles >= 3 (got {n})')
     if not (isinstance(degree, (int, float)) and 2 <= degree <= n - 1):
         _fail('graph_degree', degree, f'a random connected graph needs a mean degree in '
               f'[2, num_vehicles - 1 = {n - 1}]')
