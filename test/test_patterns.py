@@ -261,3 +261,70 @@ def test_a_pattern_in_a_flow_is_refused(name):
 def test_impossible_patterns_are_refused(overrides, match):
     with pytest.raises(scenario.ScenarioError, match=match):
         scenario.load(CONFIG / 'particle_circular_splay.yaml', overrides)
+
+
+def run_without(sc, gone, X0, seconds):
+    """Return the state after ``seconds`` in which the vehicles ``gone`` are silent."""
+    st = simulator.Stepper(sc, X0)
+    members = np.ones(sc.num_vehicles, bool)
+    members[list(gone)] = False
+    ctrl = st.ctrl
+    for _ in range(int(round(seconds / sc.dt_control))):
+        U = np.zeros_like(st.U)
+        Xm = st.X[:, members]
+        U[:, members] = ctrl.command(ctrl.view(Xm), Xm, members=members)
+        st.hold(U)
+        st.advance()
+    return st.X[:, members], members
+
+
+@pytest.mark.parametrize('form', ['moments', 'slots'])
+def test_a_vehicle_that_drops_out(form):
+    """Moments: the others re-spread as a splay of N - 1; slots: they keep theirs, a gap stays."""
+    sc = scenario.load(CONFIG / 'first_order_circular.yaml', [
+        'num_vehicles:=12', 'pattern:=splay', f'pattern_form:={form}', 'duration:=80.0'])
+    full = simulator.simulate(sc)
+    X, members = run_without(sc, [2], full.X[-1], 80.0)
+    ctrl = Controller(sc)
+    f = ctrl.formation_of(members)
+    v = ctrl.view(X)
+    c = f.centres(v)
+    assert np.max(abs(c - c.mean())) < 1e-2
+    sep = metrics.min_separation(v.r)
+    if form == 'moments':
+        assert max(metrics.phase_orders(v.phase)) < 1e-2
+        assert sep == pytest.approx(2 * np.sin(np.pi / 11), rel=CHORD_RTOL)
+    else:
+        assert abs(np.exp(1j * (v.phase - sc.pattern_offsets[members])).mean()) > 1 - 1e-6
+        assert sep == pytest.approx(2 * np.sin(np.pi / 12), rel=CHORD_RTOL)
+        gaps = np.sort(np.diff(np.sort(np.mod(v.phase, 2 * np.pi))))
+        assert gaps[-1] == pytest.approx(4 * np.pi / 12, abs=1e-3)   # the empty slot
+
+
+def test_report_states_the_predicted_pattern_and_the_plot_marks_the_places(tmp_path):
+    from formation_control.core import report
+    from formation_control.plotting import plot_run
+    run = splay_run('particle_circular_splay', 1)
+    out, rows = report.report(run)
+    assert out['pattern'] == 'splay: 12 vehicles 30 deg apart, chord 0.5176 m (moments)'
+    text = report.format_report('splay', out, rows)
+    assert 'predicted pattern  splay: 12 vehicles' in text
+    table = {name: (value, predicted) for name, value, predicted, _ in rows}
+    for m in range(1, 7):
+        value, predicted = table[f'phase_order_{m}']
+        assert predicted == 0.0 and value < 1e-2
+    value, predicted = table['min_separation']
+    assert predicted == pytest.approx(2 * np.sin(np.pi / 12))
+    assert value == pytest.approx(predicted, rel=CHORD_RTOL)
+    d = plot_run(run, tmp_path / 'splay.png')
+    assert (tmp_path / 'splay.png').stat().st_size > 0
+    np.testing.assert_allclose(d['places'], run.X[-1, 0] + 1j * run.X[-1, 1])
+    assert d['phase_orders'].shape == (run.t.size, 6)
+    sym = scenario.load(CONFIG / 'particle_circular_symmetric.yaml')
+    assert report.pattern_text(sym) == '(3, 12): 3 clusters of 4, 120 deg apart (moments)'
+    pred = report.predictions(sym, scenario.initial_state(sym))
+    assert pred['phase_order_3'][0] == pytest.approx(1 / 3)
+    assert pred['phase_order_6'][0] == pytest.approx(1 / 6)
+    assert pred['phase_order_2'][0] == 0.0 and pred['min_separation'][0] == 0.0
+    assert 'phase_order_1' not in report.predictions(replace(sym, pattern='none'),
+                                                     scenario.initial_state(sym))
