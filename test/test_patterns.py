@@ -170,8 +170,12 @@ def test_splay_spaces_the_vehicles_evenly_on_one_circle(name, overrides, seed):
 
 
 @pytest.mark.parametrize('seed', SEEDS)
-def test_backstepping_composite_lyapunov_never_increases(seed):
-    run = splay_run('particle_circular_splay', seed, ('duration:=20.0',))
+@pytest.mark.parametrize('name, overrides', [
+    ('particle_circular_splay', ()), ('particle_circular_symmetric', ()),
+    ('first_order_circular', ('num_vehicles:=12', 'pattern:=splay'))])
+def test_composite_lyapunov_never_increases(name, overrides, seed):
+    """V_c of backstepping and V of the first-order law (z = 0), sampled every 0.1 s."""
+    run = splay_run(name, seed, (*overrides, 'duration:=20.0'))
     ctrl = Controller(run.sc)
     vc = np.array([metrics.snapshot(ctrl, X, U).lyapunov for X, U in zip(run.X, run.U)])
     assert np.all(np.diff(vc) <= 1e-9 * vc[0])
