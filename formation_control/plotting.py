@@ -51,10 +51,27 @@ def _links(ax, d, sc):
     return segments
 
 
+def _phases(ax, d, sc):
+    """Mark the final places on the common circle of a pattern; return them (N,) complex."""
+    centre, radius = d['centre'][-1], 1.0 / abs(sc.omega0)
+    ring = centre + radius * np.exp(1j * np.linspace(0.0, 2.0 * np.pi, 181))
+    ax.plot(ring.real, ring.imag, ls='--', lw=0.8, color='0.3', label='common circle')
+    r = d['x'][-1] + 1j * d['y'][-1]
+    ax.plot(r.real, r.imag, 'o', ms=7, mfc='none', mec='tab:red', mew=1.5,
+            label=f'final places ({sc.pattern})')
+    for k, z in enumerate(r, start=1):
+        out = centre + (z - centre) * 1.18
+        ax.annotate(str(k), (out.real, out.imag), fontsize='x-small', ha='center',
+                    va='center', color='tab:red')
+    return r
+
+
 def _trajectories(ax, d, sc):
     ax.plot(d['x'], d['y'], lw=0.8)
     ax.plot(d['x'][0], d['y'][0], 'o', color='0.5', ms=3, label='start')
     d['links'] = _links(ax, d, sc)
+    if 'phase_orders' in d:
+        d['places'] = _phases(ax, d, sc)
     span = np.ptp(d['x']) + np.ptp(d['y'])
     _arrows(ax, d, sc.flow_c, 0.04 * span)
     ax.legend(loc='upper right', fontsize='small')
@@ -97,7 +114,8 @@ def plot_run(run, path):
     -------
     dict
         The data drawn, :func:`report.series`, and ``links``: the communication graph's
-        links between the final positions, (L, 2) complex (none on the all-to-all graph).
+        links between the final positions, (L, 2) complex (none on the all-to-all graph);
+        with a symmetric pattern ``places``, the final positions marked on the common circle.
 
     """
     sc = run.sc
@@ -108,6 +126,11 @@ def plot_run(run, path):
     _rates(axes[0, 1], d, rigid)
     if rigid:
         _crab(axes[1, 0], d)
+    elif 'phase_orders' in d:
+        for m, pm in enumerate(d['phase_orders'].T, start=1):
+            axes[1, 0].plot(d['t'], pm, lw=0.9, label=f'|p_{m}|')
+        axes[1, 0].legend(loc='upper right', fontsize='small', ncol=2)
+        axes[1, 0].set(xlabel='t (s)', ylabel='|p_m|', title='phase moments |p_m| (pattern)')
     else:
         axes[1, 0].plot(d['t'], d['order'], lw=0.9, color='k')
         axes[1, 0].set(xlabel='t (s)', ylabel='|p|', title='order parameter |p| (1.10)')

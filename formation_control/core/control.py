@@ -265,6 +265,30 @@ def command_limits(sc):
     return np.array([v if v > 0 else np.inf for v in limits])
 
 
+def pattern_law(sc):
+    """
+    Return the phase potential of the scenario's symmetric pattern.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its pattern, pattern_M, pattern_gain, pattern_gain_M and pattern_form.
+
+    Returns
+    -------
+    laws.Moments or laws.Slots or None
+        Moments with ``K_m = pattern_gain`` (m = 1..floor(N/2) splay, m < M symmetric) and
+        ``K_M = -pattern_gain_M``; or slots with gain pattern_gain and the offsets
+        :attr:`scenario.Scenario.pattern_offsets`; None without a pattern.
+
+    """
+    if sc.pattern == 'none':
+        return None
+    if sc.pattern_slots:
+        return laws.Slots(sc.pattern_gain, sc.pattern_offsets)
+    return laws.Moments(sc.pattern_gains)
+
+
 class Controller:
     """
     Decentralised formation controller of one scenario (see :mod:`scenario`).
@@ -299,7 +323,8 @@ class Controller:
         if sc.formation == 'parallel':
             self.formation = laws.Parallel(sc.K, coupling)
         else:
-            self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling)
+            self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
+                                           pattern_law(sc))
         self._couplings = {}
         self.use_heading = sc.formation == 'parallel' and sc.flow_c == 0
         self.full = uses_held_force(sc)
@@ -340,8 +365,9 @@ class Controller:
         """
         Return the formation law over the fleet vehicles ``members`` (bool mask; None = all).
 
-        The informed vehicles and the communication graph are restricted to the members (a
-        vehicle's view holds itself and the neighbours it hears).
+        The informed vehicles, the slot offsets of a slot pattern and the communication graph
+        are restricted to the members (a vehicle's view holds itself and the neighbours it
+        hears); the moments of a moment pattern are means over the members.
         """
         f = self.formation
         if members is None:
@@ -350,6 +376,8 @@ class Controller:
         changes = {}
         if isinstance(f, laws.Circular):
             changes['informed'] = np.asarray(f.informed)[members]
+            if isinstance(f.pattern, laws.Slots):
+                changes['pattern'] = replace(f.pattern, beta=f.pattern.beta[members])
         if f.coupling is not None:
             key = members.tobytes()
             if key not in self._couplings:

@@ -27,6 +27,10 @@ Sepulchre, Paley and Leonard, "Stabilization of planar collective motion with li
 communication", IEEE TAC 53(3), 2008: each vehicle sums over its neighbours only, divided by
 a fleet-wide nu; on the complete graph with nu = N they are the all-to-all laws. The
 derivations are in docs/errata.md, "Laplacian laws".
+
+Symmetric circular patterns (Sepulchre, Paley and Leonard, "Stabilization of planar collective
+motion: all-to-all communication", IEEE TAC 52(5), 2007) add a phase potential U to the
+circular law (:class:`Moments`, :class:`Slots`); docs/errata.md, "Symmetric patterns".
 """
 from dataclasses import dataclass
 
@@ -186,6 +190,135 @@ class Parallel:
 
 
 @dataclass(frozen=True)
+class Moments:
+    """
+    Phase potential of the symmetric patterns, from the moments of the phases (all-to-all).
+
+    ``p_m = (1/(m N)) sum_j e^{i m phase_j}`` and ``U = sum_m K_m (N/2) (|p_m|^2 - d_m)``
+    with ``d_m = 1/m^2`` where ``K_m < 0`` (so that U = 0 on the (M, N) pattern), else 0.
+    Splay (|p_m| = 0, m = 1..floor(N/2)): every K_m > 0; (M, N) pattern (M clusters of N/M):
+    ``K_m > 0`` for m < M and ``K_M < 0``.
+
+    Attributes
+    ----------
+    gains : tuple of float
+        K_1, K_2, ... (rad/s): ``gains[m - 1]`` is K_m.
+
+    """
+
+    gains: tuple
+
+    def moments(self, phase):
+        """Return ``p_m`` (complex) for m = 1..len(gains) of the phases (N,)."""
+        return np.array([np.exp(1j * m * phase).mean() / m
+                         for m in range(1, len(self.gains) + 1)])
+
+    def gradient(self, view, idx=slice(None), coupling=None):
+        """
+        Return ``b_k = dU/dphase_k`` and its time derivative for the vehicles idx.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the N vehicles known (the means run over them).
+        idx : index, optional
+            The vehicles to compute for.
+        coupling : Coupling or None
+            Ignored: the moments are fleet means (all-to-all).
+
+        Returns
+        -------
+        b, b_dot : ndarray, shape (n,)
+            ``b_k = sum_m K_m <p_m, i e^{i m phase_k}>`` (rad/s) and
+            ``b_k' = sum_m K_m (<mean(w e^{i m phase}), e^{i m phase_k}>
+            - m w_k <p_m, e^{i m phase_k}>)`` (rad/s^2), w the phase rates.
+
+        """
+        ph, w = view.phase, view.rate
+        b = np.zeros(np.shape(ph[idx]))
+        b_dot = np.zeros_like(b)
+        for m, gain in enumerate(self.gains, start=1):
+            E = np.exp(1j * m * ph)
+            pm, pw = E.mean() / m, (w * E).mean()
+            Ek, wk = E[idx], w[idx]
+            b = b + gain * inner(pm, 1j * Ek)
+            b_dot = b_dot + gain * (inner(pw, Ek) - m * wk * inner(pm, Ek))
+        return b, b_dot
+
+    def potential(self, view, coupling=None):
+        """Return ``U = sum_m K_m (N/2) (|p_m|^2 - d_m)`` (rad/s) of the view's phases."""
+        n = view.phase.size
+        u = 0.0
+        for m, (gain, pm) in enumerate(zip(self.gains, self.moments(view.phase)), start=1):
+            u += gain * 0.5 * n * (abs(pm) ** 2 - (1.0 / m ** 2 if gain < 0 else 0.0))
+        return float(u)
+
+
+@dataclass(frozen=True)
+class Slots:
+    """
+    Phase potential of slot patterns: synchronise ``phase_k - beta_k`` (any connected graph).
+
+    With ``x_k = e^{i (phase_k - beta_k)}``: all-to-all ``U = K_s (N/2) (1 - |mean(x)|^2)``;
+    on a graph ``U = K_s <x, L x> / (2 nu) = K_s sum_arcs (1 - cos(psi_j - psi_k)) / (2 nu)``,
+    the Laplacian parallel potential (times ``K_s N``). Splay slots ``beta_k = 2 pi k / N``,
+    (M, N) slots ``beta_k = 2 pi (k mod M) / M``.
+
+    Attributes
+    ----------
+    gain : float
+        K_s (rad/s), > 0.
+    beta : ndarray, shape (N,)
+        The slot offset of each vehicle of the view (rad).
+
+    """
+
+    gain: float
+    beta: np.ndarray
+
+    def gradient(self, view, idx=slice(None), coupling=None):
+        """
+        Return ``b_k = dU/dphase_k`` and its time derivative for the vehicles idx.
+
+        Parameters
+        ----------
+        view : View
+            Particle view of the vehicles known; ``beta`` holds their offsets.
+        idx : index, optional
+            The vehicles to compute for.
+        coupling : Coupling or None
+            The communication graph among the view's vehicles; None = all-to-all.
+
+        Returns
+        -------
+        b, b_dot : ndarray, shape (n,)
+            ``b_k = -K_s q_k``, ``q_k = (1/nu) sum_j a_kj sin(psi_j - psi_k)`` (all-to-all
+            ``<mean(x), i x_k>``) and ``b_k' = -K_s (1/nu) sum_j a_kj cos(psi_j - psi_k)
+            (w_j - w_k)`` (all-to-all ``<mean(w x), x_k> - w_k <mean(x), x_k>``).
+
+        """
+        psi, w = view.phase - self.beta, view.rate
+        if coupling is None:
+            x = np.exp(1j * psi)
+            p, pw = x.mean(), (w * x).mean()
+            xk, wk = x[idx], w[idx]
+            return -self.gain * inner(p, 1j * xk), -self.gain * (inner(pw, xk) - wk * inner(p, xk))
+        g, m = coupling, psi.size
+        d = psi[g.dst] - psi[g.src]
+        q = g.total(np.sin(d), m)[idx] / g.nu
+        q_dot = g.total(np.cos(d) * (w[g.dst] - w[g.src]), m)[idx] / g.nu
+        return -self.gain * q, -self.gain * q_dot
+
+    def potential(self, view, coupling=None):
+        """Return U (rad/s): ``K_s (N/2)(1 - |mean x|^2)``, on a graph ``K_s <x, L x>/(2 nu)``."""
+        psi = view.phase - self.beta
+        if coupling is None:
+            return float(self.gain * 0.5 * psi.size * (1.0 - abs(np.exp(1j * psi).mean()) ** 2))
+        d = psi[coupling.dst] - psi[coupling.src]
+        return float(self.gain * np.sum(1.0 - np.cos(d)) / (2.0 * coupling.nu))
+
+
+@dataclass(frozen=True)
 class Circular:
     """
     Circular formation, ``phi_k = omega0 (s_k + K G_k)`` with K > 0.
@@ -196,6 +329,11 @@ class Circular:
     ``sigma_k = G_k / omega0`` is the cross term of the backstepping laws (3.14), (4.8), (7.25).
     On a graph (``coupling``) ``P_k c`` becomes ``C_k / nu`` with
     ``C_k = sum_j a_kj (c_k - c_j)``, and the potential ``<c, L c> / (2 nu) + ...``.
+
+    A symmetric ``pattern`` (phase potential U, gradient ``b_k = dU/dphase_k``) gives
+    ``phi_k = omega0 (s_k + K G_k) - b_k``, potential ``V = S + U / (K omega0^2)`` and
+    ``sigma_k = -dV/dphase_k = G_k / omega0 - b_k / (K omega0^2)
+    = (phi_k - omega0 s_k) / (K omega0^2)`` (docs/errata.md, "Symmetric patterns").
 
     Attributes
     ----------
@@ -209,6 +347,8 @@ class Circular:
         a_k0: 1 for the vehicles that know c0, 0 for the others; None = nobody.
     coupling : Coupling or None
         The communication graph among the view's vehicles; None = all-to-all.
+    pattern : Moments or Slots or None
+        The phase potential of a symmetric pattern (flow-free only); None = places free.
 
     """
 
@@ -217,6 +357,7 @@ class Circular:
     c0: complex = 0j
     informed: np.ndarray = None
     coupling: Coupling = None
+    pattern: object = None
 
     def centres(self, view):
         """
@@ -261,6 +402,8 @@ class Circular:
             ``G_k' = w_k <i e_k, P_k c> + (s_k - w_k/omega0) - <mean(c'), e_k>
             + a_k0 (w_k <i e_k, c_k - c0> + s_k - w_k/omega0)`` and
             ``c_k' = e_k (s_k - w_k/omega0)`` (w the phase rates); ``sigma_k = G_k / omega0``.
+            With a pattern, ``phi_k - b_k``, ``phi_k' - b_k'`` and
+            ``sigma_k - b_k / (K omega0^2)``.
 
         """
         e = view.e
@@ -281,7 +424,12 @@ class Circular:
                  + a0 * (wk * inner(1j * ek, dc0) + ck_dot_along))
         phi = self.omega0 * (view.speed[idx] + self.K * g)
         phi_dot = self.omega0 * (view.speed_dot[idx] + self.K * g_dot)
-        return Terms(phi, phi_dot, g / self.omega0)
+        sigma = g / self.omega0
+        if self.pattern is not None:
+            b, b_dot = self.pattern.gradient(view, idx, self.coupling)
+            phi, phi_dot = phi - b, phi_dot - b_dot
+            sigma = sigma - b / (self.K * self.omega0 ** 2)
+        return Terms(phi, phi_dot, sigma)
 
     def potential(self, view):
         """
@@ -297,10 +445,14 @@ class Circular:
         float
             ``V = sum_k |c_k - mean(c)|^2 / 2 + sum_k a_k0 |c_k - c0|^2 / 2`` (m^2), (1.14),
             (7.18); 0 when every centre is the common one (and c0, if anyone is informed).
+            A pattern adds ``U / (K omega0^2)`` (m^2).
 
         """
         c = self.centres(view)
         prescribed = 0.5 * np.sum(self._a0(c.size) * abs(c - self.c0) ** 2)
+        if self.pattern is not None:
+            prescribed += self.pattern.potential(view, self.coupling) / (
+                self.K * self.omega0 ** 2)
         g = self.coupling
         if g is not None:
             return float(np.sum(abs(c[g.src] - c[g.dst]) ** 2)) / (4.0 * g.nu) + prescribed

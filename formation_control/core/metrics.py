@@ -28,6 +28,7 @@ ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
 SPREAD_TOL = 1e-2        # circular: max |c_k - mean(c)| below this (m)
 RADIUS_TOL = 1e-2        # circular: relative error of the mean radius
+PHASE_ORDERS = 8         # patterns: |p_m| reported for m = 1..min(floor(N/2), PHASE_ORDERS)
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,8 @@ class Snapshot:
     speed_error: float = np.nan      # mean_k |u_k - u0| (m/s), rigid bodies (7.1)
     crab: float = np.nan             # mean_k beta_k = atan2(v, u) (rad) (7.11)
     crab_inertial: float = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
+    phase_orders: tuple = ()         # pattern: |p_m|, m = 1, 2, ... (Sepulchre et al. 2007)
+    min_separation: float = np.nan   # min_{j != k} |r_j - r_k| (m)
 
     def values(self):
         """Return the named values for messages and reports, without those that do not apply."""
@@ -52,7 +55,8 @@ class Snapshot:
                'centre_spread': self.spread, 'radius': self.radius,
                'centre_x': self.centre.real, 'centre_y': self.centre.imag,
                'speed_error': self.speed_error, 'crab_angle': self.crab,
-               'crab_angle_inertial': self.crab_inertial}
+               'crab_angle_inertial': self.crab_inertial, 'min_separation': self.min_separation}
+        out.update({f'phase_order_{m}': v for m, v in enumerate(self.phase_orders, start=1)})
         return {k: float(v) for k, v in out.items() if not np.isnan(v)}
 
 
@@ -72,18 +76,22 @@ def snapshot(ctrl, X, inputs):
     Returns
     -------
     Snapshot
-        |p| (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max |phase rate|; circular: centre
-        spread, mean radius and centre; rigid bodies: mean |u - u0| and mean crab angles
+        |p| (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max |phase rate|, the smallest
+        distance between two vehicles; circular: centre spread, mean radius and centre, with a
+        pattern the moments |p_m| (:func:`phase_orders`); rigid bodies: mean |u - u0| and mean
+        crab angles
         (:func:`crab_angles`).
 
     """
     view = ctrl.view(X, inputs[1])
     f = ctrl.formation
-    extra = {}
+    extra = {'min_separation': min_separation(view.r)}
     if isinstance(f, laws.Circular):
         c = f.centres(view)
         extra.update(spread=float(np.max(abs(c - c.mean()))),
                      radius=float(np.mean(abs(view.r - c.mean()))), centre=complex(c.mean()))
+        if f.pattern is not None:
+            extra['phase_orders'] = phase_orders(view.phase)
     else:
         extra.update(spread=np.nan, radius=np.nan)
     if ctrl.rigid:
@@ -93,6 +101,35 @@ def snapshot(ctrl, X, inputs):
     return Snapshot(float(abs(view.e.mean())), float(f.potential(view)),
                     float(laws.composite_lyapunov(f, view)),
                     max_rate=float(np.max(abs(view.rate))), **extra)
+
+
+def min_separation(r):
+    """Return the smallest distance between two of the positions r (N,) complex (m), or nan."""
+    if r.size < 2:
+        return np.nan
+    d = abs(r[:, None] - r[None, :])
+    d[np.diag_indices_from(d)] = np.inf
+    return float(d.min())
+
+
+def phase_orders(phase):
+    """
+    Return the moduli of the phase moments of a symmetric pattern.
+
+    Parameters
+    ----------
+    phase : ndarray, shape (N,)
+        The steered phases (rad).
+
+    Returns
+    -------
+    tuple of float
+        ``|p_m| = |sum_j e^{i m phase_j}| / (m N)`` for m = 1..min(floor(N/2), PHASE_ORDERS):
+        all 0 for the splay, ``|p_M| = 1/M`` and ``|p_m| = 0`` (m < M) for M clusters.
+
+    """
+    top = max(1, min(phase.size // 2, PHASE_ORDERS))
+    return tuple(float(abs(np.exp(1j * m * phase).mean()) / m) for m in range(1, top + 1))
 
 
 def converged(sc, snap):

@@ -41,7 +41,9 @@ def series(run):
         ``t`` (T,) s; ``x``, ``y`` (m), ``theta`` (rad), ``omega`` (rad/s), ``u`` (m/s), each
         (T, N); ``ground`` (T, N) complex, the ground velocity (8.1) (m/s), and ``speed`` its
         modulus; ``beta``, ``beta_hat`` (T, N), the crab angles (rad); ``lyapunov`` (T,) V_c
-        (2.10) and ``order`` (T,) |p| (1.10).
+        (2.10) and ``order`` (T,) |p| (1.10); with a symmetric pattern ``phase_orders``
+        (T, m) the moduli |p_m| (:func:`metrics.phase_orders`) and ``centre`` (T,) complex,
+        the mean circle centre (m).
 
     """
     ctrl = Controller(run.sc)
@@ -49,11 +51,48 @@ def series(run):
     X = run.X.transpose(1, 0, 2)
     beta, beta_hat = metrics.crab_angles(X, run.sc.flow_c)
     ground = ground_velocity(X, run.sc.flow_c)
-    return {'t': run.t, 'x': X[ROW_X], 'y': X[ROW_Y], 'theta': X[ROW_THETA],
-            'omega': X[ROW_OMEGA], 'u': X[ROW_U],
-            'ground': ground, 'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
-            'lyapunov': np.array([s.lyapunov for s in snaps]),
-            'order': np.array([s.order for s in snaps])}
+    out = {'t': run.t, 'x': X[ROW_X], 'y': X[ROW_Y], 'theta': X[ROW_THETA],
+           'omega': X[ROW_OMEGA], 'u': X[ROW_U],
+           'ground': ground, 'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
+           'lyapunov': np.array([s.lyapunov for s in snaps]),
+           'order': np.array([s.order for s in snaps])}
+    if run.sc.pattern != 'none':
+        out['phase_orders'] = np.array([s.phase_orders for s in snaps])
+        out['centre'] = np.array([s.centre for s in snaps])
+    return out
+
+
+def pattern_groups(sc):
+    """Return the number of evenly spaced groups of the pattern: N (splay), M, or None."""
+    return {'splay': sc.num_vehicles, 'symmetric': sc.pattern_M}.get(sc.pattern)
+
+
+def pattern_text(sc):
+    """
+    Return the pattern the scenario predicts, in words.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A circular scenario (pattern, pattern_M, pattern_form, num_vehicles, omega0).
+
+    Returns
+    -------
+    str or None
+        E.g. ``splay: 12 vehicles 30 deg apart, chord 0.5176 m (moments)``; None without a
+        pattern.
+
+    """
+    groups = pattern_groups(sc)
+    if groups is None:
+        return None
+    form = 'slots' if sc.pattern_slots else 'moments'
+    if sc.pattern == 'splay':
+        chord = 2.0 * np.sin(np.pi / groups) / abs(sc.omega0)
+        return (f'splay: {groups} vehicles {360.0 / groups:.4g} deg apart, chord {chord:.4g} m '
+                f'({form})')
+    return (f'({groups}, {sc.num_vehicles}): {groups} clusters of {sc.num_vehicles // groups}, '
+            f'{360.0 / groups:.4g} deg apart ({form})')
 
 
 def predictions(sc, X):
@@ -90,6 +129,15 @@ def predictions(sc, X):
             rate = abs(sc.omega0) * (metrics.steady_turn(sc)[1] if rigid else 1.0)
             out['max_turn_rate'] = (rate, '(7.9)-(7.10) yaw rate omega0 s0' if rigid
                                     else 'turn rate omega0')
+    groups = pattern_groups(sc)
+    if groups is not None:
+        source = f'{sc.pattern} pattern, {groups} groups: |p_m| = 1/m if {groups} | m, else 0'
+        for m in range(1, len(metrics.phase_orders(np.zeros(sc.num_vehicles))) + 1):
+            out[f'phase_order_{m}'] = (1.0 / m if m % groups == 0 else 0.0, source)
+        chord = 2.0 * np.sin(np.pi / groups) / abs(sc.omega0)
+        out['min_separation'] = ((chord, 'splay: chord 2 sin(pi/N)/|omega0|')
+                                 if sc.pattern == 'splay'
+                                 else (0.0, 'the vehicles of a cluster coincide'))
     if rigid:
         out['speed_error'] = (0.0, '(7.1) u -> u0')
         if sc.formation == 'circular' and still:
@@ -114,13 +162,16 @@ def report(run):
     Returns
     -------
     summary : dict
-        :func:`simulator.summary`.
+        :func:`simulator.summary`, with ``pattern`` (:func:`pattern_text`) when the scenario
+        has a symmetric pattern.
     rows : list of (str, float, float or None, str)
         For each final metric: its name, the measured value, the predicted one (None if the
         analysis predicts none) and the source of the prediction.
 
     """
     out = summary(run)
+    if run.sc.pattern != 'none':
+        out = dict(out, pattern=pattern_text(run.sc))
     final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1]).values()
     predicted = predictions(run.sc, run.X[-1])
     rows = [(name, value, *predicted.get(name, (None, ''))) for name, value in final.items()]
@@ -134,6 +185,8 @@ def format_report(title, out, rows):
              f"  converged          {'yes' if out['converged'] else 'no'}"
              + (f', from t = {time:.4g} s' if time is not None else ''),
              f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
+    if out.get('pattern'):
+        lines.insert(2, f"  predicted pattern  {out['pattern']}")
     for name, value, predicted, source in rows:
         pred = '' if predicted is None else f'{predicted:12.6g}'
         lines.append(f'  {name:20s} {value:12.6g} {pred:>12s}  {source}'.rstrip())

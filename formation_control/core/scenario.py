@@ -33,6 +33,12 @@ import yaml
 FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
 LAW_VARIANTS = ('practical', 'full')
+PATTERNS = ('none', 'splay', 'symmetric')
+PATTERN_GAIN = 0.5
+"""Default K_m (rad/s) of the symmetric patterns (README, "Symmetric patterns")."""
+PATTERN_GAIN_M = 0.1
+"""Default |K_M| (rad/s): K_M = -0.1 gives (3, 12) from seeds 1-3 (-0.05 too, more slowly),
+-0.2 leaves unequal clusters from seed 2."""
 INIT_ARRAYS = tuple(f'init_{name}' for name in STATE_NAMES)
 
 
@@ -166,6 +172,23 @@ class Scenario:
         "full (adds s' and beta' computed from the model)", choices=LAW_VARIANTS)
     cancel_drag_moment: bool = _param(True, '', 'cancel the drag moment of the centre of '
                                       'pressure, rigid_cop (A.20)')
+    # Symmetric circular patterns (Sepulchre, Paley and Leonard 2007), flow-free
+    pattern: str = _param('none', '', 'places on the circle: none (free), splay (evenly '
+                          'spaced) or symmetric (pattern_M clusters of N/M evenly spaced)',
+                          choices=PATTERNS, rule='formation circular and no flow')
+    pattern_M: int = _param(2, '', 'symmetric: the number of clusters M',
+                            rule='2 <= M < num_vehicles and M divides num_vehicles')
+    pattern_gain: float = _param(PATTERN_GAIN, 'rad/s', 'gain K_m > 0 of the phase potential '
+                                 '(m = 1..floor(N/2) splay, m < M symmetric); the slot gain',
+                                 **_POSITIVE)
+    pattern_gain_M: float = _param(PATTERN_GAIN_M, 'rad/s', 'symmetric moments: |K_M| of the '
+                                   'clustering term, K_M = -pattern_gain_M (too large: unequal '
+                                   'clusters)', **_POSITIVE)
+    pattern_form: str = _param('auto', '', 'moments (fleet means of e^{i m phase}) or slots '
+                               '(synchronise phase_k - beta_k over the graph, beta_k from the '
+                               'id k); auto = moments on the complete graph, slots otherwise',
+                               choices=('auto', 'moments', 'slots'),
+                               rule='moments only on the complete graph with default graph_nu')
     # Communication graph (Sepulchre, Paley and Leonard 2008: limited communication)
     graph: str = _param('complete', '', 'who hears whom: complete (all-to-all, the thesis), '
                         'ring, circulant, random (connected) or explicit',
@@ -236,6 +259,34 @@ class Scenario:
     def all_to_all(self):
         """Return whether the laws take their all-to-all form (complete graph, default nu)."""
         return self.graph == 'complete' and self.graph_nu == 0
+
+    @property
+    def pattern_slots(self):
+        """Return whether the pattern takes its slot form (pattern_form, or auto on a graph)."""
+        return self.pattern_form == 'slots' or (self.pattern_form == 'auto'
+                                                and not self.all_to_all)
+
+    @property
+    def pattern_offsets(self):
+        """
+        Return the slot offsets beta_k (rad), (N,) over vehicles 1..N.
+
+        Splay ``2 pi (k - 1) / N``, symmetric ``2 pi ((k - 1) mod M) / M``: fixed by the id and
+        the fleet size, so a vehicle that drops out leaves its slot empty.
+        """
+        k = np.arange(self.num_vehicles)
+        if self.pattern == 'symmetric':
+            return 2.0 * np.pi * (k % self.pattern_M) / self.pattern_M
+        return 2.0 * np.pi * k / self.num_vehicles
+
+    @property
+    def pattern_gains(self):
+        """Return the moment gains (K_1, K_2, ...) (rad/s) of the pattern; () for none."""
+        if self.pattern == 'splay':
+            return (self.pattern_gain,) * (self.num_vehicles // 2)
+        if self.pattern == 'symmetric':
+            return (self.pattern_gain,) * (self.pattern_M - 1) + (-self.pattern_gain_M,)
+        return ()
 
     @property
     def informed_mask(self):
@@ -490,6 +541,27 @@ def _check_gains(sc):
         _fail('flow', list(sc.flow), f'rigid bodies need |flow| < u0 = {sc.u0} m/s')
 
 
+def _check_pattern(sc):
+    """Refuse a symmetric pattern that cannot exist or that the laws do not reach."""
+    if sc.pattern == 'none':
+        return
+    if sc.formation != 'circular':
+        _fail('pattern', sc.pattern, 'a symmetric pattern places vehicles on the circle: it '
+              'needs formation circular')
+    if sc.flow_c != 0:
+        _fail('pattern', sc.pattern, f'flow = {list(sc.flow)} m/s is not zero: in a flow no '
+              f'fixed phase pattern exists on a circle (the course rate omega0 s_k varies '
+              f'with the course, so the vehicles move along the circle relative to each '
+              f'other); use flow: [0.0, 0.0] or pattern: none')
+    n, m = sc.num_vehicles, sc.pattern_M
+    if sc.pattern == 'symmetric' and not (2 <= m < n and n % m == 0):
+        _fail('pattern_M', m, f'symmetric needs 2 <= M < num_vehicles = {n} with M dividing '
+              f'num_vehicles (M clusters of N/M); M = N is pattern: splay')
+    if sc.pattern_form == 'moments' and not sc.all_to_all:
+        _fail('pattern_form', sc.pattern_form, 'the moments are fleet means (all-to-all): on a '
+              'limited graph their Laplacian form converges only locally; use slots (or auto)')
+
+
 def rhp_zero(sc):
     """
     Return the right-half-plane zero of tail steering, from the force F to the course.
@@ -606,6 +678,7 @@ def resolve(params):
         sc = replace(sc, K=-1.0 if sc.formation == 'parallel' else 1.0)
     _check_structure(sc)
     _check_gains(sc)
+    _check_pattern(sc)
     return replace(sc, warnings=_check_physics(sc))
 
 

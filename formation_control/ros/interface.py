@@ -72,6 +72,9 @@ METRIC_DOC = {
     'speed_error': 'rigid bodies: mean_k |u_k - u0| (m/s)',
     'crab_angle': 'rigid bodies: mean_k beta_k = atan2(v_k, u_k) (rad), flow-relative',
     'crab_angle_inertial': 'rigid bodies: mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)',
+    'min_separation': 'min_{j != k} |r_j - r_k|, the smallest distance between two vehicles (m)',
+    **{f'phase_order_{m}': f'symmetric pattern: |p_{m}| = |mean_k e^{{i {m} phase_k}}| / {m}; '
+       f'splay: 0; M clusters: 1/M at m = M, 0 below' for m in range(1, 9)},
     'live_links': 'links of the communication graph that are live (both ends heard recently, '
                   'each hearing the other)',
     'algebraic_connectivity': 'lambda_2 of the Laplacian of the live graph (the vehicles heard '
