@@ -33,13 +33,25 @@ import yaml
 MONITOR_TOPICS = ('/formation/metrics',)
 
 
-def write_params(sc, path):
+RECORDED_DEPTH = 500
+"""With a bag: the history of the odometry, state and command writers (samples; 10 s at
+50 Hz). DDS matches a writer to the recorder's reader on each side in its own time; a writer
+that matches after the first steps resends its transient-local history, which must still
+hold step 0."""
+
+
+def write_params(sc, path, recorded=False):
     """
     Write the resolved scenario as a ROS 2 parameter file at ``path``; return the path.
 
-    Empty lists are left out: ROS types them.
+    Empty lists are left out: ROS types them. ``recorded``: the state writers keep
+    :data:`RECORDED_DEPTH` samples (``qos_overrides``), so the bag misses no step.
     """
     values = {k: v for k, v in sc.to_dict().items() if v != []}
+    if recorded:
+        values['qos_overrides'] = {
+            f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
+            for k in range(1, sc.num_vehicles + 1) for name in ('odom', 'formation_state', 'cmd')}
     Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': values}}))
     return str(path)
 
@@ -86,7 +98,7 @@ class Swarm:
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
-        params = write_params(sc, self.dir / 'scenario.yaml')
+        params = write_params(sc, self.dir / 'scenario.yaml', recorded=wait_for_start)
         common = ['--ros-args', '--params-file', params, '-p', f'mode:={mode}']
         for p in node_params:
             common += ['-p', p]

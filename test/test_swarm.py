@@ -23,6 +23,7 @@ import json
 from pathlib import Path
 
 from formation_control.core import simulator
+from formation_control.core.scenario import resolve
 from formation_control.ros import interface as itf
 import pytest
 from rosbags.highlevel import AnyReader
@@ -129,3 +130,15 @@ def test_several_vehicle_nodes_per_process_equal_the_offline_simulator(ros, tmp_
     assert logs == ['plant.log', 'vehicles_1-4.log', 'vehicles_5-6.log']
     fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
     assert_equal_runs(fleet, offline_run(CONFIG / 'particle_circular.yaml', overrides))
+
+
+def test_a_recorded_fleet_keeps_a_deep_history_on_its_state_writers(tmp_path):
+    """A writer that matches the recorder late still resends step 0 (transient local)."""
+    from formation_control.swarm import RECORDED_DEPTH, write_params
+    sc = resolve({'num_vehicles': 2})
+    plain = yaml.safe_load(open(write_params(sc, tmp_path / 'a.yaml')))['/**']['ros__parameters']
+    recorded = yaml.safe_load(open(write_params(sc, tmp_path / 'b.yaml', recorded=True)))
+    overrides = recorded['/**']['ros__parameters']['qos_overrides']
+    assert 'qos_overrides' not in plain and RECORDED_DEPTH >= 100
+    assert overrides == {f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
+                         for k in (1, 2) for name in ('odom', 'formation_state', 'cmd')}
