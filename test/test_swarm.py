@@ -136,9 +136,10 @@ def test_a_recorded_fleet_keeps_a_deep_history_on_its_state_writers(tmp_path):
     """A writer that matches the recorder late still resends step 0 (transient local)."""
     from formation_control.swarm import RECORDED_DEPTH, write_params
     sc = resolve({'num_vehicles': 2})
-    plain = yaml.safe_load(open(write_params(sc, tmp_path / 'a.yaml')))['/**']['ros__parameters']
-    recorded = yaml.safe_load(open(write_params(sc, tmp_path / 'b.yaml', recorded=True)))
+    plain = yaml.safe_load(Path(write_params(sc, tmp_path / 'a.yaml')).read_text())
+    recorded = yaml.safe_load(Path(write_params(sc, tmp_path / 'b.yaml', recorded=True))
+                              .read_text())
     overrides = recorded['/**']['ros__parameters']['qos_overrides']
-    assert 'qos_overrides' not in plain and RECORDED_DEPTH >= 100
+    assert 'qos_overrides' not in plain['/**']['ros__parameters'] and RECORDED_DEPTH >= 100
     assert overrides == {f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
                          for k in (1, 2) for name in ('odom', 'formation_state', 'cmd')}
