@@ -147,16 +147,16 @@ def test_circular_fleets_converge_on_rings_and_random_graphs(name, graph):
             assert s['radius'] == pytest.approx(s['radius_target'], rel=1e-2)
 
 
-@pytest.mark.parametrize('graph', [{}, {'graph': 'random', 'graph_degree': 3}], ids=str)
-def test_rigid_circle_on_a_graph_moves_onto_the_centre_two_vehicles_know(graph):
-    for seed in (1, 2):
-        sc = load(CONFIG / 'rigid_circular_ring.yaml',
-                  [f'{k}:={v}' for k, v in dict(graph, graph_seed=seed, informed=[2, 6],
-                                                c0=[1.0, -1.0]).items()], seed=seed)
-        run = simulator.simulate(sc)
-        snap = metrics.snapshot(Controller(sc), run.X[-1], run.U[-1])
-        assert simulator.summary(run)['converged']
-        assert abs(snap.centre - (1.0 - 1.0j)) < 1e-2
+@pytest.mark.parametrize('graph, seed', [({}, 1), ({'graph': 'random', 'graph_degree': 3}, 2)],
+                         ids=str)
+def test_rigid_circle_on_a_graph_moves_onto_the_centre_two_vehicles_know(graph, seed):
+    sc = load(CONFIG / 'rigid_circular_ring.yaml',
+              [f'{k}:={v}' for k, v in dict(graph, graph_seed=seed, informed=[2, 6],
+                                            c0=[1.0, -1.0]).items()], seed=seed)
+    run = simulator.simulate(sc)
+    snap = metrics.snapshot(Controller(sc), run.X[-1], run.U[-1])
+    assert simulator.summary(run)['converged']
+    assert abs(snap.centre - (1.0 - 1.0j)) < 1e-2
 
 
 def test_parallel_fleets_converge_on_random_connected_graphs():
