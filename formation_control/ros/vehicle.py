@@ -78,6 +78,9 @@ class VehicleNode(Node):
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
                       for j in (*self.neighbours, vehicle_id)}
         self.wires = {j: itf.StateWire(j, hears) for j, hears in self.hears.items()}
+        self.heard_rows = np.array([j - 1 for j in self.hears[vehicle_id]], int)
+        self.my_flag = {j: len(itf.STATE_FIELDS) + hears.index(vehicle_id)
+                        for j, hears in self.hears.items() if hears and j != vehicle_id}
         self._create_topics()
         self.add_on_set_parameters_callback(parameters.validator(self))
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -155,7 +158,7 @@ class VehicleNode(Node):
             return self._answer_again()
         row = self.onboard.observe(X)
         self.known.store(self.k, ns, row)
-        hearing = self.known.hearing()[[j - 1 for j in self.hears[self.k]]]
+        hearing = self.known.hearing()[self.heard_rows]
         self.last_state = self.wires[self.k].encode(ns, itf.state_values(X, row, hearing))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
@@ -202,8 +205,8 @@ class VehicleNode(Node):
 
     def _accept(self, j, ns, values):
         x, y, _, _, phase, rate, speed = values[:len(itf.STATE_FIELDS)]
-        hears = self.hears[j]
-        hears_me = not hears or values[len(itf.STATE_FIELDS) + hears.index(self.k)] > 0.5
+        flag = self.my_flag.get(j)
+        hears_me = flag is None or values[flag] > 0.5
         if not self.known.hear(j, ns, (complex(x, y), phase, rate, speed), hears_me):
             return self.reject('stale', f'a formation_state of vehicle {j} stamped '
                                f'{ns * 1e-9:.3f} s, older than the last one')
