@@ -216,6 +216,11 @@ class NeighbourTable:
             This vehicle's own s' (m/s^2); the neighbours' are taken as 0 (the laws use s' of
             the commanded vehicle only).
 
+        A neighbour's state stamped earlier than this vehicle's odometry (real time: each
+        vehicle samples in its own slot of the period) is carried forward to the odometry's
+        stamp along its arc, from the rate and speed it sent (:meth:`laws.View.ahead`); in
+        lockstep every state answers the step, so none is.
+
         Returns
         -------
         (laws.View, int)
@@ -225,4 +230,8 @@ class NeighbourTable:
         s_dot = np.zeros(np.count_nonzero(members))
         s_dot[own] = speed_dot
         phase, rate, speed = self.table[:, members]
-        return View(self.r[members], phase, rate, speed, s_dot), own
+        view = View(self.r[members], phase, rate, speed, s_dot)
+        behind = self.odom_ns - self.stamp[members]
+        if not behind.any():
+            return view, own
+        return view.ahead(1e-9 * behind), own

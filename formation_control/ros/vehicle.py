@@ -49,6 +49,9 @@ LATENCIES = ('odom_to_command', 'stamp_to_command')
 """Real time, last 1000 commands: odometry handed to the node -> command sent (the node's own
 latency), and odometry stamp -> command sent (adds the transport, the queue and any lag of the
 plant behind the wall clock)."""
+DELAY_GAIN = 0.1
+"""Real time: the weight of each new stamp -> command delay in the running mean the vehicle
+predicts its state over (with half a period) before it computes its command."""
 
 
 class VehicleNode(Node):
@@ -73,6 +76,7 @@ class VehicleNode(Node):
         self.reject = common.Rejections(self.get_logger(), REJECTS)
         self.saturated = 0
         self.latency = common.Latencies(LATENCIES)
+        self.delay = 0.0
         self.onboard = Onboard(sc)
         self.flow = sc.flow_c
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
@@ -156,10 +160,11 @@ class VehicleNode(Node):
                                f'the last one')
         if kind == lockstep.REPEATED:
             return self._answer_again()
-        row = self.onboard.observe(X)
+        row = self.onboard.observe(X, self.delay)
         self.known.store(self.k, ns, row)
         hearing = self.known.hearing()[self.heard_rows]
-        self.last_state = self.wires[self.k].encode(ns, itf.state_values(X, row, hearing))
+        self.last_state = self.wires[self.k].encode(
+            ns, itf.state_values(self.onboard.X[:, 0], row, hearing))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
@@ -229,8 +234,9 @@ class VehicleNode(Node):
         self.last_cmd = self.cmd_wire.encode(ns, itf.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
-            self.latency.add(time.perf_counter_ns() - self.odom_in,
-                             self.get_clock().now().nanoseconds - ns)
+            lag = self.get_clock().now().nanoseconds - ns
+            self.latency.add(time.perf_counter_ns() - self.odom_in, lag)
+            self.delay += DELAY_GAIN * (1e-9 * lag - self.delay)
 
     def _report_waiting(self, now):
         """Say what a lockstep vehicle has waited for more than itf.STALL seconds."""
