@@ -358,14 +358,13 @@ class Controller:
             One RK4 step of the model over ``delay + sc.command_lead`` (errata, sampled-data
             laws): a command held over ``[t, t + h]`` and computed for the state at
             ``t + h/2`` makes each period a midpoint-rule step of the continuous closed loop,
-            whose error is of order h^2 instead of the zero-order hold's h. ``X`` itself when
-            ``hold_prediction`` is none.
+            whose error is of order h^2 instead of the zero-order hold's h. ``X`` itself,
+            whatever the delay, when ``hold_prediction`` is none.
 
         """
-        lead = delay + self.sc.command_lead
-        if lead == 0.0:
+        if self.sc.hold_prediction == 'none':
             return np.array(X, float)
-        return rk4_step(X, U_held, lead, self.plant)
+        return rk4_step(X, U_held, delay + self.sc.command_lead, self.plant)
 
     def view(self, X, F_held=None):
         """

@@ -56,6 +56,9 @@ class NeighbourTable:
         Lockstep (wait for every neighbour's state of the step) or real time.
     neighbours : iterable of int, optional
         The ids this vehicle hears on the communication graph; every other vehicle by default.
+    carry : bool, optional
+        Carry the states of neighbours sampled earlier forward to this vehicle's stamp
+        (:meth:`view`); off for the plain zero-order hold (``hold_prediction: none``).
 
     Attributes
     ----------
@@ -70,8 +73,9 @@ class NeighbourTable:
 
     """
 
-    def __init__(self, n, own, timeout, clock, lockstep=True, neighbours=None):
+    def __init__(self, n, own, timeout, clock, lockstep=True, neighbours=None, carry=True):
         self.own = own - 1
+        self.carry = carry
         self.linked = np.ones(n, bool)
         if neighbours is not None:
             self.linked[:] = False
@@ -232,6 +236,6 @@ class NeighbourTable:
         phase, rate, speed = self.table[:, members]
         view = View(self.r[members], phase, rate, speed, s_dot)
         behind = self.odom_ns - self.stamp[members]
-        if not behind.any():
+        if not (self.carry and behind.any()):
             return view, own
         return view.ahead(1e-9 * behind), own
