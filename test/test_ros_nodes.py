@@ -103,7 +103,7 @@ def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(nodes
     assert nodes.spin_until(lambda: all(len(msgs) > 5 for msgs in odom.values()))
     sc = scenario.load(PARTICLE)
     period, step = (round(dt * 1e9) for dt in (sc.dt_control, sc.dt_integration))
-    assert sc.substeps == 10
+    assert sc.substeps == 4
     stamps = {k: np.array([itf.stamp_ns(m.header.stamp) for m in msgs])
               for k, msgs in odom.items()}
     start = stamps[1][0]

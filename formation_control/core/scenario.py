@@ -219,7 +219,7 @@ class Scenario:
     seed: int = _param(0, '', 'random seed of the initial state', low=0)
     dt_control: float = _param(0.02, 's', 'control period: each command is held this long',
                                **_POSITIVE)
-    dt_integration: float = _param(0.002, 's', 'RK4 integration step', rule='divides '
+    dt_integration: float = _param(0.005, 's', 'RK4 integration step', rule='divides '
                                    'dt_control into a whole number of steps', **_POSITIVE)
     hold_prediction: str = _param(
         'midpoint', '', 'the state each held command is computed for: midpoint (predicted to '
