@@ -13,12 +13,12 @@
 # limitations under the License.
 
 """
-Command line: ``formation-control sim | swarm | plot | report | params``.
+Command line: ``formation-control sim | swarm | plot | report | params | layout``.
 
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
 process per vehicle + monitor); ``plot`` and ``report`` read a run back from a simulator/plant
 ``.npz`` or a rosbag2 bag; ``params`` prints the table of scenario parameters
-(docs/parameters.md).
+(docs/parameters.md); ``layout`` prints the Foxglove layout (foxglove/formation_control.json).
 """
 import argparse
 import json
@@ -105,6 +105,9 @@ def cmd_swarm(args):
     if args.vehicles_per_process < 1:
         raise scenario.ScenarioError(f'--vehicles-per-process {args.vehicles_per_process} is '
                                      f'invalid: must be >= 1')
+    if args.foxglove is not None and (args.no_monitor or not 0 < args.foxglove < 65536):
+        raise scenario.ScenarioError(f'--foxglove {args.foxglove} is invalid: a TCP port in '
+                                     f'1..65535, served by the monitor (not with --no-monitor)')
     sc = _load(args, node_params_allowed=True)
     note = swarm.environment_note()
     if note:
@@ -112,7 +115,8 @@ def cmd_swarm(args):
     try:
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
                                    monitor=not args.no_monitor, node_params=_split(args.param)[1],
-                                   per_process=args.vehicles_per_process)
+                                   per_process=args.vehicles_per_process,
+                                   monitor_params=_live_view(args.foxglove))
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -123,6 +127,15 @@ def cmd_swarm(args):
     _report(run, args.scenario, 'as ROS 2 processes', extra, args.summary)
     _write(args, run)
     return 0
+
+
+def _live_view(port):
+    """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
+    if port is None:
+        return []
+    print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app (layout: '
+          f'formation-control layout)', file=sys.stderr)
+    return [f'foxglove_port:={port}']
 
 
 def load_source(path):
@@ -156,6 +169,17 @@ def cmd_params(args):
     return 0
 
 
+def cmd_layout(args):
+    from formation_control.layout import layout_json
+    text = layout_json()
+    if args.out:
+        Path(args.out).write_text(text)
+        print(f'wrote {args.out}')
+    else:
+        print(text, end='')
+    return 0
+
+
 def _scenario_arguments(parser):
     parser.add_argument('scenario', help='scenario YAML (ROS 2 parameter file) or config name')
     parser.add_argument('--summary', help='write the convergence figures to this .json')
@@ -186,6 +210,9 @@ def build_parser():
     swarm.add_argument('--vehicles-per-process', type=int, default=1, metavar='M',
                        help='run M vehicle nodes per process (still one node per vehicle, '
                             'talking through topics only)')
+    swarm.add_argument('--foxglove', type=int, metavar='PORT',
+                       help="serve a Foxglove live view on this port (the monitor's "
+                            'foxglove_port)')
     swarm.add_argument('--no-monitor', action='store_true',
                        help='do not start the monitor node (no metrics or diagnostics)')
     swarm.set_defaults(func=cmd_swarm)
@@ -200,6 +227,10 @@ def build_parser():
     params = sub.add_parser('params', help='print the table of scenario parameters (Markdown, '
                                            'docs/parameters.md)')
     params.set_defaults(func=cmd_params)
+    lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
+                                        'foxglove/formation_control.json)')
+    lay.add_argument('--out', help='write it to this file instead')
+    lay.set_defaults(func=cmd_layout)
     return parser
 
 

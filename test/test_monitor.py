@@ -300,3 +300,24 @@ def test_monitor_drops_and_counts_bad_odometry(nodes):
     expected.update(live_links=0.0, algebraic_connectivity=0.0)     # no formation state heard
     got = dict(zip(metrics_box[0].name, metrics_box[0].position))
     assert got == pytest.approx(expected)
+
+
+def test_bag_holds_the_markers_of_the_sampled_poses(recorded):
+    """``swarm --bag`` records ``/formation/markers``: each shows the odometry of its stamp."""
+    bag, n = recorded[0] / 'bag', recorded[2]['num_vehicles']
+    odom, arrays = {}, []
+    topics = [itf.MARKERS_TOPIC] + [itf.topic(k, 'odom') for k in range(1, n + 1)]
+    for topic, msg in bagfile.messages(bag, topics):
+        if topic == itf.MARKERS_TOPIC:
+            arrays.append(msg)
+        else:
+            odom[(topic, itf.stamp_ns(msg.header.stamp))] = msg.pose.pose
+    assert len(arrays) >= 3
+    for array in arrays:
+        headings = [m for m in array.markers if m.ns == 'heading']
+        assert [m.id for m in headings] == list(range(1, n + 1))
+        for m in headings:
+            pose = odom[(itf.topic(m.id, 'odom'), itf.stamp_ns(m.header.stamp))]
+            assert (m.pose.position.x, m.pose.position.y) == (pose.position.x, pose.position.y)
+            assert (m.pose.orientation.z, m.pose.orientation.w) == pytest.approx(
+                (pose.orientation.z, pose.orientation.w), abs=1e-12)

@@ -33,7 +33,8 @@ def fleet_topics(n):
     topics = [('/clock', 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
               (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
-              (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS)]
+              (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS),
+              (itf.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray', itf.STREAM_QOS)]
     for k in range(1, n + 1):
         topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
                    (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),
