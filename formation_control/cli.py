@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """
-Command line: ``formation-control sim | swarm | plot | report | params | layout``.
+Command line: ``formation-control sim | swarm | plot | report | play | params | layout``.
 
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
 process per vehicle + monitor); ``plot`` and ``report`` read a run back from a simulator/plant
-``.npz`` or a rosbag2 bag; ``params`` prints the table of scenario parameters
-(docs/parameters.md); ``layout`` prints the Foxglove layout (foxglove/formation_control.json).
+``.npz`` or a rosbag2 bag; ``play`` republishes a bag; ``params`` prints the table of scenario
+parameters (docs/parameters.md); ``layout`` prints the Foxglove layout
+(foxglove/formation_control.json).
 """
 import argparse
 import json
@@ -169,6 +170,31 @@ def cmd_params(args):
     return 0
 
 
+def cmd_play(args):
+    from formation_control.playback import Bag, BagError, CLOCK_TOPIC
+    try:
+        if not args.rate > 0:
+            raise BagError(f'--rate {args.rate} is invalid: must be > 0')
+        bag = Bag(args.bag, args.topics, skip=(CLOCK_TOPIC,) if args.clock else ())
+    except BagError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 2
+    from formation_control.ros.player import PlayerNode
+    from formation_control.ros.runner import run
+    nodes = []
+
+    def make(context):
+        nodes.append(PlayerNode(bag, args.rate, args.clock, args.loop,
+                                args.wait_for_subscribers, context=context))
+        return nodes[0]
+    code = run(make, args.ros_args)
+    error = nodes[0].error if nodes else None
+    if error is not None:
+        print(f'error: {error}', file=sys.stderr)
+        return 1
+    return code
+
+
 def cmd_layout(args):
     from formation_control.layout import layout_json
     text = layout_json()
@@ -227,6 +253,21 @@ def build_parser():
     params = sub.add_parser('params', help='print the table of scenario parameters (Markdown, '
                                            'docs/parameters.md)')
     params.set_defaults(func=cmd_params)
+    play = sub.add_parser('play', help='republish a rosbag2 bag with its recorded QoS, like '
+                                       '`ros2 bag play`')
+    play.add_argument('bag', help='the bag directory (any rosbag2 bag: MCAP or sqlite3)')
+    play.add_argument('--rate', type=float, default=1.0,
+                      help='recorded seconds per wall second (default 1)')
+    play.add_argument('--clock', action='store_true',
+                      help='publish /clock with the recorded time being played (for nodes '
+                           "with use_sim_time); the bag's own /clock is not replayed")
+    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='replay these topics only')
+    play.add_argument('--loop', action='store_true', help='start again at the end, until SIGINT')
+    play.add_argument('--wait-for-subscribers', action='store_true',
+                      help='hold the start until every replayed topic has a subscriber')
+    play.add_argument('ros_args', nargs=argparse.REMAINDER,
+                      help='--ros-args ... for the player node (remappings, a namespace)')
+    play.set_defaults(func=cmd_play)
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
                                         'foxglove/formation_control.json)')
     lay.add_argument('--out', help='write it to this file instead')

@@ -321,3 +321,34 @@ def test_bag_holds_the_markers_of_the_sampled_poses(recorded):
             assert (m.pose.position.x, m.pose.position.y) == (pose.position.x, pose.position.y)
             assert (m.pose.orientation.z, m.pose.orientation.w) == pytest.approx(
                 (pose.orientation.z, pose.orientation.w), abs=1e-12)
+
+
+def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(recorded, nodes):
+    """``play``: the recorded fleet's topics, republished, give a new monitor the same metrics."""
+    from formation_control.playback import Bag
+    from formation_control.ros.player import PlayerNode
+    tmp, _, out = recorded
+    bag, n = tmp / 'bag', out['num_vehicles']
+    box = nodes.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
+    monitor = nodes.monitor()
+    nodes.add(PlayerNode(Bag(bag, [itf.SCENARIO_TOPIC]), wait_for_subscribers=True,
+                         context=nodes.context))
+    assert nodes.spin_until(lambda: monitor.sc is not None)
+    fleet = [itf.topic(k, name) for k in range(1, n + 1)
+             for name in ('odom', 'cmd', 'formation_state')]
+    player = nodes.add(PlayerNode(Bag(bag, fleet), rate=10.0, wait_for_subscribers=True,
+                                  context=nodes.context))
+    assert nodes.spin_until(lambda: player.done, timeout=60)
+    t, values = bagfile.metrics(bag)
+    stamps = np.rint(t * 1e9).astype(np.int64)
+    assert nodes.spin_until(lambda: box and itf.stamp_ns(box[-1].header.stamp) >= stamps[-1])
+    replayed = {itf.stamp_ns(m.header.stamp): dict(zip(m.name, m.position)) for m in box}
+    assert sorted(replayed) == list(stamps)
+    for i, ns in enumerate(stamps):
+        assert replayed[ns] == pytest.approx({k: v[i] for k, v in values.items()}, abs=1e-9)
+    run = bagfile.read_run(bag)
+    _, rows = report.report(run)
+    assert (stamps[-1] - stamps[0]) * 1e-9 == pytest.approx(run.t[-1])     # the final step
+    last = replayed[stamps[-1]]
+    assert {name: last[name] for name, *_ in rows} == pytest.approx(
+        {name: value for name, value, *_ in rows}, abs=1e-9)
