@@ -254,7 +254,9 @@ def build_parser():
                                            'docs/parameters.md)')
     params.set_defaults(func=cmd_params)
     play = sub.add_parser('play', help='republish a rosbag2 bag with its recorded QoS, like '
-                                       '`ros2 bag play`')
+                                       '`ros2 bag play`',
+                          epilog='Arguments after --ros-args go to the player node (e.g. '
+                                 'remappings: --ros-args -r /clock:=/other_clock).')
     play.add_argument('bag', help='the bag directory (any rosbag2 bag: MCAP or sqlite3)')
     play.add_argument('--rate', type=float, default=1.0,
                       help='recorded seconds per wall second (default 1)')
@@ -265,8 +267,6 @@ def build_parser():
     play.add_argument('--loop', action='store_true', help='start again at the end, until SIGINT')
     play.add_argument('--wait-for-subscribers', action='store_true',
                       help='hold the start until every replayed topic has a subscriber')
-    play.add_argument('ros_args', nargs=argparse.REMAINDER,
-                      help='--ros-args ... for the player node (remappings, a namespace)')
     play.set_defaults(func=cmd_play)
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
                                         'foxglove/formation_control.json)')
@@ -276,7 +276,13 @@ def build_parser():
 
 
 def main(argv=None):
-    args = build_parser().parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    cut = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv[:cut])
+    args.ros_args = argv[cut:]
+    if args.ros_args and args.command != 'play':
+        parser.error('--ros-args: only play takes them (swarm: -p NAME:=VALUE)')
     try:
         return args.func(args)
     except scenario.ScenarioError as err:
