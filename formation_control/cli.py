@@ -13,13 +13,13 @@
 # limitations under the License.
 
 """
-Command line: ``formation-control sim | swarm | plot | report | play | params | layout``.
+Command line: ``formation-control`` sim, swarm, plot, report, play, doctor, params, layout.
 
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
 process per vehicle + monitor); ``plot`` and ``report`` read a run back from a simulator/plant
-``.npz`` or a rosbag2 bag; ``play`` republishes a bag; ``params`` prints the table of scenario
-parameters (docs/parameters.md); ``layout`` prints the Foxglove layout
-(foxglove/formation_control.json).
+``.npz`` or a rosbag2 bag; ``play`` republishes a bag; ``doctor`` checks a running fleet;
+``params`` prints the table of scenario parameters (docs/parameters.md); ``layout`` prints the
+Foxglove layout (foxglove/formation_control.json).
 """
 import argparse
 import json
@@ -195,6 +195,14 @@ def cmd_play(args):
     return code
 
 
+def cmd_doctor(args):
+    from formation_control.doctor import exit_status, format_report
+    from formation_control.ros.doctor import run
+    facts, findings = run(args.namespace, args.listen, args.discover)
+    print(format_report(facts, findings), end='')
+    return exit_status(findings)
+
+
 def cmd_layout(args):
     from formation_control.layout import layout_json
     text = layout_json()
@@ -268,6 +276,14 @@ def build_parser():
     play.add_argument('--wait-for-subscribers', action='store_true',
                       help='hold the start until every replayed topic has a subscriber')
     play.set_defaults(func=cmd_play)
+    doc = sub.add_parser('doctor', help='join the domain and report what keeps a fleet from '
+                                        'working (exit 1 if anything)')
+    doc.add_argument('--namespace', default='/', help="the fleet's namespace (default /)")
+    doc.add_argument('--listen', type=float, default=2.0,
+                     help='seconds to listen to the formation states (default 2)')
+    doc.add_argument('--discover', type=float, default=5.0,
+                     help="seconds to wait for the plant's scenario (default 5)")
+    doc.set_defaults(func=cmd_doctor)
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
                                         'foxglove/formation_control.json)')
     lay.add_argument('--out', help='write it to this file instead')
