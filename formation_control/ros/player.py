@@ -112,5 +112,8 @@ class PlayerNode(Node):
         if self.pending is None:
             if self.loop:
                 self._restart()
-            else:
-                self.done = True
+                return
+            if self.wait:                                    # the last ones arrive too
+                for topic in self.reliable:
+                    self.pubs[topic].wait_for_all_acked(ACK_TIMEOUT)
+            self.done = True
