@@ -30,9 +30,6 @@ import time
 from formation_control.core import simulator
 import yaml
 
-MONITOR_TOPICS = ('/formation/metrics',)
-
-
 RECORDED_DEPTH = 500
 """With a bag: the history of the odometry, state and command writers (samples; 10 s at
 50 Hz). DDS matches a writer to the recorder's reader on each side in its own time; a writer
@@ -92,7 +89,7 @@ class Swarm:
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None):
+                 env=None, monitor_params=()):
         self.sc, self.mode = sc, mode
         self.place, self.env = place or (lambda name: []), env
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
@@ -118,7 +115,8 @@ class Swarm:
                 self.logs.append(f'vehicles_{group[0]}-{group[-1]}.log')
         if monitor:
             self.commands.append([executable('monitor'), '--ros-args', '-p',
-                                  f'use_sim_time:={str(mode == "lockstep").lower()}'])
+                                  f'use_sim_time:={str(mode == "lockstep").lower()}',
+                                  *(a for p in monitor_params for a in ('-p', p))])
             self.logs.append('monitor.log')
         self.procs = []
 
@@ -197,11 +195,12 @@ class Recording:
         from std_msgs.msg import Empty
 
         from formation_control.ros.bag import BagRecorder, fleet_topics
-        from formation_control.ros.interface import LATCHED_QOS
+        from formation_control.ros.interface import LATCHED_QOS, MARKERS_TOPIC, METRICS_TOPIC
         from formation_control.ros.plant import START_TOPIC
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
-        topics = [t for t in fleet_topics(n) if monitor or t[0] not in MONITOR_TOPICS]
+        topics = [t for t in fleet_topics(n)
+                  if monitor or t[0] not in (METRICS_TOPIC, MARKERS_TOPIC)]
         self.topics = [t for t, _, _ in topics if sim_time or t != '/clock']
         self.node = BagRecorder(str(path), topics, context=self.context,
                                 parameter_overrides=[Parameter('use_sim_time', value=sim_time)])
@@ -232,10 +231,12 @@ class Recording:
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
-              monitor=True, node_params=(), per_process=1, place=None, env=None):
+              monitor=True, node_params=(), per_process=1, place=None, env=None,
+              monitor_params=()):
     """
     Run a fleet as processes; return (run, summary). Every process is stopped on exit.
 
+    ``monitor_params`` (``name:=value``) go to the monitor only (``foxglove_port``).
     ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
     ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
     ``env`` replaces the environment of every process.
@@ -248,7 +249,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor)
     try:
         with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
-                   monitor, node_params, per_process, place, env) as swarm:
+                   monitor, node_params, per_process, place, env, monitor_params) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

@@ -58,6 +58,8 @@ DIAGNOSTICS_TOPIC = '/diagnostics'
 SCENARIO_TOPIC = '/formation/scenario'
 METRICS_TOPIC = '/formation/metrics'
 MARKERS_TOPIC = '/formation/markers'
+SCENE_TOPIC = '/formation/scene'
+"""The Foxglove live view's SceneUpdate channel (not a ROS topic)."""
 STALL = 3.0
 """Lockstep: after this many wall seconds without progress, a node says what it waits for."""
 METRIC_DOC = {
