@@ -21,10 +21,14 @@ largest distance between a vehicle's position and its reference position at any 
 instant (m). The largest step whose error stays below ``--tolerance`` is the accurate one;
 the step chosen is the smaller of it and ``dt_control / 4``, because the real-time plant samples
 odometry and applies commands on its integration steps (a command waits up to one step to act).
-The table also gives the throughput of the file's own step in simulated vehicle-seconds per wall
-second.
+The table also gives the throughput of the file's own step in simulated vehicle-seconds per second
+of CPU time (one core; CPU time, so that a loaded machine does not change it much).
 
     .venv/bin/python bench/integration_step.py [--tolerance 1e-4] [names ...]
+    .venv/bin/python bench/integration_step.py --throughput [names ...]
+
+``--throughput`` skips the error study and prints the throughput at the file's step and at
+2 ms, the step every scenario had before.
 """
 import argparse
 from pathlib import Path
@@ -39,11 +43,11 @@ CANDIDATES = (1, 2, 4, 5, 10)
 
 
 def run(path, dt_integration):
-    """Return the recorded run of a scenario file at an integration step, and its wall time."""
+    """Return the recorded run of a scenario file at an integration step, and its CPU time."""
     sc = scenario.load(path, dt_integration=dt_integration)
-    start = time.perf_counter()
+    start = time.process_time()
     out = simulator.simulate(sc)
-    return out, time.perf_counter() - start
+    return out, time.process_time() - start
 
 
 def position_error(a, b):
@@ -64,22 +68,38 @@ def study(path, tolerance):
     return sc, errors, accurate, sc.num_vehicles * sc.duration / wall
 
 
+def throughput(names):
+    """Print each scenario's vehicle-seconds per CPU second at its file's step and at 2 ms."""
+    print('| scenario | N | file step (ms) | veh-s per CPU s | at 2 ms | ratio |')
+    print('|---|---|---|---|---|---|')
+    for name in names:
+        path = CONFIG / f'{name}.yaml'
+        sc = scenario.load(path)
+        rates = [sc.num_vehicles * sc.duration / run(path, step)[1]
+                 for step in (sc.dt_integration, 0.002)]
+        print(f'| {name} | {sc.num_vehicles} | {1000 * sc.dt_integration:g} | {rates[0]:.0f} '
+              f'| {rates[1]:.0f} | {rates[0] / rates[1]:.2f} |', flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--tolerance', type=float, default=1e-4)
     parser.add_argument('names', nargs='*')
+    parser.add_argument('--throughput', action='store_true')
     args = parser.parse_args()
     names = args.names or sorted(p.stem for p in CONFIG.glob('*.yaml'))
+    if args.throughput:
+        return throughput(names)
     steps = '/'.join(map(str, CANDIDATES))
     print(f'| scenario | N | duration (s) | error (m), {steps} steps per period | accurate '
-          f'(ms) | chosen (ms) | file step (ms) | veh-s/s at file step |')
+          f'(ms) | chosen (ms) | file step (ms) | veh-s per CPU s |')
     print('|---|---|---|---|---|---|---|---|')
     for name in names:
         sc, errors, accurate, rate = study(CONFIG / f'{name}.yaml', args.tolerance)
         cells = ', '.join(f'{err:.1e}' for err in errors.values())
         chosen = min(accurate, sc.dt_control / 4)
         print(f'| {name} | {sc.num_vehicles} | {sc.duration:g} | {cells} | {1000 * accurate:g} '
-              f'| {1000 * chosen:g} | {1000 * sc.dt_integration:g} | {rate:.3g} |', flush=True)
+              f'| {1000 * chosen:g} | {1000 * sc.dt_integration:g} | {rate:.0f} |', flush=True)
 
 
 if __name__ == '__main__':
