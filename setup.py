@@ -54,6 +54,8 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
+        ('share/' + package_name + '/rviz', ['rviz/formation.rviz']),
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
     extras_require={'ros': ros_requires, 'test': test_requires},
@@ -69,6 +71,7 @@ setup(
             'vehicle = formation_control.ros.vehicle:main',
             'vehicles = formation_control.ros.vehicle:main_many',
             'monitor = formation_control.ros.monitor:main',
+            'recorder = formation_control.ros.bag:main',
         ],
     },
 )
