@@ -115,7 +115,8 @@ class FleetRecorder(BagRecorder):
             self.readers.pop(prefix + itf.CLOCK_TOPIC)
         self.start = self.create_publisher(Empty, prefix + START_TOPIC, itf.LATCHED_QOS)
         self.start_msg = Empty()
-        self.timer = self.create_timer(0.05, self._start_when_matched)
+        from formation_control.ros.common import wall_clock
+        self.timer = self.create_timer(0.05, self._start_when_matched, clock=wall_clock()[0])
 
     def _start_when_matched(self):
         if all(r.get_publisher_count() for r in self.readers.values()):

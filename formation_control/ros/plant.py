@@ -21,10 +21,10 @@ converts messages and publishes.
 
 Lockstep (default): the plant owns the fleet's ``clock``; it publishes step n (clock, every
 odometry), waits for the command of every vehicle stamped with step n, records, integrates one
-control period, and publishes step n + 1. Real time: simulated time starts once every vehicle is up (a
-writer on each command topic; ``wait_for_fleet``); then a wall timer integrates the steps the
-clock has reached with the last command of each vehicle held, and vehicle k's odometry is sent
-at integration step (k - 1) mod substeps of each period.
+control period, and publishes step n + 1. Real time: simulated time starts once every vehicle
+is up (a writer on each command topic; ``wait_for_fleet``); then a wall timer integrates the
+steps the clock has reached with the last command of each vehicle held, and vehicle k's
+odometry is sent at integration step (k - 1) mod substeps of each period.
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
