@@ -126,8 +126,9 @@ class Swarm:
                                       f'vehicle_ids:={group}'])
                 self.logs.append(f'vehicles_{group[0]}-{group[-1]}.log')
         if monitor:
+            world = [a for p in node_params if p.startswith('world_frame:=') for a in ('-p', p)]
             self.commands.append([executable('monitor'), '--ros-args', *names,
-                                  '-r', f'/clock:={prefix}clock', '-p',
+                                  '-r', f'/clock:={prefix}clock', *world, '-p',
                                   f'use_sim_time:={str(mode == "lockstep").lower()}'])
             self.logs.append('monitor.log')
         self.procs = []

@@ -113,3 +113,20 @@ def test_the_monitor_follows_a_gain_once_every_vehicle_has_taken_it(nodes):
     events.publish(_event(3, 'kappa', 2.5))
     assert nodes.spin_until(lambda: monitor.sc.kappa == 2.5)
     assert monitor.ctrl.sc.kappa == 2.5
+
+
+def test_a_swarm_in_a_namespace_with_its_own_frames_is_recorded_there(ros, tmp_path):
+    """A swarm in a namespace: its topics, clock and bag are under /fleet_s."""
+    from formation_control import bagfile
+    from formation_control.core import simulator
+    from formation_control.swarm import run_swarm
+    sc = scenario.load(PARTICLE, ['num_vehicles:=2'], duration=1.0)
+    run, out = run_swarm(sc, bag=tmp_path / 'bag', workdir=tmp_path / 'logs', env=ros.env,
+                         namespace='fleet_s', node_params=['world_frame:=odom'])
+    np.testing.assert_allclose(run.X, simulator.simulate(sc).X, atol=1e-6)
+    assert bagfile.fleet_prefix(tmp_path / 'bag') == '/fleet_s/'
+    np.testing.assert_allclose(bagfile.read_run(tmp_path / 'bag').X[-1], run.X[-1], atol=1e-9)
+    _, odom = next(bagfile.messages(tmp_path / 'bag', ['/fleet_s/vehicle_1/odom']))
+    assert odom.header.frame_id == 'odom'
+    assert len(bagfile.metrics(tmp_path / 'bag')[0]) > 0        # the monitor takes odom frames
+    assert 'dropped' not in (tmp_path / 'logs' / 'monitor.log').read_text()

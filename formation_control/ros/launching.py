@@ -42,6 +42,8 @@ FLEET_ARGUMENTS = {
     'monitor': ('true', 'start the monitor (metrics, diagnostics, markers)'),
     'record': ('', 'record the fleet into this new bag directory (MCAP); empty = none'),
     'record_path': ('', "the plant's record of the run (.npz) when it ends; empty = none"),
+    'params_file': ('', 'a ROS parameter file of node parameters (links, faults, timeouts, QoS) '
+                    'for the plant and the vehicles, after the scenario; empty = none'),
     'world_frame': ('map', 'world frame (REP-105)'),
     'base_frame': ('vehicle_{id}/base_link', "each vehicle's base frame; {id} = its id"),
 }
@@ -50,6 +52,7 @@ VEHICLE_ARGUMENTS = {
     'namespace': FLEET_ARGUMENTS['namespace'],
     'vehicle_id': ('1', "this vehicle's id k"),
     'mode': FLEET_ARGUMENTS['mode'],
+    'params_file': FLEET_ARGUMENTS['params_file'],
     'world_frame': FLEET_ARGUMENTS['world_frame'],
     'base_frame': FLEET_ARGUMENTS['base_frame'],
 }
@@ -74,7 +77,12 @@ def _scenario(a, recorded=False):
     overrides = [f'{name}:={a[name]}' for name in ('num_vehicles', 'duration') if a.get(name)]
     sc = scenario.load(find_scenario(a['scenario']), overrides)
     folder = Path(tempfile.mkdtemp(prefix='formation_launch_'))
-    return sc, write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')
+    files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
+    if a['params_file']:
+        if not Path(a['params_file']).is_file():
+            raise scenario.ScenarioError(f"params_file {a['params_file']!r} not found")
+        files.append(a['params_file'])
+    return sc, files
 
 
 def _node(executable, a, params, **kwargs):
@@ -85,7 +93,7 @@ def _node(executable, a, params, **kwargs):
 def _fleet(context):
     a = _values(context, FLEET_ARGUMENTS)
     record = a['record']
-    sc, path = _scenario(a, recorded=bool(record))
+    sc, files = _scenario(a, recorded=bool(record))
     if not a['vehicles_per_process'].isdigit() or int(a['vehicles_per_process']) < 1:
         raise scenario.ScenarioError(f"vehicles_per_process {a['vehicles_per_process']!r} is "
                                      f'invalid: an integer >= 1')
@@ -94,15 +102,15 @@ def _fleet(context):
     common = {'mode': a['mode'], **frames}
     sim_time = {'use_sim_time': a['mode'] == 'lockstep'}
     clock = [('/clock', namespace_prefix(a['namespace'] or '/') + 'clock')]
-    actions = [_node('plant', a, [path, {**common, 'record_path': a['record_path'],
-                                         'wait_for_start': bool(record)}],
+    actions = [_node('plant', a, [*files, {**common, 'record_path': a['record_path'],
+                                           'wait_for_start': bool(record)}],
                      on_exit=Shutdown(reason='the plant has finished the run'))]
     ids = list(range(1, sc.num_vehicles + 1))
     for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
         if per_process == 1:
-            actions.append(_node('vehicle', a, [path, {**common, 'vehicle_id': group[0]}]))
+            actions.append(_node('vehicle', a, [*files, {**common, 'vehicle_id': group[0]}]))
         else:
-            actions.append(_node('vehicles', a, [path, {**common, 'vehicle_ids': group}]))
+            actions.append(_node('vehicles', a, [*files, {**common, 'vehicle_ids': group}]))
     if _true(a['monitor']):
         actions.append(_node('monitor', a, [{'world_frame': a['world_frame'], **sim_time}],
                              remappings=clock))
@@ -115,10 +123,10 @@ def _fleet(context):
 
 def _vehicle(context):
     a = _values(context, VEHICLE_ARGUMENTS)
-    _, path = _scenario(a)
-    return [_node('vehicle', a, [path, {'mode': a['mode'], 'vehicle_id': int(a['vehicle_id']),
-                                        'world_frame': a['world_frame'],
-                                        'base_frame': a['base_frame']}],
+    _, files = _scenario(a)
+    return [_node('vehicle', a, [*files, {'mode': a['mode'], 'vehicle_id': int(a['vehicle_id']),
+                                          'world_frame': a['world_frame'],
+                                          'base_frame': a['base_frame']}],
                   on_exit=Shutdown(reason='the vehicle node exited'))]
 
 
