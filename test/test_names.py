@@ -80,13 +80,19 @@ def test_the_plant_refuses_gains_it_does_not_use(nodes):
 
 
 def test_fleet_set_arguments_are_checked_before_any_node_is_asked():
-    k, c0, informed = tuning.parse(['K:=-2', 'c0:=[1, 2]', 'informed:=[1]'])
+    k, c0, informed, nobody = tuning.parse(['K:=-2', 'c0:=[1, 2]', 'informed:=[1]',
+                                            'informed:=[]'])
     assert (k.value, k.type_) == (-2.0, Parameter.Type.DOUBLE)
     assert (c0.value, informed.value) == ([1.0, 2.0], [1])
+    assert (nobody.value, nobody.type_) == ([], Parameter.Type.INTEGER_ARRAY)
+    with pytest.raises(ScenarioError, match="'informed' = '1' is invalid: a list of integers"):
+        tuning.parse(['informed:=1'])
     with pytest.raises(ScenarioError, match="'num_vehicles' cannot change at run time"):
         tuning.parse(['num_vehicles:=3'])
     with pytest.raises(ScenarioError, match='give NAME:=VALUE'):
         tuning.parse(['kappa=3'])
+    with pytest.raises(ScenarioError, match="'kappa' = '' is invalid: give a value"):
+        tuning.parse(['kappa:='])
 
 
 def _event(k, name, value):

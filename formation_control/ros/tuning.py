@@ -26,6 +26,7 @@ import time
 
 from formation_control.core import scenario
 from formation_control.ros import interface as itf
+from formation_control.ros.parameters import EMPTY_TYPES
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from std_msgs.msg import String
@@ -52,16 +53,33 @@ def parse(assignments):
             raise scenario.ScenarioError(
                 f'parameter {name!r} cannot change at run time; run-time parameters: '
                 f"{', '.join(scenario.RUNTIME)}")
-        value = yaml.safe_load(raw)
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            value = None
+        if value is None or isinstance(value, dict):
+            raise scenario.ScenarioError(f'parameter {name!r} = {raw.strip()!r} is invalid: '
+                                         f'give a value (YAML, as ros2 param set takes it)')
         default = getattr(scenario.Scenario(), name)
         if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
-        if isinstance(default, tuple):
-            value = list(value) if isinstance(value, (list, tuple)) else value
-            if name == 'c0':
-                value = [float(v) for v in value]
-        out.append(Parameter(name, value=value))
+        out.append(_typed_list(name, raw, value) if isinstance(default, tuple)
+                   else Parameter(name, value=value))
     return out
+
+
+def _typed_list(name, raw, value):
+    """Return the array parameter, typed as the nodes declare it (even when empty)."""
+    kind = EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY)
+    numbers = (int,) if kind == Parameter.Type.INTEGER_ARRAY else (int, float)
+    if not isinstance(value, list) or not all(
+            isinstance(v, numbers) and not isinstance(v, bool) for v in value):
+        what = 'integers' if kind == Parameter.Type.INTEGER_ARRAY else 'numbers'
+        raise scenario.ScenarioError(f'parameter {name!r} = {raw.strip()!r} is invalid: a list '
+                                     f'of {what}')
+    if kind == Parameter.Type.DOUBLE_ARRAY:
+        value = [float(v) for v in value]
+    return Parameter(name, kind, value)
 
 
 class FleetTuner:
