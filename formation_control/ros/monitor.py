@@ -78,10 +78,11 @@ class MonitorNode(Node):
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
                                  qos_profile_parameter_events)
         self.vehicle_nodes = {}
+        self.scenario_topic = self.resolve_topic_name(itf.SCENARIO_TOPIC)
         self.diag_pub = common.diagnostics_publisher(self)
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
-        self.get_logger().info(f"waiting for the fleet's scenario on {itf.SCENARIO_TOPIC}")
+        self.get_logger().info(f"waiting for the fleet's scenario on {self.scenario_topic}")
 
     def _on_scenario(self, msg):
         try:
@@ -261,7 +262,7 @@ class MonitorNode(Node):
     def publish_diagnostics(self):
         """Publish the formation's status and every vehicle's on ``/diagnostics``."""
         if self.sc is None:
-            statuses = [_status('formation', WARN, f'waiting for {itf.SCENARIO_TOPIC}', {})]
+            statuses = [_status('formation', WARN, f'waiting for {self.scenario_topic}', {})]
         else:
             now = self.now()
             statuses = [self._formation_status()] + [

@@ -245,7 +245,7 @@ class VehicleNode(Node):
         if self.mode != 'lockstep':
             return
         if known.odom_ns < 0 and now - self.born > itf.STALL:
-            topic = itf.topic(self.k, 'odom')
+            topic = self.resolve_topic_name(itf.topic(self.k, 'odom'))
             self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
                                    f'publishers matched)', throttle_duration_sec=5.0)
         elif known.odom_ns >= 0 and known.commanded_ns != known.odom_ns and \
