@@ -9,6 +9,10 @@ CONSTRAINTS := constraints.txt
 # What is installed: the package with its ROS wheels, the Foxglove live view and test/linter
 # tools (setup.py's extras).
 EXTRAS := .[ros,view,test]
+# The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
+# into the venv when present, so that the tests with `ros2` run; without it they skip, unless
+# a ros2 of a Jazzy installation is on PATH.
+ROS2_TOOLS ?= $(firstword $(wildcard ../shared/ros2-tools /work/shared/ros2-tools))
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
@@ -24,6 +28,9 @@ $(STAMP): setup.py package.xml $(CONSTRAINTS)
 	$(PY) -m pip install -c $(CONSTRAINTS) pip setuptools wheel
 	$(PY) -m pip install -c $(CONSTRAINTS) --no-build-isolation -e '$(EXTRAS)'
 	$(PY) tools/check_pins.py $(CONSTRAINTS)
+	if [ -n "$(ROS2_TOOLS)" ]; then PIP_CONSTRAINT=$(abspath $(CONSTRAINTS)) \
+		"$(ROS2_TOOLS)/install.sh" $(PY); \
+	else echo 'ros2-tools not found: the tests that need the ros2 CLI will skip'; fi
 	touch $(STAMP)
 
 # Refresh the pins on purpose: the newest release of every dependency, installed into a

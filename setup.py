@@ -59,6 +59,8 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/foxglove', glob('foxglove/*.json')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
+        ('share/' + package_name + '/rviz', ['rviz/formation.rviz']),
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
     extras_require={'ros': ros_requires, 'view': view_requires, 'test': test_requires},
@@ -74,6 +76,7 @@ setup(
             'vehicle = formation_control.ros.vehicle:main',
             'vehicles = formation_control.ros.vehicle:main_many',
             'monitor = formation_control.ros.monitor:main',
+            'recorder = formation_control.ros.bag:main',
         ],
     },
 )

@@ -45,8 +45,18 @@ def _stamp(msg):
     return itf.stamp_ns(msg.header.stamp)
 
 
-def _scenario(path):
-    for _, msg in messages(path, [itf.SCENARIO_TOPIC]):
+def fleet_prefix(path):
+    """Return the namespace of the fleet a bag holds, as a topic prefix ('/', '/fleet_a/')."""
+    with Reader(path) as reader:
+        for conn in reader.connections:
+            if conn.topic.endswith('/' + itf.SCENARIO_TOPIC):
+                return conn.topic[:-len(itf.SCENARIO_TOPIC)]
+    raise ScenarioError(f'{path}: the bag has no {itf.SCENARIO_TOPIC} topic (the plant '
+                        f'publishes it; record that topic)')
+
+
+def _scenario(path, prefix):
+    for _, msg in messages(path, [prefix + itf.SCENARIO_TOPIC]):
         return resolve(json.loads(msg.data))
     raise ScenarioError(f'{path}: the bag has no {itf.SCENARIO_TOPIC} message (the plant '
                         f'publishes it; record that topic)')
@@ -73,10 +83,11 @@ def read_run(path):
         No scenario, or no step with the odometry of every vehicle.
 
     """
-    sc = _scenario(path)
+    prefix = fleet_prefix(path)
+    sc = _scenario(path, prefix)
     n = sc.num_vehicles
-    index = {itf.topic(k, 'odom'): k - 1 for k in range(1, n + 1)}
-    cmd_index = {itf.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
+    index = {prefix + itf.topic(k, 'odom'): k - 1 for k in range(1, n + 1)}
+    cmd_index = {prefix + itf.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
     odom = defaultdict(dict)
     cmds = [[] for _ in range(n)]
     for topic, msg in messages(path, set(index) | set(cmd_index)):
@@ -104,9 +115,9 @@ def read_run(path):
 
 
 def metrics(path):
-    """``/formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array})."""
+    """``formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array})."""
     rows = [(_stamp(msg), dict(zip(msg.name, msg.position)))
-            for _, msg in messages(path, [itf.METRICS_TOPIC])]
+            for _, msg in messages(path, [fleet_prefix(path) + itf.METRICS_TOPIC])]
     names = list(rows[0][1]) if rows else []
     t = np.array([s for s, _ in rows], np.int64) * 1e-9
     return t, {name: np.array([r.get(name, np.nan) for _, r in rows]) for name in names}

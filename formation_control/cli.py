@@ -13,13 +13,14 @@
 # limitations under the License.
 
 """
-Command line: ``formation-control`` sim, swarm, plot, report, play, doctor, params, layout.
+Command line: ``formation-control`` sim, swarm, set, plot, report, play, doctor, params, layout.
 
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
-process per vehicle + monitor); ``plot`` and ``report`` read a run back from a simulator/plant
-``.npz`` or a rosbag2 bag; ``play`` republishes a bag; ``doctor`` checks a running fleet;
-``params`` prints the table of scenario parameters (docs/parameters.md); ``layout`` prints the
-Foxglove layout (foxglove/formation_control.json).
+process per vehicle + monitor); ``set`` changes run-time gains on every vehicle of a running
+fleet; ``plot`` and ``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2
+bag; ``play`` republishes a bag; ``doctor`` checks a running fleet; ``params`` prints the
+table of scenario parameters (docs/parameters.md); ``layout`` prints the Foxglove layout
+(foxglove/formation_control.json).
 """
 import argparse
 import json
@@ -49,9 +50,10 @@ def find_scenario(name):
 
 
 def _split(overrides):
-    """(scenario overrides, node overrides): link parameters go to the ROS nodes only."""
+    """(scenario overrides, node overrides): link and frame parameters go to the nodes only."""
     from formation_control.core.links import PARAMETERS
-    node = [o for o in overrides if o.split(':=', 1)[0].strip() in PARAMETERS]
+    names = set(PARAMETERS) | set(node_parameters.FRAMES)
+    node = [o for o in overrides if o.split(':=', 1)[0].strip() in names]
     return [o for o in overrides if o not in node], node
 
 
@@ -59,7 +61,8 @@ def _load(args, node_params_allowed=False):
     overrides, node = _split(args.param)
     if node and not node_params_allowed:
         raise scenario.ScenarioError(
-            f"{', '.join(node)}: link parameters apply to the ROS nodes only (use swarm)")
+            f"{', '.join(node)}: link and frame parameters apply to the ROS nodes only (use "
+            f'swarm)')
     sc = scenario.load(find_scenario(args.scenario), overrides,
                        duration=args.duration, seed=args.seed)
     for note in sc.warnings:
@@ -117,7 +120,8 @@ def cmd_swarm(args):
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
                                    monitor=not args.no_monitor, node_params=_split(args.param)[1],
                                    per_process=args.vehicles_per_process,
-                                   monitor_params=_live_view(args.foxglove))
+                                   monitor_params=_live_view(args.foxglove),
+                                   namespace=args.namespace)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -137,6 +141,28 @@ def _live_view(port):
     print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app (layout: '
           f'formation-control layout)', file=sys.stderr)
     return [f'foxglove_port:={port}']
+
+
+def cmd_set(args):
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from formation_control.ros import tuning
+    params = tuning.parse(args.assignments)
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('formation_control_set', context=context,
+                                 start_parameter_services=False)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        tuner = tuning.FleetTuner(node, executor, args.namespace)
+        results = tuner.apply(params, args.timeout)
+    finally:
+        context.try_shutdown()
+    lines, everyone = tuning.report(params, results)
+    print('\n'.join(lines))
+    return 0 if everyone else 1
 
 
 def load_source(path):
@@ -249,7 +275,17 @@ def build_parser():
                             'foxglove_port)')
     swarm.add_argument('--no-monitor', action='store_true',
                        help='do not start the monitor node (no metrics or diagnostics)')
+    swarm.add_argument('--namespace', default='/', metavar='NS',
+                       help='run the fleet in this ROS namespace (default /)')
     swarm.set_defaults(func=cmd_swarm)
+    tune = sub.add_parser('set', help='set run-time parameters (gains) on every vehicle of a '
+                                      'running fleet')
+    tune.add_argument('assignments', nargs='+', metavar='NAME:=VALUE',
+                      help='run-time scenario parameters (docs/parameters.md, "run time")')
+    tune.add_argument('--namespace', default='/', metavar='NS', help="the fleet's namespace")
+    tune.add_argument('--timeout', type=float, default=10.0,
+                      help='seconds to wait for the fleet (default 10)')
+    tune.set_defaults(func=cmd_set)
     plot = sub.add_parser('plot', help='draw the figures of a run (.npz or bag)')
     plot.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
     plot.add_argument('--out', required=True, help='PNG file to write')

@@ -37,17 +37,24 @@ that matches after the first steps resends its transient-local history, which mu
 hold step 0."""
 
 
-def write_params(sc, path, recorded=False):
+def namespace_prefix(namespace):
+    """Return the topic prefix of a fleet's namespace: '/' or '/fleet_a/'."""
+    return '/' + ''.join(f'{part}/' for part in namespace.split('/') if part)
+
+
+def write_params(sc, path, recorded=False, namespace='/'):
     """
     Write the resolved scenario as a ROS 2 parameter file at ``path``; return the path.
 
     Empty lists are left out: ROS types them. ``recorded``: the state writers keep
-    :data:`RECORDED_DEPTH` samples (``qos_overrides``), so the bag misses no step.
+    :data:`RECORDED_DEPTH` samples (``qos_overrides`` of the topics in ``namespace``), so the
+    bag misses no step.
     """
     values = {k: v for k, v in sc.to_dict().items() if v != []}
+    prefix = namespace_prefix(namespace)
     if recorded:
         values['qos_overrides'] = {
-            f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
+            f'{prefix}vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
             for k in range(1, sc.num_vehicles + 1) for name in ('odom', 'formation_state', 'cmd')}
     Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': values}}))
     return str(path)
@@ -89,14 +96,16 @@ class Swarm:
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None, monitor_params=()):
+                 env=None, monitor_params=(), namespace='/'):
         self.sc, self.mode = sc, mode
         self.place, self.env = place or (lambda name: []), env
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
-        params = write_params(sc, self.dir / 'scenario.yaml', recorded=wait_for_start)
-        common = ['--ros-args', '--params-file', params, '-p', f'mode:={mode}']
+        params = write_params(sc, self.dir / 'scenario.yaml', wait_for_start, namespace)
+        prefix = namespace_prefix(namespace)
+        names = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
+        common = ['--ros-args', *names, '--params-file', params, '-p', f'mode:={mode}']
         for p in node_params:
             common += ['-p', p]
         self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
@@ -114,7 +123,9 @@ class Swarm:
                                       f'vehicle_ids:={group}'])
                 self.logs.append(f'vehicles_{group[0]}-{group[-1]}.log')
         if monitor:
-            self.commands.append([executable('monitor'), '--ros-args', '-p',
+            world = [a for p in node_params if p.startswith('world_frame:=') for a in ('-p', p)]
+            self.commands.append([executable('monitor'), '--ros-args', *names,
+                                  '-r', f'/clock:={prefix}clock', *world, '-p',
                                   f'use_sim_time:={str(mode == "lockstep").lower()}',
                                   *(a for p in monitor_params for a in ('-p', p))])
             self.logs.append('monitor.log')
@@ -188,23 +199,26 @@ class Recording:
     its topic (not merely discovered it), so the bag misses nothing.
     """
 
-    def __init__(self, path, n, sim_time, monitor=True):
+    def __init__(self, path, n, sim_time, monitor=True, namespace='/'):
         import rclpy
         from rclpy.experimental import EventsExecutor
         from rclpy.parameter import Parameter
         from std_msgs.msg import Empty
 
         from formation_control.ros.bag import BagRecorder, fleet_topics
-        from formation_control.ros.interface import LATCHED_QOS, MARKERS_TOPIC, METRICS_TOPIC
+        from formation_control.ros.interface import (CLOCK_TOPIC, LATCHED_QOS, MARKERS_TOPIC,
+                                                     METRICS_TOPIC)
         from formation_control.ros.plant import START_TOPIC
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
-        topics = [t for t in fleet_topics(n)
-                  if monitor or t[0] not in (METRICS_TOPIC, MARKERS_TOPIC)]
-        self.topics = [t for t, _, _ in topics if sim_time or t != '/clock']
+        prefix = namespace_prefix(namespace)
+        monitored = [prefix + t for t in (METRICS_TOPIC, MARKERS_TOPIC)]
+        topics = [t for t in fleet_topics(n, prefix) if monitor or t[0] not in monitored]
+        self.topics = [t for t, _, _ in topics if sim_time or t != prefix + CLOCK_TOPIC]
         self.node = BagRecorder(str(path), topics, context=self.context,
+                                cli_args=['--ros-args', '-r', f'/clock:={prefix}clock'],
                                 parameter_overrides=[Parameter('use_sim_time', value=sim_time)])
-        self.start = self.node.create_publisher(Empty, START_TOPIC, LATCHED_QOS)
+        self.start = self.node.create_publisher(Empty, prefix + START_TOPIC, LATCHED_QOS)
         self.start_msg = Empty()
         self.executor = EventsExecutor(context=self.context)
         self.executor.add_node(self.node)
@@ -232,9 +246,9 @@ class Recording:
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
               monitor=True, node_params=(), per_process=1, place=None, env=None,
-              monitor_params=()):
+              monitor_params=(), namespace='/'):
     """
-    Run a fleet as processes; return (run, summary). Every process is stopped on exit.
+    Run a fleet as processes in ``namespace``; return (run, summary). Every process is stopped.
 
     ``monitor_params`` (``name:=value``) go to the monitor only (``foxglove_port``).
     ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
@@ -246,10 +260,11 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     if bag is not None:
         if Path(bag).exists():
             raise FileExistsError(f'bag directory {bag} exists already')
-        recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor)
+        recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor, namespace)
     try:
         with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
-                   monitor, node_params, per_process, place, env, monitor_params) as swarm:
+                   monitor, node_params, per_process, place, env, monitor_params,
+                   namespace) as swarm:
             wait_plant(swarm, timeout, recording)
     finally:
         if recording is not None:

@@ -14,11 +14,15 @@
 
 import os
 from pathlib import Path
+import shutil
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import pytest
 
-CONFIG = Path(__file__).resolve().parents[1] / 'config'
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / 'config'
 
 
 @pytest.fixture
@@ -62,3 +66,17 @@ def nodes():
             yield made
         finally:
             made.close()
+
+
+@pytest.fixture(scope='session')
+def colcon_install(tmp_path_factory):
+    """Build the package with ``colcon build`` once; return install/formation_control."""
+    ws = tmp_path_factory.mktemp('ws')
+    shutil.copytree(ROOT, ws / 'src' / 'formation_control', ignore=shutil.ignore_patterns(
+        '.venv', 'build', 'install', 'log', '*.egg-info', '__pycache__', '.git', '*.npz',
+        '*.png', '.pytest_cache'))
+    result = subprocess.run([str(Path(sys.executable).parent / 'colcon'), 'build',
+                             '--event-handlers', 'console_direct-'],
+                            cwd=ws, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return ws / 'install' / 'formation_control'

@@ -15,39 +15,34 @@
 """
 ``colcon build`` (colcon from PyPI) produces the layout ``ros2 run`` and the ament index need.
 
-lib/formation_control/<exe>, share/formation_control/{package.xml, config/}, the index marker.
+lib/formation_control/<exe>, share/formation_control/{package.xml, config/, launch/, rviz/}, the
+index marker.
 """
 import os
 from pathlib import Path
-import shutil
 import subprocess
 import sys
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-COLCON = Path(sys.executable).parent / 'colcon'
 
 
-@pytest.fixture(scope='module')
-def install(tmp_path_factory):
-    ws = tmp_path_factory.mktemp('ws')
-    shutil.copytree(ROOT, ws / 'src' / 'formation_control', ignore=shutil.ignore_patterns(
-        '.venv', 'build', 'install', 'log', '*.egg-info', '__pycache__', '.git', '*.npz',
-        '*.png', '.pytest_cache'))
-    result = subprocess.run([str(COLCON), 'build', '--event-handlers', 'console_direct-'],
-                            cwd=ws, capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stdout + result.stderr
-    return ws / 'install' / 'formation_control'
+@pytest.fixture
+def install(colcon_install):
+    return colcon_install
 
 
 def test_installed_layout(install):
-    for exe in ('plant', 'vehicle', 'vehicles', 'monitor', 'formation-control'):
+    for exe in ('plant', 'vehicle', 'vehicles', 'monitor', 'recorder', 'formation-control'):
         assert os.access(install / 'lib' / 'formation_control' / exe, os.X_OK), exe
     share = install / 'share' / 'formation_control'
     assert (share / 'package.xml').is_file()
     shipped = sorted(p.name for p in (ROOT / 'config').glob('*.yaml'))
     assert sorted(p.name for p in (share / 'config').glob('*.yaml')) == shipped
+    assert sorted(p.name for p in (share / 'launch').iterdir()) == ['fleet.launch.py',
+                                                                    'vehicle.launch.py']
+    assert (share / 'rviz' / 'formation.rviz').is_file()
     assert (install / 'share' / 'ament_index' / 'resource_index' / 'packages'
             / 'formation_control').is_file()
 

@@ -47,5 +47,10 @@ def test_node_parameters_are_the_table_and_read_only(nodes, make):
             r = (d.floating_point_range or d.integer_range)[0]
             assert (r.from_value, r.to_value) == (spec.low, spec.high), name
         if name != 'vehicle_id':
-            value = node.get_parameter_or(name, Parameter(name)).value
-            assert value == (None if default == () else default), name
+            value = node.get_parameter(name).value
+            assert value == (list(default) if isinstance(default, tuple) else default), name
+    unset = [name for name, p in node._parameters.items() if p.type_ == Parameter.Type.NOT_SET]
+    assert not unset, f'declared without a value (ros2 param dump answers nothing): {unset}'
+    runtime = [name for name in scenario.RUNTIME
+               if node.has_parameter(name) and not node.describe_parameter(name).read_only]
+    assert runtime == (list(scenario.RUNTIME) if make == 'vehicle' else [])   # plant: read-only

@@ -19,13 +19,65 @@ Each entry is ``name -> (default, scenario.Spec)``; the same table declares the 
 parameters (descriptor with unit and range, read-only) and writes the node section of
 ``docs/parameters.md`` (:func:`markdown`). The offline simulator has none of these.
 """
+import re
+
 from formation_control.core.links import PARAMETERS as LINKS
-from formation_control.core.scenario import Spec
+from formation_control.core.scenario import ScenarioError, Spec
 
 MODES = ('lockstep', 'realtime')
 """Time modes of the plant and the vehicles."""
-START_TOPIC = '/formation/start'
+START_TOPIC = 'formation/start'
 """The plant holds step 0 until a std_msgs/Empty here, with ``wait_for_start``."""
+WORLD_FRAME = 'map'
+BASE_FRAME = 'vehicle_{id}/base_link'
+"""The default frames (REP-105); ``{id}`` in a base frame is the vehicle's id."""
+_FRAME = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/{}.-]*')
+
+FRAMES = {
+    'world_frame': (WORLD_FRAME, Spec('', 'frame of the poses, flows and markers (REP-105): '
+                                      'map, or e.g. odom from a navigation stack')),
+    'base_frame': (BASE_FRAME, Spec('', "each vehicle's body frame (odometry twist, commands, "
+                                    'formation states); {id} = the vehicle id',
+                                    rule='contains {id} on the plant')),
+}
+"""The frames every node of a fleet is given alike."""
+
+
+def base_frame(template, k):
+    """Return vehicle k's base frame: ``template`` with ``{id}`` replaced by k."""
+    return template.replace('{id}', str(k))
+
+
+def check_frames(values, per_vehicle=True):
+    """
+    Refuse frame parameters that are not tf2 frame ids or that would be shared.
+
+    Parameters
+    ----------
+    values : dict
+        ``world_frame`` and ``base_frame`` (the :data:`FRAMES` entries).
+    per_vehicle : bool
+        The node handles several vehicles (the plant): ``base_frame`` must name each vehicle
+        with ``{id}``.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the parameter and what it must be.
+
+    """
+    for name in FRAMES:
+        value = values[name]
+        if not isinstance(value, str) or not _FRAME.fullmatch(value):
+            raise ScenarioError(f'parameter {name!r} = {value!r} is invalid: a frame id '
+                                f'(letters, digits, _ - . /; no leading /)')
+    if per_vehicle and '{id}' not in values['base_frame']:
+        raise ScenarioError(f"parameter 'base_frame' = {values['base_frame']!r} is invalid: "
+                            f'must contain {{id}}, one frame per vehicle')
+    if base_frame(values['base_frame'], 1) == values['world_frame']:
+        raise ScenarioError(f"parameter 'base_frame' = {values['base_frame']!r} is invalid: "
+                            f"must differ from world_frame {values['world_frame']!r}")
+
 
 _MODE = Spec('', 'time mode: lockstep (the plant owns /clock and waits for every command) or '
              'realtime (wall-clock steps, the latest command held)', choices=MODES)
@@ -43,6 +95,7 @@ PLANT = {
     'wait_for_fleet': (True, Spec('', 'realtime mode: hold t = 0 until every vehicle has a '
                                   'writer on its command topic')),
     'command_timeout': LINKS['command_timeout'],
+    **FRAMES,
 }
 """``plant``."""
 
@@ -53,6 +106,7 @@ VEHICLE = {
                              'executable)', rule='distinct ids in 1..num_vehicles')),
     'mode': ('lockstep', _MODE),
     **{name: LINKS[name] for name in LINKS if name != 'command_timeout'},
+    **FRAMES,
 }
 """``vehicle`` and ``vehicles``; the link parameters are :data:`links.PARAMETERS`."""
 
@@ -73,6 +127,7 @@ MONITOR = {
                               high=65535)),
     'foxglove_host': ('127.0.0.1', Spec('', 'address the Foxglove live view listens on '
                                         '(0.0.0.0: every interface)')),
+    'world_frame': FRAMES['world_frame'],
 }
 """``monitor``."""
 

@@ -19,6 +19,9 @@ The bag has MCAP storage and metadata version 9, what Jazzy's ``ros2 bag info`` 
 ``ros2 bag play`` read. Messages are written as received (CDR bytes), each topic with the QoS
 its publishers offer.
 """
+from pathlib import Path
+
+from formation_control.core.node_parameters import START_TOPIC
 from formation_control.ros import interface as itf
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile
@@ -28,19 +31,23 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
 
 
-def fleet_topics(n):
-    """Return (topic, ROS type name, QoS) of every topic a fleet of n vehicles uses."""
-    topics = [('/clock', 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
-              (itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
-              (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
+def fleet_topics(n, namespace='/'):
+    """Return (topic, ROS type name, QoS) of every topic of a fleet of n in ``namespace``."""
+    prefix = namespace.rstrip('/') + '/'
+    topics = [(prefix + itf.CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
+              (prefix + itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
+              (prefix + itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
               (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS),
-              (itf.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray', itf.STREAM_QOS)]
+              (prefix + itf.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray',
+               itf.STREAM_QOS)]
     for k in range(1, n + 1):
-        topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
-                   (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),
-                   (itf.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
+        topics += [(prefix + itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
+                   (prefix + itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped',
+                    itf.LATCHED_QOS),
+                   (prefix + itf.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
                     itf.STATE_QOS),
-                   (itf.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped', itf.STATE_QOS)]
+                   (prefix + itf.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped',
+                    itf.STATE_QOS)]
     return topics
 
 
@@ -92,3 +99,62 @@ class BagRecorder(Node):
 
     def close(self):
         self.writer.close()
+
+
+class FleetRecorder(BagRecorder):
+    """
+    ``recorder``: the fleet of its namespace into a new bag (``-p bag:=DIR``).
+
+    The plant holds step 0 (``wait_for_start``) until each of the recorder's readers is matched
+    with a publisher; then the recorder publishes ``formation/start``. The bag is closed when
+    the node is destroyed (Ctrl-C, or the launch shutting down).
+    """
+
+    def __init__(self, path, n, prefix='/', monitor=True, **kwargs):
+        from std_msgs.msg import Empty
+
+        from formation_control.swarm import MONITOR_TOPICS
+        left_out = () if monitor else [prefix + t for t in MONITOR_TOPICS]
+        topics = [t for t in fleet_topics(n, prefix) if t[0] not in left_out]
+        super().__init__(path, topics, **kwargs)
+        if not self.get_parameter('use_sim_time').value:
+            self.readers.pop(prefix + itf.CLOCK_TOPIC)
+        self.start = self.create_publisher(Empty, prefix + START_TOPIC, itf.LATCHED_QOS)
+        self.start_msg = Empty()
+        from formation_control.ros.common import wall_clock
+        self.timer = self.create_timer(0.05, self._start_when_matched, clock=wall_clock()[0])
+
+    def _start_when_matched(self):
+        if all(r.get_publisher_count() for r in self.readers.values()):
+            self.start.publish(self.start_msg)
+            self.get_logger().info(f'recording {len(self.readers)} topics')
+            self.destroy_timer(self.timer)
+
+    def destroy_node(self):
+        self.close()
+        return super().destroy_node()
+
+
+def main(args=None):
+    """Record a fleet: ``recorder --ros-args -p bag:=DIR -p num_vehicles:=N``."""
+    from formation_control.core.scenario import ScenarioError
+    from formation_control.ros.runner import run
+    from formation_control.swarm import namespace_prefix
+
+    def make(context):
+        probe = Node('formation_bag_recorder', context=context, start_parameter_services=False,
+                     enable_rosout=False)
+        try:
+            bag = probe.declare_parameter('bag', '').value
+            n = probe.declare_parameter('num_vehicles', 0).value
+            monitor = probe.declare_parameter('monitor', True).value
+            prefix = namespace_prefix(probe.get_namespace())
+        finally:
+            probe.destroy_node()
+        if not bag or n < 1:
+            raise ScenarioError("give the bag directory and the fleet's size: -p bag:=DIR -p "
+                                'num_vehicles:=N')
+        if Path(bag).exists():
+            raise ScenarioError(f'parameter {"bag"!r} = {bag!r} is invalid: it exists already')
+        return FleetRecorder(bag, n, prefix, monitor, context=context)
+    return run(make, args)

@@ -76,8 +76,18 @@ def diagnostics_publisher(node):
 
 
 def publish_diagnostics(node, publisher, statuses):
-    """Publish ``statuses`` as one DiagnosticArray stamped with the node's clock; return it."""
-    msg = DiagnosticArray(status=list(statuses))
+    """
+    Publish ``statuses`` as one DiagnosticArray stamped with the node's clock.
+
+    ``/diagnostics`` is shared by every fleet of the domain: in a namespace, each status name
+    starts with it (``fleet_a/formation_control/vehicle_1``).
+    """
+    statuses = list(statuses)
+    namespace = node.get_namespace().strip('/')
+    if namespace:
+        for s in statuses:
+            s.name = f'{namespace}/{s.name}'
+    msg = DiagnosticArray(status=statuses)
     msg.header.stamp = node.get_clock().now().to_msg()
     publisher.publish(msg)
     return msg

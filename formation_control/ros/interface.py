@@ -15,25 +15,29 @@
 """
 Topics, QoS and message conversions shared by the plant and the vehicle nodes.
 
-Per vehicle k (1..N), in the ``map`` frame (REP-105) and SI units (REP-103):
+Every name is relative, so a fleet lives in the namespace of its nodes (``-r __ns:=/fleet_a``)
+and its topics can be remapped. Per vehicle k (1..N), in the world frame (``world_frame``,
+default ``map``, REP-105) and SI units (REP-103):
 
 =============================  ===============================  ==============================
 topic                          type                             content
 =============================  ===============================  ==============================
-``/vehicle_k/odom``            nav_msgs/Odometry                pose (yaw = heading theta),
-                                                                twist in ``vehicle_k/base_link``
+``vehicle_k/odom``             nav_msgs/Odometry                pose (yaw = heading theta),
+                                                                twist in the base frame
+                                                                (``vehicle_k/base_link``)
                                                                 = ground velocity, yaw rate
-``/vehicle_k/flow``            geometry_msgs/Vector3Stamped     flow the vehicle measures (map)
-``/vehicle_k/formation_state`` sensor_msgs/JointState           see :data:`STATE_FIELDS`
-``/vehicle_k/cmd``             geometry_msgs/WrenchStamped      force.x = T, force.y = F (N);
+``vehicle_k/flow``             geometry_msgs/Vector3Stamped     flow the vehicle measures
+``vehicle_k/formation_state``  sensor_msgs/JointState           see :data:`STATE_FIELDS`
+``vehicle_k/cmd``              geometry_msgs/WrenchStamped      force.x = T, force.y = F (N);
                                                                 torque.z = angular acceleration
                                                                 (second_order) or turn rate
                                                                 (first_order)
 =============================  ===============================  ==============================
 
-Fleet-wide: ``/formation/scenario`` (std_msgs/String, latched: the plant's scenario as JSON),
-``/formation/metrics`` (sensor_msgs/JointState: :data:`METRIC_DOC` names in ``name``, values
-in ``position``), ``/diagnostics`` and ``/formation/markers`` (from the ``monitor`` node).
+Fleet-wide: ``clock`` (lockstep), ``formation/scenario`` (std_msgs/String, latched: the
+plant's scenario as JSON), ``formation/metrics`` (sensor_msgs/JointState: :data:`METRIC_DOC`
+names in ``name``, values in ``position``), ``formation/markers`` (from the ``monitor`` node),
+and the absolute ``/diagnostics`` that diagnostic aggregators read.
 
 Every stamp is the time of the sample a message comes from; in lockstep it names the step.
 """
@@ -44,6 +48,7 @@ import struct
 
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position,
                                            ROW_OMEGA, ROW_THETA)
+from formation_control.core.node_parameters import BASE_FRAME, base_frame, WORLD_FRAME
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -53,11 +58,11 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
-MAP_FRAME = 'map'
 DIAGNOSTICS_TOPIC = '/diagnostics'
-SCENARIO_TOPIC = '/formation/scenario'
-METRICS_TOPIC = '/formation/metrics'
-MARKERS_TOPIC = '/formation/markers'
+CLOCK_TOPIC = 'clock'
+SCENARIO_TOPIC = 'formation/scenario'
+METRICS_TOPIC = 'formation/metrics'
+MARKERS_TOPIC = 'formation/markers'
 SCENE_TOPIC = '/formation/scene'
 """The Foxglove live view's SceneUpdate channel (not a ROS topic)."""
 STALL = 3.0
@@ -139,11 +144,39 @@ def yaw_quaternion(orientation, theta):
 
 
 def topic(k, name):
-    return f'/vehicle_{k}/{name}'
+    """Return the relative name of vehicle k's topic ``name`` (in the node's namespace)."""
+    return f'vehicle_{k}/{name}'
 
 
-def base_link(k):
-    return f'vehicle_{k}/base_link'
+def base_link(k, template=BASE_FRAME):
+    """Return vehicle k's base frame: the ``base_frame`` template with ``{id}`` = k."""
+    return base_frame(template, k)
+
+
+class Frames:
+    """
+    The frames of a fleet (REP-105): ``world`` and the ``base`` template of each vehicle.
+
+    Odometry poses and flows are in ``world``; odometry twists, commands and formation states
+    in :meth:`base` of their vehicle.
+    """
+
+    def __init__(self, world=WORLD_FRAME, base=BASE_FRAME):
+        self.world, self.template = world, base
+
+    def base(self, k):
+        return base_link(k, self.template)
+
+    def vehicle_of(self, frame):
+        """Return the id k whose base frame is ``frame``, else None."""
+        head, _, tail = self.template.partition('{id}')
+        middle = frame[len(head):len(frame) - len(tail)]
+        if frame.startswith(head) and frame.endswith(tail) and middle.isdigit():
+            return int(middle)
+        return None
+
+
+DEFAULT_FRAMES = Frames()
 
 
 def stamp_ns(stamp):
@@ -208,12 +241,12 @@ def input_from_cmd_values(values, model):
     return (0.0, tz) if model in PARTICLE_MODELS else (fx, fy)
 
 
-def odom_msg(k, ns, X, flow):
+def odom_msg(k, ns, X, flow, frames=DEFAULT_FRAMES):
     """Odometry of vehicle k from its state column X (6,): ground velocity in the body frame."""
     msg = Odometry()
     set_stamp(msg.header, ns)
-    msg.header.frame_id = MAP_FRAME
-    msg.child_frame_id = base_link(k)
+    msg.header.frame_id = frames.world
+    msg.child_frame_id = frames.base(k)
     return _set(msg, ODOM_FIELDS, odom_values(X, flow))
 
 
@@ -227,19 +260,19 @@ def state_from_odom(msg, flow, model):
     return state_from_odom_values(odom_values_of(msg), flow, model)
 
 
-def flow_msg(k, ns, flow):
+def flow_msg(k, ns, flow, frames=DEFAULT_FRAMES):
     msg = Vector3Stamped()
     set_stamp(msg.header, ns)
-    msg.header.frame_id = MAP_FRAME
+    msg.header.frame_id = frames.world
     msg.vector.x, msg.vector.y = flow.real, flow.imag
     return msg
 
 
-def cmd_msg(k, ns, u, model):
+def cmd_msg(k, ns, u, model, frames=DEFAULT_FRAMES):
     """Build the WrenchStamped of one vehicle's input column u (2,)."""
     msg = WrenchStamped()
     set_stamp(msg.header, ns)
-    msg.header.frame_id = base_link(k)
+    msg.header.frame_id = frames.base(k)
     return _set(msg, CMD_FIELDS, cmd_values(u, model))
 
 
@@ -248,17 +281,17 @@ def input_from_cmd(msg, model):
     return input_from_cmd_values(_get(msg, CMD_FIELDS), model)
 
 
-def odom_wire(k):
+def odom_wire(k, frames=DEFAULT_FRAMES):
     """Return the :class:`MessageWire` of vehicle k's odometry (:data:`ODOM_FIELDS`)."""
     msg = Odometry()
-    msg.header.frame_id, msg.child_frame_id = MAP_FRAME, base_link(k)
+    msg.header.frame_id, msg.child_frame_id = frames.world, frames.base(k)
     return MessageWire(msg, ODOM_FIELDS)
 
 
-def cmd_wire(k):
+def cmd_wire(k, frames=DEFAULT_FRAMES):
     """Return the :class:`MessageWire` of vehicle k's command (:data:`CMD_FIELDS`)."""
     msg = WrenchStamped()
-    msg.header.frame_id = base_link(k)
+    msg.header.frame_id = frames.base(k)
     return MessageWire(msg, CMD_FIELDS)
 
 
@@ -304,7 +337,7 @@ class MessageWire:
                 tuple(struct.unpack_from('<d', data, o)[0] for o in self.offsets))
 
 
-def state_msg(k, ns, X, view_row, hears=(), hearing=()):
+def state_msg(k, ns, X, view_row, hears=(), hearing=(), frames=DEFAULT_FRAMES):
     """
     formation_state of vehicle k: its pose, heading, yaw rate and the law's phase values.
 
@@ -312,7 +345,7 @@ def state_msg(k, ns, X, view_row, hears=(), hearing=()):
     """
     msg = JointState()
     set_stamp(msg.header, ns)
-    msg.header.frame_id = base_link(k)
+    msg.header.frame_id = frames.base(k)
     msg.name = list(state_names(hears))
     msg.position = list(state_values(X, view_row, hearing))
     return msg
@@ -338,13 +371,13 @@ class StateWire:
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
-    def __init__(self, k, hears=()):
+    def __init__(self, k, hears=(), frames=DEFAULT_FRAMES):
         self.names = state_names(hears)
         body = bytearray()
 
         def put(raw, align=4):
             body.extend(bytes(-(8 + len(body)) % align) + raw)  # body starts at 12 = 8 past origin
-        put(_cdr_string(base_link(k)))
+        put(_cdr_string(frames.base(k)))
         put(struct.pack('<I', len(self.names)))
         for name in self.names:
             put(_cdr_string(name))
@@ -379,11 +412,11 @@ def scenario_msg(sc):
     return String(data=sc.to_json())
 
 
-def metrics_msg(ns, values):
-    """``/formation/metrics``: JointState with the metric names and their values (position)."""
+def metrics_msg(ns, values, world=WORLD_FRAME):
+    """``formation/metrics``: JointState with the metric names and their values (position)."""
     msg = JointState()
     set_stamp(msg.header, ns)
-    msg.header.frame_id = MAP_FRAME
+    msg.header.frame_id = world
     msg.name = list(values)
     msg.position = [float(v) for v in values.values()]
     return msg

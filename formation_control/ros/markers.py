@@ -35,7 +35,7 @@ LINK = ColorRGBA(r=0.5, g=0.2, b=0.7, a=0.6)
 def _marker(ns, name, ident, kind, color):
     m = Marker()
     itf.set_stamp(m.header, ns)
-    m.header.frame_id = itf.MAP_FRAME
+    m.header.frame_id = itf.WORLD_FRAME
     m.ns, m.id, m.type, m.action, m.color = name, ident, kind, Marker.ADD, color
     m.pose.orientation.w = 1.0
     return m

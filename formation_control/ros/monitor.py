@@ -29,7 +29,10 @@ odometry, command and formation state, and publishes
   the scene every ``markers_period`` while a client subscribes, every metrics sample, every
   ``/diagnostics``.
 
-Times in the reports count from the first step the monitor heard.
+Times in the reports count from the first step the monitor heard. Every name is relative (the
+monitor watches the fleet of its namespace). It follows run-time gain changes: when every
+vehicle of its namespace has announced the same new value of a run-time parameter on
+``/parameter_events`` (``formation-control set``), its scenario takes it.
 """
 import json
 import sys
@@ -39,13 +42,16 @@ from formation_control.core import graphs, laws, metrics
 from formation_control.core.control import Controller
 from formation_control.core.models import ground_velocity, position, ROW_THETA
 from formation_control.core.node_parameters import MONITOR
-from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.scenario import resolve, RUNTIME, ScenarioError
 from formation_control.ros import common, markers, parameters
 from formation_control.ros import interface as itf
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
+from rcl_interfaces.msg import ParameterEvent
 from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
+from rclpy.qos import qos_profile_parameter_events
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -72,6 +78,10 @@ class MonitorNode(Node):
         self.reject = common.Rejections(self.get_logger(),
                                         ('malformed', 'non_finite', 'wrong_frame'))
         self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
+        self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
+                                 qos_profile_parameter_events)
+        self.vehicle_nodes = {}
+        self.scenario_topic = self.resolve_topic_name(itf.SCENARIO_TOPIC)
         self.diag_pub = common.diagnostics_publisher(self)
         self.live = None
         if self.p['foxglove_port']:
@@ -81,7 +91,7 @@ class MonitorNode(Node):
                                    f'{self.live.port}')
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
-        self.get_logger().info(f"waiting for the fleet's scenario on {itf.SCENARIO_TOPIC}")
+        self.get_logger().info(f"waiting for the fleet's scenario on {self.scenario_topic}")
 
     def _on_scenario(self, msg):
         try:
@@ -94,9 +104,32 @@ class MonitorNode(Node):
             self.get_logger().warn('a different scenario was announced; restart the monitor to '
                                    'follow it', throttle_duration_sec=10.0)
 
+    def _on_parameter_event(self, msg):
+        """Take a run-time parameter once every vehicle of the fleet holds the same value."""
+        k = self.vehicle_nodes.get(msg.node)
+        changed = [p for p in msg.changed_parameters if p.name in RUNTIME]
+        if k is None or not changed:
+            return
+        for p in changed:
+            self.runtime[p.name][k - 1] = _hashable(parameter_value_to_python(p.value))
+        agreed = {name: values[0] for name, values in self.runtime.items()
+                  if len(set(values)) == 1 and values[0] != _hashable(getattr(self.sc, name))}
+        if not agreed:
+            return
+        try:
+            self.sc = resolve({**self.sc.to_dict(), **{
+                name: list(v) if isinstance(v, tuple) else v for name, v in agreed.items()}})
+        except ScenarioError as err:
+            return self.get_logger().warn(f'the fleet took {agreed}, which is invalid: {err}')
+        self.ctrl = Controller(self.sc)
+        self.get_logger().info(f'every vehicle took {agreed}: the metrics follow')
+
     def _setup(self, sc):
         self.sc = sc
         n = sc.num_vehicles
+        prefix = self.get_namespace().rstrip('/')
+        self.vehicle_nodes = {f'{prefix}/vehicle_{k}': k for k in range(1, n + 1)}
+        self.runtime = {name: [_hashable(getattr(sc, name))] * n for name in RUNTIME}
         self.ctrl = Controller(sc)
         self.X = np.full((6, n), np.nan)
         self.U = np.zeros((2, n))
@@ -162,9 +195,10 @@ class MonitorNode(Node):
         self._heard('cmd', k)
 
     def _on_odom(self, k, msg):
-        if msg.header.frame_id != itf.MAP_FRAME:
+        if msg.header.frame_id != self.p['world_frame']:
             return self.reject('wrong_frame', f'an odometry of vehicle {k} in frame '
-                               f'{msg.header.frame_id!r}')
+                               f'{msg.header.frame_id!r} (world_frame is '
+                               f"{self.p['world_frame']!r})")
         x = itf.state_from_odom(msg, self.sc.flow_c, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
@@ -185,7 +219,7 @@ class MonitorNode(Node):
         fresh, live = self.live_graph()
         self.values = {**snap.values(), 'live_links': float(len(live)),
                        'algebraic_connectivity': graphs.connectivity(fresh, live)}
-        self.metrics_pub.publish(itf.metrics_msg(ns, self.values))
+        self.metrics_pub.publish(itf.metrics_msg(ns, self.values, self.p['world_frame']))
         if self.live is not None:
             self.live.log_metrics(ns, self.values)
         self.shown = ns, self.X.copy(), self.U.copy()
@@ -240,7 +274,7 @@ class MonitorNode(Node):
     def publish_diagnostics(self):
         """Publish the formation's status and every vehicle's on ``/diagnostics``."""
         if self.sc is None:
-            statuses = [_status('formation', WARN, f'waiting for {itf.SCENARIO_TOPIC}', {})]
+            statuses = [_status('formation', WARN, f'waiting for {self.scenario_topic}', {})]
         else:
             now = self.now()
             statuses = [self._formation_status()] + [
@@ -272,6 +306,8 @@ class MonitorNode(Node):
         if rviz:
             msg = markers.fleet_markers(ns, X, ground, trails, centres, target)
             msg.markers.append(markers.link_marker(ns, position(X), edges))
+            for marker in msg.markers:
+                marker.header.frame_id = self.p['world_frame']
             self.markers_pub.publish(msg)
         if live:
             self.live.log_scene(ns, position(X), X[ROW_THETA], ground, trails, edges, centres,
@@ -282,6 +318,10 @@ class MonitorNode(Node):
             self.live.close()
             self.live = None
         return super().destroy_node()
+
+
+def _hashable(value):
+    return tuple(value) if isinstance(value, (list, tuple)) else value
 
 
 def main(args=None):

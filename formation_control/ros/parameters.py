@@ -19,6 +19,8 @@ Each is declared with a descriptor made from its :class:`scenario.Spec`, validat
 core's :func:`scenario.resolve` (one source of truth); gains and references can change at run
 time (:data:`scenario.RUNTIME`).
 """
+import copy
+
 from formation_control.core import links, scenario
 from formation_control.core.node_parameters import MODES  # noqa: F401 (re-exported)
 from formation_control.core.scenario import Scenario, ScenarioError
@@ -29,7 +31,10 @@ from rclpy.parameter import Parameter
 FLOAT_BOUND = 1e9
 """Descriptor range ends of a number that the scenario leaves unbounded on that side."""
 INTEGER_BOUND = 2 ** 63 - 1
-EMPTY_TYPES = {'informed': Parameter.Type.INTEGER_ARRAY}
+EMPTY_TYPES = dict.fromkeys(('informed', 'graph_edges'), Parameter.Type.INTEGER_ARRAY)
+"""The array type of a parameter whose default is empty (the others: DOUBLE_ARRAY)."""
+PLANT_NOTE = ('; read-only on the plant, which does not use it: the vehicles hold the gains '
+              '(formation-control set NAME:=VALUE changes them fleet-wide)')
 
 
 def descriptor(name):
@@ -75,24 +80,48 @@ def _ros_value(value):
     return list(value) if isinstance(value, tuple) else value
 
 
-def declare(node, defaults=Scenario()):
-    """Declare every scenario parameter on ``node`` with its descriptor and default."""
+def declare_empty(node, name, array_type, d):
+    """
+    Declare an array parameter whose default is empty: typed, and with the value [].
+
+    A parameter declared without a value answers nothing to ``get_parameters``, which makes
+    ``ros2 param dump`` print no parameter at all; an empty array of its type is a value.
+    """
+    writable = copy.deepcopy(d)
+    writable.read_only = False
+    node.declare_parameter(name, array_type, writable)
+    if node.get_parameter_or(name, Parameter(name)).type_ == Parameter.Type.NOT_SET:
+        node.set_parameters([Parameter(name, array_type, [])])
+    if d.read_only:
+        d.type = array_type.value
+        node.set_descriptor(name, d)
+    return node.get_parameter(name).value
+
+
+def declare(node, defaults=Scenario(), runtime=True):
+    """
+    Declare every scenario parameter on ``node`` with its descriptor and default.
+
+    ``runtime=False``: every one is read-only (the plant, which uses no gain).
+    """
     for name in scenario.PARAMETER_NAMES:
         value = _ros_value(getattr(defaults, name))
+        d = descriptor(name)
+        if not runtime and not d.read_only:
+            d.read_only = True
+            d.description += PLANT_NOTE
         if name == 'K':
             value = -1.0 if node.get_parameter('formation').value == 'parallel' else 1.0
         if value == []:
-            node.declare_parameter(name, EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY),
-                                   descriptor(name))
+            declare_empty(node, name, EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY), d)
         else:
-            node.declare_parameter(name, value, descriptor(name))
+            node.declare_parameter(name, value, d)
 
 
 def _values(node, changes=()):
-    values = {name: node.get_parameter_or(name, Parameter(name)).value
-              for name in scenario.PARAMETER_NAMES}
+    values = {name: node.get_parameter(name).value for name in scenario.PARAMETER_NAMES}
     values.update({p.name: p.value for p in changes if p.name in values})
-    return {k: ([] if v is None else v) for k, v in values.items()}
+    return values
 
 
 def current(node):
@@ -102,7 +131,8 @@ def current(node):
 
 def reject_unknown(node, extra=()):
     """Refuse parameter names given to the node (YAML or -p) that it does not know."""
-    known = set(scenario.PARAMETER_NAMES) | set(links.PARAMETERS) | set(extra) | {'use_sim_time'}
+    known = (set(scenario.PARAMETER_NAMES) | set(links.PARAMETERS) | set(extra)
+             | {'use_sim_time', 'start_type_description_service'})
     unknown = sorted(n for n in node._parameter_overrides
                      if n not in known and not n.startswith('qos_overrides.'))
     if unknown:
@@ -145,7 +175,7 @@ def declare_node(node, table, names=None):
     Returns
     -------
     dict
-        name -> value (an empty array default gives a tuple).
+        name -> value (an array gives a tuple).
 
     """
     values = {}
@@ -154,8 +184,7 @@ def declare_node(node, table, names=None):
         text = f'{spec.text} [{spec.unit}]' if spec.unit else spec.text
         d = _descriptor(spec, default, text, ' | '.join(spec.choices) or spec.rule)
         if default == ():
-            node.declare_parameter(name, Parameter.Type.INTEGER_ARRAY, d)
-            values[name] = tuple(node.get_parameter_or(name, Parameter(name)).value or ())
+            values[name] = tuple(declare_empty(node, name, Parameter.Type.INTEGER_ARRAY, d))
         else:
             node.declare_parameter(name, default, d)
             values[name] = node.get_parameter(name).value

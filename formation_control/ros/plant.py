@@ -19,17 +19,19 @@ The dynamics are the offline simulator's sampled-data loop (:class:`fleet.FleetP
 time protocol is :mod:`lockstep` (which commands a step waits for, real-time pacing): this node
 converts messages and publishes.
 
-Lockstep (default): the plant owns ``/clock``; it publishes step n (clock, every odometry),
-waits for the command of every vehicle stamped with step n, records, integrates one control
-period, and publishes step n + 1. Real time: simulated time starts once every vehicle is up (a
-writer on each command topic; ``wait_for_fleet``); then a wall timer integrates the steps the
-clock has reached with the last command of each vehicle held, and vehicle k's odometry is sent
-at integration step (k - 1) mod substeps of each period.
+Lockstep (default): the plant owns the fleet's ``clock``; it publishes step n (clock, every
+odometry), waits for the command of every vehicle stamped with step n, records, integrates one
+control period, and publishes step n + 1. Real time: simulated time starts once every vehicle
+is up (a writer on each command topic; ``wait_for_fleet``); then a wall timer integrates the
+steps the clock has reached with the last command of each vehicle held, and vehicle k's
+odometry is sent at integration step (k - 1) mod substeps of each period.
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
 state becomes non-finite is stopped with an error naming it. Counts and status:
 ``/diagnostics``, ``formation_control/plant``.
+
+Every scenario parameter is read-only here: the plant uses no gain, the vehicles hold them.
 """
 import sys
 import time
@@ -37,7 +39,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import links, lockstep
 from formation_control.core.fleet import FleetPlant
-from formation_control.core.node_parameters import PLANT, START_TOPIC
+from formation_control.core.node_parameters import check_frames, PLANT, START_TOPIC
 from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
@@ -56,8 +58,10 @@ class PlantNode(Node):
     def __init__(self, **kwargs):
         super().__init__('plant', **kwargs)
         self.p = parameters.declare_node(self, PLANT)
-        parameters.declare(self)
+        parameters.declare(self, runtime=False)
         parameters.reject_unknown(self, PLANT)
+        check_frames(self.p)
+        self.frames = itf.Frames(self.p['world_frame'], self.p['base_frame'])
         self.sc = sc = parameters.current(self)
         for note in sc.warnings:
             self.get_logger().warn(note)
@@ -87,8 +91,8 @@ class PlantNode(Node):
         sc, ids = self.sc, range(1, self.sc.num_vehicles + 1)
         self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'),
                                                 **itf.state_qos_kwargs()) for k in ids]
-        self.odom_wires = [itf.odom_wire(k) for k in ids]
-        self.cmd_wires = [itf.cmd_wire(k) for k in ids]
+        self.odom_wires = [itf.odom_wire(k, self.frames) for k in ids]
+        self.cmd_wires = [itf.cmd_wire(k, self.frames) for k in ids]
         self.cmd_subs = [self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
                                                   lambda data, k=k: self._on_cmd(k, data),
                                                   raw=True,
@@ -96,10 +100,10 @@ class PlantNode(Node):
         for k in ids:
             flow_pub = self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
                                              itf.LATCHED_QOS)
-            flow_pub.publish(itf.flow_msg(k, 0, sc.flow_c))
+            flow_pub.publish(itf.flow_msg(k, 0, sc.flow_c, self.frames))
         self.clock_pub = None
         if self.mode == 'lockstep':
-            self.clock_pub = self.create_publisher(Clock, '/clock', itf.LATCHED_QOS)
+            self.clock_pub = self.create_publisher(Clock, itf.CLOCK_TOPIC, itf.LATCHED_QOS)
         self.scenario_pub = self.create_publisher(String, itf.SCENARIO_TOPIC, itf.LATCHED_QOS)
         self.scenario_pub.publish(itf.scenario_msg(sc))
         self.diag_pub = common.diagnostics_publisher(self)
@@ -163,7 +167,7 @@ class PlantNode(Node):
                 msg = deserialize_message(data, WrenchStamped)
             except Exception:
                 return self.reject('malformed', f'undecodable command bytes of vehicle {k}')
-            if msg.header.frame_id != itf.base_link(k):
+            if msg.header.frame_id != self.frames.base(k):
                 return self.reject('wrong_frame', f"a command on vehicle {k}'s topic in frame "
                                    f'{msg.header.frame_id!r}')
             got = itf.stamp_ns(msg.header.stamp), itf.input_from_cmd(msg, self.sc.model)

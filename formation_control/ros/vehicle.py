@@ -32,7 +32,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import links, lockstep
 from formation_control.core.neighbours import NeighbourTable
-from formation_control.core.node_parameters import VEHICLE
+from formation_control.core.node_parameters import check_frames, FRAMES, VEHICLE
 from formation_control.core.onboard import Onboard
 from formation_control.core.scenario import ScenarioError
 from formation_control.ros import common, interface as itf, parameters
@@ -70,6 +70,9 @@ class VehicleNode(Node):
             raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
                                 f'1..num_vehicles = {sc.num_vehicles}')
         link = parameters.declare_links(self, LINK_PARAMETERS, sc.num_vehicles, vehicle_id)
+        frames = parameters.declare_node(self, FRAMES)
+        check_frames(frames, per_vehicle=False)
+        self.frames = itf.Frames(frames['world_frame'], frames['base_frame'])
         self.wall, self.now = common.wall_clock()
         self.born = self.now()
         self.neighbours = sc.comm_graph.neighbours(vehicle_id)
@@ -86,7 +89,8 @@ class VehicleNode(Node):
         self.flow = sc.flow_c
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
                       for j in (*self.neighbours, vehicle_id)}
-        self.wires = {j: itf.StateWire(j, hears) for j, hears in self.hears.items()}
+        self.wires = {j: itf.StateWire(j, hears, self.frames)
+                      for j, hears in self.hears.items()}
         self.heard_rows = np.array([j - 1 for j in self.hears[vehicle_id]], int)
         self.my_flag = {j: len(itf.STATE_FIELDS) + hears.index(vehicle_id)
                         for j, hears in self.hears.items() if hears and j != vehicle_id}
@@ -113,7 +117,7 @@ class VehicleNode(Node):
         self.state_pub = self.create_publisher(JointState, itf.topic(k, 'formation_state'),
                                                **qos())
         self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(k, 'cmd'), **qos())
-        self.odom_wire, self.cmd_wire = itf.odom_wire(k), itf.cmd_wire(k)
+        self.odom_wire, self.cmd_wire = itf.odom_wire(k, self.frames), itf.cmd_wire(k, self.frames)
         self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
         self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
@@ -132,7 +136,7 @@ class VehicleNode(Node):
         flow = complex(msg.vector.x, msg.vector.y)
         if not (math.isfinite(flow.real) and math.isfinite(flow.imag)):
             return self.reject('non_finite', 'a non-finite flow')
-        if msg.header.frame_id != itf.MAP_FRAME:
+        if msg.header.frame_id != self.frames.world:
             return self.reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
         self.flow = flow
 
@@ -145,9 +149,11 @@ class VehicleNode(Node):
             msg = deserialize_message(data, Odometry)
         except Exception:
             return self.reject('malformed', 'undecodable odometry bytes')
-        if (msg.header.frame_id, msg.child_frame_id) != (itf.MAP_FRAME, itf.base_link(self.k)):
+        expected = self.frames.world, self.frames.base(self.k)
+        if (msg.header.frame_id, msg.child_frame_id) != expected:
             return self.reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
-                               f' -> {msg.child_frame_id!r}')
+                               f' -> {msg.child_frame_id!r} (expected {expected[0]!r} -> '
+                               f'{expected[1]!r}: world_frame, base_frame)')
         return itf.stamp_ns(msg.header.stamp), itf.odom_values_of(msg)
 
     def _on_odom(self, data):
@@ -203,8 +209,9 @@ class VehicleNode(Node):
         names = self.wires[j].names
         if len(msg.position) != len(names) or tuple(msg.name) != names:
             return self.reject('malformed', f'a malformed formation_state of vehicle {j}')
-        if msg.header.frame_id != itf.base_link(j):
-            kind = 'foreign_id' if msg.header.frame_id.endswith('/base_link') else 'wrong_frame'
+        if msg.header.frame_id != self.frames.base(j):
+            other = self.frames.vehicle_of(msg.header.frame_id)
+            kind = 'wrong_frame' if other is None else 'foreign_id'
             return self.reject(kind, f"a formation_state on vehicle {j}'s topic from "
                                f'{msg.header.frame_id!r}')
         return itf.stamp_ns(msg.header.stamp), tuple(msg.position)
@@ -249,7 +256,7 @@ class VehicleNode(Node):
         if self.mode != 'lockstep':
             return
         if known.odom_ns < 0 and now - self.born > itf.STALL:
-            topic = itf.topic(self.k, 'odom')
+            topic = self.resolve_topic_name(itf.topic(self.k, 'odom'))
             self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
                                    f'publishers matched)', throttle_duration_sec=5.0)
         elif known.odom_ns >= 0 and known.commanded_ns != known.odom_ns and \

@@ -1,0 +1,140 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The actions of ``fleet.launch.py`` and ``vehicle.launch.py`` (share/formation_control/launch).
+
+The scenario is read and validated when the launch starts (a bad one stops it with the
+reason, before any node runs), written resolved to one parameter file that every node of the
+fleet takes, and the nodes are those ``formation-control swarm`` starts: the plant, one
+``vehicle`` node per vehicle (or ``vehicles`` processes of several nodes), the monitor and,
+with ``record``, the bag ``recorder``, all in the ``namespace``.
+"""
+from pathlib import Path
+import tempfile
+
+from formation_control.cli import find_scenario
+from formation_control.core import scenario
+from formation_control.swarm import namespace_prefix, write_params
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+PACKAGE = 'formation_control'
+FLEET_ARGUMENTS = {
+    'scenario': ('rigid_circular', 'a scenario of config/ (name) or the path of one'),
+    'namespace': ('', 'ROS namespace of the fleet (e.g. fleet_a); empty = /'),
+    'mode': ('lockstep', 'lockstep | realtime'),
+    'num_vehicles': ('', "override the scenario's number of vehicles; empty = the scenario's"),
+    'duration': ('', "override the scenario's duration (s); empty = the scenario's"),
+    'vehicles_per_process': ('1', 'vehicle nodes per process (vehicles executable)'),
+    'monitor': ('true', 'start the monitor (metrics, diagnostics, markers)'),
+    'record': ('', 'record the fleet into this new bag directory (MCAP); empty = none'),
+    'record_path': ('', "the plant's record of the run (.npz) when it ends; empty = none"),
+    'params_file': ('', 'a ROS parameter file of node parameters (links, faults, timeouts, QoS) '
+                    'for the plant and the vehicles, after the scenario; empty = none'),
+    'world_frame': ('map', 'world frame (REP-105)'),
+    'base_frame': ('vehicle_{id}/base_link', "each vehicle's base frame; {id} = its id"),
+}
+VEHICLE_ARGUMENTS = {
+    'scenario': FLEET_ARGUMENTS['scenario'],
+    'namespace': FLEET_ARGUMENTS['namespace'],
+    'vehicle_id': ('1', "this vehicle's id k"),
+    'mode': FLEET_ARGUMENTS['mode'],
+    'params_file': FLEET_ARGUMENTS['params_file'],
+    'world_frame': FLEET_ARGUMENTS['world_frame'],
+    'base_frame': FLEET_ARGUMENTS['base_frame'],
+}
+
+
+def arguments(table):
+    """Return the DeclareLaunchArgument of each entry of ``table`` (name -> (default, text))."""
+    return [DeclareLaunchArgument(name, default_value=default, description=text)
+            for name, (default, text) in table.items()]
+
+
+def _values(context, table):
+    return {name: LaunchConfiguration(name).perform(context) for name in table}
+
+
+def _true(text):
+    return text.strip().lower() in ('1', 'true', 'yes', 'on')
+
+
+def _scenario(a, recorded=False):
+    """Validate the scenario of the arguments ``a``; return it and its parameter file."""
+    overrides = [f'{name}:={a[name]}' for name in ('num_vehicles', 'duration') if a.get(name)]
+    sc = scenario.load(find_scenario(a['scenario']), overrides)
+    folder = Path(tempfile.mkdtemp(prefix='formation_launch_'))
+    files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
+    if a['params_file']:
+        if not Path(a['params_file']).is_file():
+            raise scenario.ScenarioError(f"params_file {a['params_file']!r} not found")
+        files.append(a['params_file'])
+    return sc, files
+
+
+def _node(executable, a, params, **kwargs):
+    return Node(package=PACKAGE, executable=executable, namespace=a['namespace'] or None,
+                parameters=params, output='screen', emulate_tty=True, **kwargs)
+
+
+def _fleet(context):
+    a = _values(context, FLEET_ARGUMENTS)
+    record = a['record']
+    sc, files = _scenario(a, recorded=bool(record))
+    if not a['vehicles_per_process'].isdigit() or int(a['vehicles_per_process']) < 1:
+        raise scenario.ScenarioError(f"vehicles_per_process {a['vehicles_per_process']!r} is "
+                                     f'invalid: an integer >= 1')
+    per_process = int(a['vehicles_per_process'])
+    frames = {'world_frame': a['world_frame'], 'base_frame': a['base_frame']}
+    common = {'mode': a['mode'], **frames}
+    sim_time = {'use_sim_time': a['mode'] == 'lockstep'}
+    clock = [('/clock', namespace_prefix(a['namespace'] or '/') + 'clock')]
+    actions = [_node('plant', a, [*files, {**common, 'record_path': a['record_path'],
+                                           'wait_for_start': bool(record)}],
+                     on_exit=Shutdown(reason='the plant has finished the run'))]
+    ids = list(range(1, sc.num_vehicles + 1))
+    for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
+        if per_process == 1:
+            actions.append(_node('vehicle', a, [*files, {**common, 'vehicle_id': group[0]}]))
+        else:
+            actions.append(_node('vehicles', a, [*files, {**common, 'vehicle_ids': group}]))
+    if _true(a['monitor']):
+        actions.append(_node('monitor', a, [{'world_frame': a['world_frame'], **sim_time}],
+                             remappings=clock))
+    if record:
+        actions.append(_node('recorder', a, [{'bag': record, 'num_vehicles': sc.num_vehicles,
+                                              'monitor': _true(a['monitor']), **sim_time}],
+                             remappings=clock))
+    return actions
+
+
+def _vehicle(context):
+    a = _values(context, VEHICLE_ARGUMENTS)
+    _, files = _scenario(a)
+    return [_node('vehicle', a, [*files, {'mode': a['mode'], 'vehicle_id': int(a['vehicle_id']),
+                                          'world_frame': a['world_frame'],
+                                          'base_frame': a['base_frame']}],
+                  on_exit=Shutdown(reason='the vehicle node exited'))]
+
+
+def fleet_actions():
+    """Return the actions of ``fleet.launch.py``: its arguments, then the fleet."""
+    return [*arguments(FLEET_ARGUMENTS), OpaqueFunction(function=_fleet)]
+
+
+def vehicle_actions():
+    """Return the actions of ``vehicle.launch.py``: one vehicle node (one per computer)."""
+    return [*arguments(VEHICLE_ARGUMENTS), OpaqueFunction(function=_vehicle)]
