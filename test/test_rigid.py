@@ -165,8 +165,8 @@ def _plain_deriv(X, U, plant):
             dX[3] -= plant.l1 * hs * v / plant.I0
         dX[4] = (U[0] - hs * u) / plant.m0 + v * w
         dX[5] = (side - hs * v) / plant.m0 - u * w
-    dX[0] += plant.flow.real
-    dX[1] += plant.flow.imag
+    dX[0] += plant.flow.value.real
+    dX[1] += plant.flow.value.imag
     return dX
 
 

@@ -37,8 +37,8 @@ def particle_speed_terms(theta, flow):
     ----------
     theta : array_like
         Body headings theta (rad).
-    flow : complex
-        Uniform steady flow f (m/s), ``|f| < 1``.
+    flow : complex or array_like of complex
+        The flow f at each vehicle (m/s), ``|f| < 1``: known or estimated.
 
     Returns
     -------
@@ -62,8 +62,8 @@ def particle_view(X, flow):
     ----------
     X : array_like, shape (6, N)
         States (rows of :mod:`models`); omega is the body turn rate theta'.
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex, shape (N,)
+        The flow f at each vehicle (m/s): known or estimated.
 
     Returns
     -------
@@ -88,8 +88,8 @@ def body_rate_from_inertial(w, theta, flow):
         Desired course rates gamma' (rad/s).
     theta : array_like
         Body headings (rad).
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex
+        The flow f at each vehicle (m/s): known or estimated.
 
     Returns
     -------
@@ -110,8 +110,8 @@ def body_accel_from_inertial(lam, theta, omega, flow):
         Desired course accelerations lambda_k = gamma'' (rad/s^2).
     theta, omega : array_like
         Body headings (rad) and turn rates (rad/s).
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex
+        The flow f at each vehicle (m/s): known or estimated (taken as steady).
 
     Returns
     -------
@@ -153,7 +153,7 @@ def thrust(X, u0, K_f, plant):
     return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
 
 
-def rigid_view(X, U_applied, plant, use_heading, full):
+def rigid_view(X, U_applied, plant, flow, use_heading, full):
     """
     Return the particle view of rigid bodies.
 
@@ -165,6 +165,8 @@ def rigid_view(X, U_applied, plant, use_heading, full):
         Input the exact rates are computed with: thrust now, steering force held (N).
     plant : Plant
         The rigid-body model.
+    flow : complex or array_like of complex, shape (N,)
+        The flow at each vehicle (m/s): known or estimated.
     use_heading : bool
         Steer the heading: phase theta with rate omega, as (7.3) with (3.7) uses it.
     full : bool
@@ -180,7 +182,7 @@ def rigid_view(X, U_applied, plant, use_heading, full):
 
     """
     r = position(X)
-    vel = ground_velocity(X, plant.flow)
+    vel = ground_velocity(X, flow)
     speed = abs(vel)
     if use_heading:
         return laws.View(r, X[ROW_THETA], X[ROW_OMEGA], speed, np.zeros_like(speed))
@@ -326,7 +328,8 @@ class Controller:
             self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
                                            pattern_law(sc))
         self._couplings = {}
-        self.use_heading = sc.formation == 'parallel' and sc.flow_c == 0
+        self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
+                            and self.plant.flow.uniform and self.plant.flow.value == 0)
         self.full = uses_held_force(sc)
         self.integral = None
         self.limits = command_limits(sc)
@@ -337,7 +340,24 @@ class Controller:
             return np.zeros(X.shape[1])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
 
-    def view(self, X, F_held=None):
+    def flow(self, flow, n):
+        """
+        Return the flow the n vehicles use: the given one (n,), or else the uniform flow.
+
+        Raises
+        ------
+        ValueError
+            ``flow`` is None and the scenario's flow is not uniform (no flow to assume).
+
+        """
+        if flow is not None:
+            return np.broadcast_to(np.asarray(flow, complex), (n,))
+        if not self.plant.flow.uniform:
+            raise ValueError(f'the {self.plant.flow.model} flow is not uniform: give each '
+                             f"vehicle's flow")
+        return self.plant.flow.value
+
+    def view(self, X, F_held=None, flow=None):
         """
         Return the particle view of the vehicles ``X``: what each vehicle shares with the others.
 
@@ -348,6 +368,9 @@ class Controller:
         F_held : array_like, shape (n,), optional
             Steering force held from the last period (N), for the exact course rate of the
             full and PI laws; zero by default.
+        flow : array_like of complex, shape (n,), optional
+            The flow each vehicle uses (m/s): its known local flow or its estimate; the
+            scenario's uniform flow by default (:meth:`flow`).
 
         Returns
         -------
@@ -355,11 +378,12 @@ class Controller:
             :func:`particle_view` or :func:`rigid_view`.
 
         """
+        flow = self.flow(flow, X.shape[1])
         if not self.rigid:
-            return particle_view(X, self.plant.flow)
+            return particle_view(X, flow)
         held = np.zeros(X.shape[1]) if F_held is None else F_held
         U_applied = np.vstack([self.thrust(X), held])
-        return rigid_view(X, U_applied, self.plant, self.use_heading, self.full)
+        return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full)
 
     def formation_of(self, members=None):
         """
@@ -419,7 +443,7 @@ class Controller:
         self.integral = self.integral + err * sc.dt_control
         return sc.K_P * err + sc.K_I * self.integral
 
-    def command(self, view, X, idx=slice(None), members=None):
+    def command(self, view, X, idx=slice(None), members=None, flow=None):
         """
         Return the inputs of the vehicles ``idx`` of ``view``.
 
@@ -434,6 +458,8 @@ class Controller:
         members : ndarray of bool, shape (N,), optional
             The fleet vehicles the view holds when it is not the whole fleet (a vehicle that
             hears only its live neighbours); None = the whole fleet.
+        flow : array_like of complex, shape (n,), optional
+            The flow each commanded vehicle uses (m/s), as in :meth:`view`.
 
         Returns
         -------
@@ -447,14 +473,15 @@ class Controller:
         U = np.zeros((2, X.shape[1]))
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
-            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.plant.flow)
+            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.flow(flow, X.shape[1]))
             return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
             U[0] = self.thrust(X)
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
-            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], self.plant.flow)
+            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA],
+                                            self.flow(flow, X.shape[1]))
         return self.saturate(U)
 
     def saturate(self, U):

@@ -17,10 +17,56 @@ One vehicle's own controller: its view of itself, and its command from what it h
 
 The simulator commands the whole fleet with one :class:`control.Controller`; a vehicle node
 commands itself with an :class:`Onboard`, which calls the same controller on the view of the
-vehicles it hears.
+vehicles it hears. It commands with the flow it has: told (``flow_source: known``) or its own
+estimate (:class:`estimation.FlowEstimator`, ``estimated``). A measurement that comes on a second
+topic (the local flow, the through-water velocity) is paired with the odometry of the same
+stamp (:class:`Pairing`).
 """
 from formation_control.core.control import Controller
+from formation_control.core.estimation import FlowEstimator
+from formation_control.core.models import RIGID_MODELS
 import numpy as np
+
+
+def needs_second_sensor(sc):
+    """
+    Return which per-step message a vehicle pairs with its odometry: 'flow', 'water' or None.
+
+    A known flow that is not uniform comes with each odometry ('flow'); an estimating rigid
+    body needs its through-water velocity ('water'); a known uniform flow is latched once and
+    a particle knows its own through-water velocity (None).
+    """
+    if sc.flow_source == 'known':
+        return None if sc.flow_model == 'uniform' else 'flow'
+    return 'water' if sc.model in RIGID_MODELS else None
+
+
+class Pairing:
+    """
+    The odometry of one step held until the second sensor's message of the same stamp.
+
+    Either may come first (two topics); a newer stamp on either side drops the older one.
+    """
+
+    def __init__(self):
+        self.odom = self.other = None
+
+    def add_odometry(self, ns, values):
+        """Hold odometry ``values`` of stamp ns; return (values, other) once paired, else None."""
+        self.odom = (ns, values)
+        return self._pair()
+
+    def add_other(self, ns, value):
+        """Hold the second sensor's ``value`` of stamp ns; return the pair once paired."""
+        self.other = (ns, value)
+        return self._pair()
+
+    def _pair(self):
+        if self.odom is None or self.other is None or self.odom[0] != self.other[0]:
+            return None
+        pair = (self.odom[1], self.other[1])
+        self.odom = None
+        return pair
 
 
 class Onboard:
@@ -35,6 +81,10 @@ class Onboard:
         The steering force (or turn input) it holds, which the full law's view reads.
     speed_dot : float
         Its own s' (m/s^2) at the latest state.
+    flow : (1,) complex
+        The flow it commands with (m/s, map frame): the known local flow or its estimate.
+    estimator : estimation.FlowEstimator or None
+        Its flow estimator (``flow_source: estimated``).
 
     """
 
@@ -43,14 +93,18 @@ class Onboard:
         self.X = None
         self.F_held = np.zeros(1)
         self.speed_dot = 0.0
+        self.flow = np.full(1, complex(sc.flow_c))
+        self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
 
     def retune(self, sc):
         """Take the gains of ``sc`` (changed at run time); the PI integrator carries on."""
         integral = self.ctrl.integral
         self.ctrl = Controller(sc)
         self.ctrl.integral = integral
+        if self.estimator is not None:
+            self.estimator.retune(sc)
 
-    def observe(self, X):
+    def observe(self, X, flow=None, v_ground=None):
         """
         Note the vehicle's state and return what it tells its neighbours.
 
@@ -58,6 +112,10 @@ class Onboard:
         ----------
         X : (6,) float
             State x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s).
+        flow : complex, optional
+            The known local flow (m/s, map frame); ignored by an estimating vehicle.
+        v_ground : complex, optional
+            The measured ground velocity (m/s, map frame), which an estimating vehicle needs.
 
         Returns
         -------
@@ -66,7 +124,11 @@ class Onboard:
 
         """
         self.X = np.asarray(X, float)[:, None]
-        view = self.ctrl.view(self.X, self.F_held)
+        if self.estimator is None:
+            self.flow = np.full(1, complex(flow))
+        else:
+            self.flow = self.estimator.update(self.X, np.full(1, v_ground)).copy()
+        view = self.ctrl.view(self.X, self.F_held, self.flow)
         self.speed_dot = float(view.speed_dot[0])
         return view.r[0], view.phase[0], view.rate[0], view.speed[0]
 
@@ -90,6 +152,6 @@ class Onboard:
             limit.
 
         """
-        U = self.ctrl.command(view, self.X, [own], members=members)
+        U = self.ctrl.command(view, self.X, [own], members=members, flow=self.flow)
         self.F_held = U[1].copy()
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

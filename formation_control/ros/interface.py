@@ -23,7 +23,16 @@ topic                          type                             content
 ``/vehicle_k/odom``            nav_msgs/Odometry                pose (yaw = heading theta),
                                                                 twist in ``vehicle_k/base_link``
                                                                 = ground velocity, yaw rate
-``/vehicle_k/flow``            geometry_msgs/Vector3Stamped     flow the vehicle measures (map)
+``/vehicle_k/flow``            geometry_msgs/Vector3Stamped     the local flow at the vehicle
+                                                                (map; ``flow_source: known``:
+                                                                latched once if uniform, else
+                                                                with each odometry, same stamp)
+``/vehicle_k/water_velocity``  geometry_msgs/TwistStamped       rigid bodies, ``flow_source:
+                                                                estimated``: velocity through
+                                                                the flow in ``vehicle_k/
+                                                                base_link`` (u, v), as a DVL or
+                                                                airspeed sensor gives it; with
+                                                                each odometry, same stamp
 ``/vehicle_k/formation_state`` sensor_msgs/JointState           see :data:`STATE_FIELDS`
 ``/vehicle_k/cmd``             geometry_msgs/WrenchStamped      force.x = T, force.y = F (N);
                                                                 torque.z = angular acceleration
@@ -43,8 +52,8 @@ from operator import attrgetter
 import struct
 
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position,
-                                           ROW_OMEGA, ROW_THETA)
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+                                           ROW_OMEGA, ROW_THETA, ROW_U, ROW_V)
+from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -191,6 +200,22 @@ def state_from_odom_values(values, flow, model):
     return np.array([x, y, theta, yaw_rate, rel.real, rel.imag])
 
 
+def ground_velocity_of(values):
+    """Return the ground velocity (complex m/s, map frame) of :data:`ODOM_FIELDS` values."""
+    _, _, qz, qw, vx, vy, _ = values
+    theta = 2.0 * math.atan2(qz, qw)
+    return complex(vx, vy) * complex(math.cos(theta), math.sin(theta))
+
+
+def water_velocity_msg(k, ns, X):
+    """Return the TwistStamped of vehicle k's through-flow velocity (u, v; its base_link)."""
+    msg = TwistStamped()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = base_link(k)
+    msg.twist.linear.x, msg.twist.linear.y = float(X[ROW_U]), float(X[ROW_V])
+    return msg
+
+
 def cmd_values(u, model):
     """Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,)."""
     if model in PARTICLE_MODELS:
@@ -224,6 +249,7 @@ def state_from_odom(msg, flow, model):
 
 
 def flow_msg(k, ns, flow):
+    """Return the Vector3Stamped of the flow (complex m/s) at vehicle k, map frame."""
     msg = Vector3Stamped()
     set_stamp(msg.header, ns)
     msg.header.frame_id = MAP_FRAME

@@ -34,7 +34,7 @@ import sys
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import graphs, laws, metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import ground_velocity, position
+from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
 from formation_control.core.node_parameters import MONITOR
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.ros import common, markers, parameters
@@ -156,7 +156,9 @@ class MonitorNode(Node):
         if msg.header.frame_id != itf.MAP_FRAME:
             return self.reject('wrong_frame', f'an odometry of vehicle {k} in frame '
                                f'{msg.header.frame_id!r}')
-        x = itf.state_from_odom(msg, self.sc.flow_c, self.sc.model)
+        pos = msg.pose.pose.position
+        flow = complex(self.ctrl.plant.flow(self.t, pos.x, pos.y))
+        x = itf.state_from_odom(msg, flow, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
         ns = itf.stamp_ns(msg.header.stamp)
@@ -172,14 +174,16 @@ class MonitorNode(Node):
             self.t0_ns = ns
         self.next_ns = ns + int(round(self.p['period'] * 1e9))
         self.t = (ns - self.t0_ns) * 1e-9
-        snap = metrics.snapshot(self.ctrl, self.X, self.U)
+        snap = metrics.snapshot(self.ctrl, self.X, self.U, self.t)
         fresh, live = self.live_graph()
         self.values = {**snap.values(), 'live_links': float(len(live)),
                        'algebraic_connectivity': graphs.connectivity(fresh, live)}
         self.metrics_pub.publish(itf.metrics_msg(ns, self.values))
         self.trails[self.samples % len(self.trails)] = position(self.X)
         self.samples += 1
-        self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(self.X, self.U[1]))
+        flow = self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
+        self.vehicle_ok = metrics.vehicles_converged(self.ctrl,
+                                                     self.ctrl.view(self.X, self.U[1], flow))
         self.saturated = self.ctrl.saturated(self.U)
         was = self.since is not None
         if not metrics.converged(self.sc, snap):
@@ -243,11 +247,12 @@ class MonitorNode(Node):
         order = (np.arange(count) + self.samples - count) % len(self.trails)
         trails = self.trails[order].T
         ground = None
-        if sc.flow_c != 0:
-            ground = ground_velocity(X, sc.flow_c)
+        flow = self.ctrl.plant.flow(self.t, X[ROW_X], X[ROW_Y])
+        if np.any(flow != 0):
+            ground = ground_velocity(X, flow)
         centres = target = None
         if isinstance(self.ctrl.formation, laws.Circular):
-            centres = self.ctrl.formation.centres(self.ctrl.view(X, self.U[1]))
+            centres = self.ctrl.formation.centres(self.ctrl.view(X, self.U[1], flow))
             target = sc.c0_c if sc.informed else None
         ns = self.t0_ns + int(round(self.t * 1e9))
         msg = markers.fleet_markers(ns, X, ground, trails, centres, target)
