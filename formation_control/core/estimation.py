@@ -16,9 +16,9 @@
 Onboard flow estimation: what a vehicle that is not told the flow uses instead.
 
 With ``flow_source: estimated``, a vehicle measures its ground velocity (odometry) and its
-velocity through the water or air (a DVL or airspeed sensor; a unit-speed particle knows its own: ``e^{i theta}``). Their
-difference is the flow at the vehicle, ``m = v_ground - v_rel`` (8.1). The estimators, one
-state per vehicle, sampled every control period ``dt``:
+velocity through the water or air (a DVL or airspeed sensor; a unit-speed particle knows its
+own: ``e^{i theta}``). Their difference is the flow at the vehicle, ``m = v_ground - v_rel``
+(8.1). The estimators, one state per vehicle, sampled every control period ``dt``:
 
 - ``filter``: ``fhat' = lambda_f (m - fhat)``, discretised exactly for the measurement held over
   the period: ``fhat <- m + (fhat - m) e^{-lambda_f dt}``;

@@ -113,7 +113,8 @@ class Onboard:
         X : (6,) float
             State x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s).
         flow : complex, optional
-            The known local flow (m/s, map frame); ignored by an estimating vehicle.
+            The known local flow (m/s, map frame); the scenario's uniform flow by default;
+            ignored by an estimating vehicle.
         v_ground : complex, optional
             The measured ground velocity (m/s, map frame), which an estimating vehicle needs.
 
@@ -125,7 +126,7 @@ class Onboard:
         """
         self.X = np.asarray(X, float)[:, None]
         if self.estimator is None:
-            self.flow = np.full(1, complex(flow))
+            self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow, 1), (1,)))
         else:
             self.flow = self.estimator.update(self.X, np.full(1, v_ground)).copy()
         view = self.ctrl.view(self.X, self.F_held, self.flow)
