@@ -26,9 +26,9 @@ import pytest
 
 from formation_control.core import estimation, flowfields, models, scenario, simulator
 from formation_control.core.control import Controller
-from runs import CONFIG, run_of
+from runs import CONFIG, run_of, SOURCES
 
-ESTIMATED = ('flow_source:=estimated',)
+ESTIMATED = SOURCES['estimated']
 
 
 def _sc(**values):
