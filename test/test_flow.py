@@ -21,11 +21,10 @@ along a closed-loop run (the cascade of docs/errata.md), the observer and consen
 the bound on the formation error in a slowly turning flow; the measured robustness in shear
 and vortex fields (README, "Flowfields"); bad inputs.
 """
-import numpy as np
-import pytest
-
 from formation_control.core import estimation, flowfields, models, scenario, simulator
 from formation_control.core.control import Controller
+import numpy as np
+import pytest
 from runs import CONFIG, run_of, SOURCES
 
 ESTIMATED = SOURCES['estimated']
@@ -314,3 +313,15 @@ def test_robustness_in_shear_and_vortex_fields(name, field, source):
     """
     measured = robustness(name, field, source)
     np.testing.assert_allclose(measured, ROBUSTNESS[name, field, source], rtol=0.1, atol=1e-12)
+
+
+def test_pairing_matches_odometry_and_second_sensor_by_stamp_in_either_order():
+    from formation_control.core.onboard import Pairing
+    pairs = Pairing()
+    assert pairs.add_odometry(10, 'odom 10') is None
+    assert pairs.add_other(10, 'dvl 10') == (10, 'odom 10', 'dvl 10')
+    assert pairs.add_other(20, 'dvl 20') is None                     # the sensor first
+    assert pairs.add_odometry(30, 'odom 30') is None                 # a lost dvl 30 ...
+    assert pairs.add_other(40, 'dvl 40') is None
+    assert pairs.add_odometry(40, 'odom 40') == (40, 'odom 40', 'dvl 40')   # ... is skipped
+    assert pairs.add_odometry(40, 'odom 40') == (40, 'odom 40', 'dvl 40')   # asked again

@@ -52,7 +52,7 @@ class Pairing:
         self.odom = self.other = None
 
     def add_odometry(self, ns, values):
-        """Hold odometry ``values`` of stamp ns; return (values, other) once paired, else None."""
+        """Hold odometry ``values`` of stamp ns; return (ns, values, other) once paired."""
         self.odom = (ns, values)
         return self._pair()
 
@@ -64,7 +64,7 @@ class Pairing:
     def _pair(self):
         if self.odom is None or self.other is None or self.odom[0] != self.other[0]:
             return None
-        pair = (self.odom[1], self.other[1])
+        pair = (*self.odom, self.other[1])
         self.odom = None
         return pair
 

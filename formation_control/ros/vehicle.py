@@ -153,7 +153,7 @@ class VehicleNode(Node):
 
     def _paired(self, pair):
         if pair is not None:
-            self._on_measurement(*pair[0], other=pair[1])
+            self._on_measurement(*pair)
 
     def _odometry(self, data):
         """(stamp, ODOM_FIELDS) of odometry bytes, or None once rejected."""
