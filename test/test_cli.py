@@ -115,7 +115,9 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
 def test_npz_has_the_documented_arrays(particle_run):
     cwd, _ = particle_run
     with np.load(cwd / 'run.npz', allow_pickle=False) as npz:
-        assert set(npz.files) == {'t', 'params', 'meta', 'command', *STATE_KEYS}
+        assert set(npz.files) == {'t', 'params', 'meta', 'command', 'flow_hat_x', 'flow_hat_y',
+                                  *STATE_KEYS}
+        np.testing.assert_array_equal(npz['flow_hat_x'] + 1j * npz['flow_hat_y'], 0.2 + 0.1j)
         assert npz['command'].shape == (51, 4)
         t = npz['t']
         np.testing.assert_allclose(t, np.arange(51) * 0.1, atol=1e-9)

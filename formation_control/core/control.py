@@ -340,9 +340,9 @@ class Controller:
             return np.zeros(X.shape[1])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
 
-    def flow(self, flow, n):
+    def flow(self, flow):
         """
-        Return the flow the n vehicles use: the given one (n,), or else the uniform flow.
+        Return the flow the vehicles use: ``flow`` (complex, or one per vehicle), else uniform.
 
         Raises
         ------
@@ -351,7 +351,7 @@ class Controller:
 
         """
         if flow is not None:
-            return np.broadcast_to(np.asarray(flow, complex), (n,))
+            return flow
         if not self.plant.flow.uniform:
             raise ValueError(f'the {self.plant.flow.model} flow is not uniform: give each '
                              f"vehicle's flow")
@@ -378,7 +378,7 @@ class Controller:
             :func:`particle_view` or :func:`rigid_view`.
 
         """
-        flow = self.flow(flow, X.shape[1])
+        flow = self.flow(flow)
         if not self.rigid:
             return particle_view(X, flow)
         held = np.zeros(X.shape[1]) if F_held is None else F_held
@@ -473,7 +473,7 @@ class Controller:
         U = np.zeros((2, X.shape[1]))
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
-            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.flow(flow, X.shape[1]))
+            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.flow(flow))
             return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
@@ -481,7 +481,7 @@ class Controller:
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
             U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA],
-                                            self.flow(flow, X.shape[1]))
+                                            self.flow(flow))
         return self.saturate(U)
 
     def saturate(self, U):

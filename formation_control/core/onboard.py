@@ -126,7 +126,7 @@ class Onboard:
         """
         self.X = np.asarray(X, float)[:, None]
         if self.estimator is None:
-            self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow, 1), (1,)))
+            self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow), (1,)))
         else:
             self.flow = self.estimator.update(self.X, np.full(1, v_ground)).copy()
         view = self.ctrl.view(self.X, self.F_held, self.flow)

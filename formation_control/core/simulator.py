@@ -137,7 +137,7 @@ class Stepper:
         The fleet's current state.
     U : ndarray, shape (2, N)
         The inputs held over the current period.
-    flow_hat : ndarray of complex, shape (N,)
+    flow_hat : complex or ndarray of complex, shape (N,)
         The flow each vehicle commanded with at the last :meth:`command` (m/s).
     steps : int
         Integration steps taken: the state is at ``t = steps * dt_integration``.
@@ -169,8 +169,12 @@ class Stepper:
         Return the flow (N,) complex each vehicle uses now: known, or its updated estimate.
 
         An estimating vehicle measures its ground velocity in the local flow and its own
-        velocity through it (:meth:`estimation.FlowEstimator.update`).
+        velocity through it (:meth:`estimation.FlowEstimator.update`). A known uniform flow is
+        the complex number itself (the same for all, and cheapest).
         """
+        field = self.ctrl.plant.flow
+        if self.estimator is None and field.uniform:
+            return field.value
         flow = self.local_flow()
         if self.estimator is None:
             return flow
@@ -228,7 +232,7 @@ class Recorder:
             self.X.append(X.copy())
             self.U.append(U.copy())
             if flow_hat is not None:
-                self.flow_hat.append(np.array(flow_hat))
+                self.flow_hat.append(np.broadcast_to(flow_hat, X.shape[1:]).copy())
 
     def run(self):
         """Return what was recorded as a :class:`Run`."""
