@@ -179,7 +179,8 @@ def test_rigid_npz_has_thrust_and_steering_force(rigid_run):
     figures = _printed_figures(proc.stdout)
     assert {'speed_error', 'crab_angle', 'crab_angle_inertial'} <= set(figures)
     with np.load(cwd / 'rigid.npz', allow_pickle=False) as npz:
-        assert set(npz.files) == {'t', 'params', 'meta', 'T', 'F', *STATE_KEYS}
+        assert set(npz.files) == {'t', 'params', 'meta', 'T', 'F', 'flow_hat_x', 'flow_hat_y',
+                                  *STATE_KEYS}
         arrays = {k: npz[k] for k in npz.files}
     params = json.loads(arrays['params'].item())
     assert (params['model'], params['num_vehicles'], params['duration'], params['I0']) == (
