@@ -37,8 +37,6 @@ def fleet_topics(n):
     for k in range(1, n + 1):
         topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
                    (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),
-                   (itf.topic(k, 'water_velocity'), 'geometry_msgs/msg/TwistStamped',
-                    itf.STATE_QOS),
                    (itf.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
                     itf.STATE_QOS),
                    (itf.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped', itf.STATE_QOS)]
