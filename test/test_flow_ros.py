@@ -16,8 +16,8 @@
 The flow in the ROS nodes: lockstep runs equal the offline simulator.
 
 Rigid bodies that estimate the flow from odometry and the plant's through-water velocity
-(``/vehicle_k/water_velocity``), and particles told the local flow of a vortex with each
-odometry; each vehicle's estimate is in its diagnostics; a vehicle refuses consensus.
+(``/vehicle_k/water_velocity``), and particles in a vortex, told its local flow with each odometry
+or estimating it; each vehicle's estimate is in its diagnostics; a vehicle refuses consensus.
 """
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core import simulator
@@ -52,11 +52,16 @@ def test_lockstep_rigid_fleet_estimating_the_flow_equals_the_offline_simulator(n
     assert abs(float(reported()['flow_hat_x']) - offline.sc.flow_c.real) < 0.2
 
 
-def test_lockstep_particles_told_a_vortex_equal_the_offline_simulator(nodes, tmp_path):
-    """The plant sends each vehicle its local flow with its odometry; the vehicle pairs them."""
+@pytest.mark.parametrize('source', ['known', 'estimated'])
+def test_lockstep_particles_in_a_vortex_equal_the_offline_simulator(nodes, tmp_path, source):
+    """
+    Told: the plant sends each vehicle its local flow with its odometry, which it pairs.
+
+    Estimating: a particle needs no second sensor (its own velocity is e^{i theta}).
+    """
     cfg = CONFIG / 'particle_circular.yaml'
     overrides = ['num_vehicles:=4', 'duration:=2.0', 'flow_model:=vortex',
-                 'flow_circulation:=2.0', 'flow_radius:=2.0']
+                 'flow_circulation:=2.0', 'flow_radius:=2.0', f'flow_source:={source}']
     fleet = nodes.lockstep_run(cfg, tmp_path / 'run.npz', *overrides)
     offline = offline_run(cfg, overrides)
     assert_equal_runs(fleet, offline)
