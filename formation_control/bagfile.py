@@ -21,6 +21,7 @@ Read a rosbag2 bag written by ``swarm --bag`` with the ``rosbags`` library.
 from collections import defaultdict
 import json
 
+from formation_control.core.flowfields import Flowfield
 from formation_control.core.models import ROW_OMEGA
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.core.simulator import Run
@@ -90,9 +91,12 @@ def read_run(path):
     cmd_index = {prefix + itf.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
     odom = defaultdict(dict)
     cmds = [[] for _ in range(n)]
+    field = Flowfield(sc)
     for topic, msg in messages(path, set(index) | set(cmd_index)):
         if topic in index:
-            odom[_stamp(msg)][index[topic]] = itf.state_from_odom(msg, sc.flow_c, sc.model)
+            pos = msg.pose.pose.position
+            flow = complex(field(_stamp(msg) * 1e-9, pos.x, pos.y))    # lockstep stamps: t
+            odom[_stamp(msg)][index[topic]] = itf.state_from_odom(msg, flow, sc.model)
         else:
             cmds[cmd_index[topic]].append((_stamp(msg), itf.input_from_cmd(msg, sc.model)))
     stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)

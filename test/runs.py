@@ -36,6 +36,9 @@ the prefixes of the full runs, which a shorter run equals: 10, 10, 10, 40, 75, 4
 15, 15, 15 s). rigid_circular_center and rigid_circular_flow_center need their 150 s.
 """
 
+SOURCES = {'known': (), 'estimated': ('flow_source:=estimated',)}
+"""The overrides of a flow source: told the flow (the scenario's default) or estimating it."""
+
 
 @lru_cache(maxsize=None)
 def run_of(name, seed, overrides=()):

@@ -118,7 +118,9 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
 def test_npz_has_the_documented_arrays(particle_run):
     cwd, _ = particle_run
     with np.load(cwd / 'run.npz', allow_pickle=False) as npz:
-        assert set(npz.files) == {'t', 'params', 'meta', 'command', *STATE_KEYS}
+        assert set(npz.files) == {'t', 'params', 'meta', 'command', 'flow_hat_x', 'flow_hat_y',
+                                  *STATE_KEYS}
+        np.testing.assert_array_equal(npz['flow_hat_x'] + 1j * npz['flow_hat_y'], 0.2 + 0.1j)
         assert npz['command'].shape == (51, 4)
         t = npz['t']
         np.testing.assert_allclose(t, np.arange(51) * 0.1, atol=1e-9)
@@ -180,7 +182,8 @@ def test_rigid_npz_has_thrust_and_steering_force(rigid_run):
     figures = _printed_figures(proc.stdout)
     assert {'speed_error', 'crab_angle', 'crab_angle_inertial'} <= set(figures)
     with np.load(cwd / 'rigid.npz', allow_pickle=False) as npz:
-        assert set(npz.files) == {'t', 'params', 'meta', 'T', 'F', *STATE_KEYS}
+        assert set(npz.files) == {'t', 'params', 'meta', 'T', 'F', 'flow_hat_x', 'flow_hat_y',
+                                  *STATE_KEYS}
         arrays = {k: npz[k] for k in npz.files}
     params = json.loads(arrays['params'].item())
     assert (params['model'], params['num_vehicles'], params['duration'], params['I0']) == (

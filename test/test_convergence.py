@@ -16,22 +16,28 @@
 Every particle scenario of config/ converges from several random seeds to what Ch. 1-5 predict.
 
 Parallel: |p| > 0.999 with zero turning rates; circular: coincident centres on radius 1/|omega0|
-(turning at omega0 s_k with inertial speed s_k in a flow).
+(turning at omega0 s_k with inertial speed s_k in a flow). The flow scenarios converge the same
+with vehicles that estimate the flow (``flow_source: estimated``, seed 1).
 """
 import numpy as np
 import pytest
 
-from runs import run_of, SEEDS, views
+from runs import run_of, SEEDS, SOURCES, views
 
 PARALLEL = ['particle_parallel', 'particle_parallel_flow', 'particle_parallel_proportional',
             'first_order_parallel']
 CIRCULAR = ['particle_circular', 'particle_circular_flow', 'first_order_circular']
 
 
-@pytest.mark.parametrize('seed', SEEDS)
-@pytest.mark.parametrize('name', PARALLEL)
-def test_parallel_scenarios_synchronise(name, seed):
-    run = run_of(name, seed)
+def _cases(names):
+    """(name, seed, source): every seed told the flow, seed 1 estimating it in a flow."""
+    return [(n, s, 'known') for n in names for s in SEEDS] + [
+        (n, 1, 'estimated') for n in names if n.endswith('_flow')]
+
+
+@pytest.mark.parametrize('name, seed, source', _cases(PARALLEL))
+def test_parallel_scenarios_synchronise(name, seed, source):
+    run = run_of(name, seed, SOURCES[source])
     _, vs = views(run)
     final = vs[-1]
     assert abs(final.e.mean()) > 0.999
@@ -40,10 +46,9 @@ def test_parallel_scenarios_synchronise(name, seed):
     assert abs(vs[0].e.mean()) < 0.9                          # it did have work to do
 
 
-@pytest.mark.parametrize('seed', SEEDS)
-@pytest.mark.parametrize('name', CIRCULAR)
-def test_circular_scenarios_share_one_circle(name, seed):
-    run = run_of(name, seed)
+@pytest.mark.parametrize('name, seed, source', _cases(CIRCULAR))
+def test_circular_scenarios_share_one_circle(name, seed, source):
+    run = run_of(name, seed, SOURCES[source])
     ctrl, vs = views(run)
     sc, final = run.sc, vs[-1]
     c = ctrl.formation.centres(final)
@@ -54,10 +59,10 @@ def test_circular_scenarios_share_one_circle(name, seed):
     assert np.max(abs(c0 - c0.mean())) > 1.0
 
 
-@pytest.mark.parametrize('seed', SEEDS)
-def test_circular_in_flow_moves_at_the_inertial_speed(seed):
+@pytest.mark.parametrize('seed, source', [(s, 'known') for s in SEEDS] + [(1, 'estimated')])
+def test_circular_in_flow_moves_at_the_inertial_speed(seed, source):
     """(1.6): on the common circle the inertial speed varies with gamma, s = |e^{i theta} + f|."""
-    run = run_of('particle_circular_flow', seed)
+    run = run_of('particle_circular_flow', seed, SOURCES[source])
     _, vs = views(run)
     final = vs[-1]
     alpha = run.sc.flow[0]

@@ -25,7 +25,7 @@ from formation_control.core import laws
 from formation_control.core.geometry import inner
 from formation_control.core.models import (body_accel, ground_velocity, Plant, position,
                                            RIGID_MODELS, rk4_step, ROW_OMEGA, ROW_THETA, ROW_U,
-                                           ROW_V)
+                                           ROW_V, ROW_X, ROW_Y)
 from formation_control.core.scenario import uses_held_force
 import numpy as np
 
@@ -38,8 +38,8 @@ def particle_speed_terms(theta, flow):
     ----------
     theta : array_like
         Body headings theta (rad).
-    flow : complex
-        Uniform steady flow f (m/s), ``|f| < 1``.
+    flow : complex or array_like of complex
+        The flow f at each vehicle (m/s), ``|f| < 1``: known or estimated.
 
     Returns
     -------
@@ -63,8 +63,8 @@ def particle_view(X, flow):
     ----------
     X : array_like, shape (6, N)
         States (rows of :mod:`models`); omega is the body turn rate theta'.
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex, shape (N,)
+        The flow f at each vehicle (m/s): known or estimated.
 
     Returns
     -------
@@ -89,8 +89,8 @@ def body_rate_from_inertial(w, theta, flow):
         Desired course rates gamma' (rad/s).
     theta : array_like
         Body headings (rad).
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex
+        The flow f at each vehicle (m/s): known or estimated.
 
     Returns
     -------
@@ -111,8 +111,8 @@ def body_accel_from_inertial(lam, theta, omega, flow):
         Desired course accelerations lambda_k = gamma'' (rad/s^2).
     theta, omega : array_like
         Body headings (rad) and turn rates (rad/s).
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex
+        The flow f at each vehicle (m/s): known or estimated (taken as steady).
 
     Returns
     -------
@@ -154,7 +154,7 @@ def thrust(X, u0, K_f, plant):
     return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
 
 
-def rigid_view(X, U_applied, plant, use_heading, full):
+def rigid_view(X, U_applied, plant, flow, use_heading, full):
     """
     Return the particle view of rigid bodies.
 
@@ -166,6 +166,8 @@ def rigid_view(X, U_applied, plant, use_heading, full):
         Input the exact rates are computed with: thrust now, steering force held (N).
     plant : Plant
         The rigid-body model.
+    flow : complex or array_like of complex, shape (N,)
+        The flow at each vehicle (m/s): known or estimated.
     use_heading : bool
         Steer the heading: phase theta with rate omega, as (7.3) with (3.7) uses it.
     full : bool
@@ -181,7 +183,7 @@ def rigid_view(X, U_applied, plant, use_heading, full):
 
     """
     r = position(X)
-    vel = ground_velocity(X, plant.flow)
+    vel = ground_velocity(X, flow)
     speed = abs(vel)
     if use_heading:
         return laws.View(r, X[ROW_THETA], X[ROW_OMEGA], speed, np.zeros_like(speed))
@@ -307,6 +309,9 @@ class Controller:
     ----------
     plant : models.Plant
         Physical parameters, ``Plant.of(sc)``.
+    still : models.Plant
+        The same without the flow: what a vehicle predicts itself with (:meth:`predict`), its
+        flow added as steady.
     formation : laws.Parallel or laws.Circular
         The formation law over the whole fleet.
     limits : ndarray, shape (2,)
@@ -319,6 +324,7 @@ class Controller:
     def __init__(self, sc):
         self.sc = sc
         self.plant = Plant.of(sc)
+        self.still = Plant.of(replace(sc, flow=(0.0, 0.0), flow_model='uniform'))
         self.rigid = sc.model in RIGID_MODELS
         coupling = None if sc.all_to_all else sc.comm_graph.coupling()
         if sc.formation == 'parallel':
@@ -327,7 +333,8 @@ class Controller:
             self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
                                            pattern_law(sc))
         self._couplings = {}
-        self.use_heading = sc.formation == 'parallel' and sc.flow_c == 0
+        self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
+                            and self.plant.flow.uniform and self.plant.flow.value == 0)
         self.full = uses_held_force(sc)
         self.integral = None
         self.limits = command_limits(sc)
@@ -338,7 +345,24 @@ class Controller:
             return np.zeros(X.shape[1])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
 
-    def predict(self, X, U_held, delay=0.0):
+    def flow(self, flow):
+        """
+        Return the flow the vehicles use: ``flow`` (complex, or one per vehicle), else uniform.
+
+        Raises
+        ------
+        ValueError
+            ``flow`` is None and the scenario's flow is not uniform (no flow to assume).
+
+        """
+        if flow is not None:
+            return flow
+        if not self.plant.flow.uniform:
+            raise ValueError(f'the {self.plant.flow.model} flow is not uniform: give each '
+                             f"vehicle's flow")
+        return self.plant.flow.value
+
+    def predict(self, X, U_held, flow=None, delay=0.0):
         """
         Return the state a command is computed for: ``X`` predicted to the middle of its hold.
 
@@ -348,6 +372,8 @@ class Controller:
             The sampled states.
         U_held : array_like, shape (2, n)
             The inputs held until the new command acts (the previous command).
+        flow : complex or array_like of complex, shape (n,), optional
+            The flow each vehicle uses (:meth:`flow`), taken as steady over the prediction.
         delay : float, optional
             Seconds from the sample to the time the new command acts (real time: the delay a
             vehicle measures); 0 in lockstep and offline.
@@ -364,9 +390,14 @@ class Controller:
         """
         if self.sc.hold_prediction == 'none':
             return np.array(X, float)
-        return rk4_step(X, U_held, delay + self.sc.command_lead, self.plant)
+        lead = delay + self.sc.command_lead
+        X = rk4_step(X, U_held, lead, self.still)
+        drift = lead * np.asarray(self.flow(flow))
+        X[ROW_X] += drift.real
+        X[ROW_Y] += drift.imag
+        return X
 
-    def view(self, X, F_held=None):
+    def view(self, X, F_held=None, flow=None):
         """
         Return the particle view of the vehicles ``X``: what each vehicle shares with the others.
 
@@ -377,6 +408,9 @@ class Controller:
         F_held : array_like, shape (n,), optional
             Steering force held from the last period (N), for the exact course rate of the
             full and PI laws; zero by default.
+        flow : array_like of complex, shape (n,), optional
+            The flow each vehicle uses (m/s): its known local flow or its estimate; the
+            scenario's uniform flow by default (:meth:`flow`).
 
         Returns
         -------
@@ -384,11 +418,12 @@ class Controller:
             :func:`particle_view` or :func:`rigid_view`.
 
         """
+        flow = self.flow(flow)
         if not self.rigid:
-            return particle_view(X, self.plant.flow)
+            return particle_view(X, flow)
         held = np.zeros(X.shape[1]) if F_held is None else F_held
         U_applied = np.vstack([self.thrust(X), held])
-        return rigid_view(X, U_applied, self.plant, self.use_heading, self.full)
+        return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full)
 
     def formation_of(self, members=None):
         """
@@ -448,7 +483,7 @@ class Controller:
         self.integral = self.integral + err * sc.dt_control
         return sc.K_P * err + sc.K_I * self.integral
 
-    def command(self, view, X, idx=slice(None), members=None):
+    def command(self, view, X, idx=slice(None), members=None, flow=None):
         """
         Return the inputs of the vehicles ``idx`` of ``view``.
 
@@ -463,6 +498,8 @@ class Controller:
         members : ndarray of bool, shape (N,), optional
             The fleet vehicles the view holds when it is not the whole fleet (a vehicle that
             hears only its live neighbours); None = the whole fleet.
+        flow : array_like of complex, shape (n,), optional
+            The flow each commanded vehicle uses (m/s), as in :meth:`view`.
 
         Returns
         -------
@@ -476,14 +513,15 @@ class Controller:
         U = np.zeros((2, X.shape[1]))
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
-            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.plant.flow)
+            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.flow(flow))
             return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
             U[0] = self.thrust(X)
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
-            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], self.plant.flow)
+            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA],
+                                            self.flow(flow))
         return self.saturate(U)
 
     def saturate(self, U):

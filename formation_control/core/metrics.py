@@ -21,7 +21,8 @@ radius, crab angles; the steady states the analysis predicts for rigid bodies.
 from dataclasses import dataclass
 
 from formation_control.core import laws
-from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_V
+from formation_control.core.models import (ground_velocity, ROW_THETA, ROW_U, ROW_V, ROW_X,
+                                           ROW_Y)
 import numpy as np
 
 ORDER_TOL = 0.999        # parallel: |p| above this
@@ -60,7 +61,7 @@ class Snapshot:
         return {k: float(v) for k, v in out.items() if not np.isnan(v)}
 
 
-def snapshot(ctrl, X, inputs):
+def snapshot(ctrl, X, inputs, t=0.0):
     """
     Return the formation metrics of the fleet at one instant.
 
@@ -72,6 +73,8 @@ def snapshot(ctrl, X, inputs):
         States of the whole fleet.
     inputs : array_like, shape (2, N)
         Inputs held at that instant (the held steering force enters the full law's view).
+    t : float, optional
+        The time (s): the metrics are those of the true flow at each vehicle then.
 
     Returns
     -------
@@ -83,7 +86,8 @@ def snapshot(ctrl, X, inputs):
         (:func:`crab_angles`).
 
     """
-    view = ctrl.view(X, inputs[1])
+    flow = ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+    view = ctrl.view(X, inputs[1], flow)
     f = ctrl.formation
     extra = {'min_separation': min_separation(view.r)}
     if isinstance(f, laws.Circular):
@@ -95,7 +99,7 @@ def snapshot(ctrl, X, inputs):
     else:
         extra.update(spread=np.nan, radius=np.nan)
     if ctrl.rigid:
-        beta, beta_hat = crab_angles(X, ctrl.sc.flow_c)
+        beta, beta_hat = crab_angles(X, flow)
         extra.update(speed_error=float(np.mean(abs(X[ROW_U] - ctrl.sc.u0))),
                      crab=float(beta.mean()), crab_inertial=float(beta_hat.mean()))
     return Snapshot(float(abs(view.e.mean())), float(f.potential(view)),
@@ -217,8 +221,8 @@ def crab_angles(X, flow):
     ----------
     X : array_like, shape (6, ...)
         States (rows of :mod:`models`).
-    flow : complex
-        Uniform steady flow f (m/s).
+    flow : complex or array_like of complex, shape (N,)
+        The flow at each vehicle (m/s).
 
     Returns
     -------

@@ -28,16 +28,19 @@ model                     ``U[0]``                               ``U[1]``
 ``rigid_cop``    (A.3)    thrust T (N)                           steering force F at the tail (N)
 ========================  =====================================  ================================
 
-``u, v`` are the body-frame velocity relative to the (uniform, steady) flow ``f``; the
-ground velocity is ``(u + i v) e^{i theta} + f`` (8.1). Particles keep ``u = 1, v = 0``.
+``u, v`` are the body-frame velocity relative to the flow ``f``; the ground velocity is
+``(u + i v) e^{i theta} + f`` (8.1), with ``f = f(t, x, y)`` the :mod:`flowfields` flow at the
+vehicle's own place and time (uniform and steady in the thesis). Particles keep ``u = 1, v = 0``.
 
 :func:`deriv` is the right-hand side and :func:`rk4_step` one classical RK4 step on it;
 :func:`integrate` takes the same steps, for large fleets in place on cache-sized blocks of
 vehicles with work rows reused by every stage and step (:func:`_rk4_block`), and agrees with
-the plain formulas to rounding (test_rigid.py).
+the plain formulas to rounding (test_rigid.py); in a flow that is not uniform, where every
+stage needs its own positions, it takes :func:`rk4_step`.
 """
 from dataclasses import dataclass
 
+from formation_control.core.flowfields import Flowfield
 import numpy as np
 
 ROW_X, ROW_Y, ROW_THETA, ROW_OMEGA, ROW_U, ROW_V = range(6)
@@ -66,8 +69,8 @@ class Plant:
     ----------
     model : str
         One of :data:`MODELS`.
-    flow : complex
-        Uniform steady flow ``f = fx + i fy`` (m/s).
+    flow : flowfields.Flowfield
+        The flow ``f(t, x, y) = fx + i fy`` (m/s); uniform and steady in the thesis.
     m0 : float
         Mass (kg).
     I0 : float
@@ -82,7 +85,7 @@ class Plant:
     """
 
     model: str
-    flow: complex
+    flow: Flowfield
     m0: float
     I0: float
     l: float
@@ -97,14 +100,15 @@ class Plant:
         Parameters
         ----------
         sc : scenario.Scenario
-            Any object with the scenario's attributes ``model, flow_c, m0, I0, l, h, l1``.
+            Any object with the scenario's attributes ``model, m0, I0, l, h, l1`` and the
+            flowfield's (:class:`flowfields.Flowfield`).
 
         Returns
         -------
         Plant
 
         """
-        return cls(sc.model, sc.flow_c, sc.m0, sc.I0, sc.l, sc.h, sc.l1)
+        return cls(sc.model, Flowfield(sc), sc.m0, sc.I0, sc.l, sc.h, sc.l1)
 
 
 def position(X):
@@ -134,8 +138,8 @@ def ground_velocity(X, flow):
     X : array_like, shape (6, ...)
         States, rows x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s); any trailing
         shape, e.g. (6,) for one vehicle, (6, N) for a fleet, (6, T, N) for a run.
-    flow : complex
-        Uniform steady flow ``f = fx + i fy`` (m/s, world frame).
+    flow : complex or array_like of complex, broadcast to ``X.shape[1:]``
+        The flow ``f = fx + i fy`` at each vehicle (m/s, world frame).
 
     Returns
     -------
@@ -211,6 +215,7 @@ def _rates(K, Z, U, plant, c, s, t):
     Write dX/dt at the state Z into K, given c, s = cos, sin(theta); t: two scratch rows.
 
     Rows with no dynamics (u, v of particles; omega of first-order ones) are left as they are.
+    A uniform flow is added here; :func:`deriv` adds one that is not.
     """
     kx, ky, kth, kw, ku, kv = K
     if plant.model in PARTICLE_MODELS:
@@ -229,12 +234,13 @@ def _rates(K, Z, U, plant, c, s, t):
         ky += np.multiply(v, c, out=t[0])
         np.copyto(kth, Z[ROW_OMEGA])
         _body_accel(ku, kv, kw, Z, U, plant, t)
-    if plant.flow:
-        kx += plant.flow.real                                # (1.4), (1.7), (8.1)
-        ky += plant.flow.imag
+    flow = plant.flow.value
+    if plant.flow.uniform and flow:
+        kx += flow.real                                      # (1.4), (1.7), (8.1)
+        ky += flow.imag
 
 
-def deriv(X, U, plant):
+def deriv(X, U, plant, t=0.0):
     """
     Return the state derivative dX/dt of the model ``plant.model``.
 
@@ -246,6 +252,8 @@ def deriv(X, U, plant):
         Inputs, as the module docstring's table gives them per model.
     plant : Plant
         The model and its physical parameters.
+    t : float, optional
+        Time (s), where the flow varies in time.
 
     Returns
     -------
@@ -260,6 +268,10 @@ def deriv(X, U, plant):
     theta = X[ROW_THETA]
     dX = np.zeros(X.shape)
     _rates(dX, X, U, plant, np.cos(theta), np.sin(theta), np.empty((2,) + theta.shape))
+    if not plant.flow.uniform:
+        f = plant.flow(t, X[ROW_X], X[ROW_Y])                # at each vehicle's own place
+        dX[ROW_X] += f.real
+        dX[ROW_Y] += f.imag
     return dX
 
 
@@ -343,7 +355,7 @@ def _rk4_block(X, U, dt, steps, plant):
         X[:m] += acc
 
 
-def rk4_step(X, U, dt, plant):
+def rk4_step(X, U, dt, plant, t=0.0):
     """
     Return the state after one classical Runge-Kutta (RK4) step with the input held.
 
@@ -357,6 +369,8 @@ def rk4_step(X, U, dt, plant):
         Step (s); negative steps integrate backwards.
     plant : Plant
         The model and its physical parameters.
+    t : float, optional
+        Time at the start of the step (s); the stages are at t, t + dt/2, t + dt/2, t + dt.
 
     Returns
     -------
@@ -364,14 +378,14 @@ def rk4_step(X, U, dt, plant):
         ``X + (dt/6)(k1 + 2 k2 + 2 k3 + k4)`` with the stages ``k_i`` of :func:`deriv`.
 
     """
-    k1 = deriv(X, U, plant)
-    k2 = deriv(X + 0.5 * dt * k1, U, plant)
-    k3 = deriv(X + 0.5 * dt * k2, U, plant)
-    k4 = deriv(X + dt * k3, U, plant)
+    k1 = deriv(X, U, plant, t)
+    k2 = deriv(X + 0.5 * dt * k1, U, plant, t + 0.5 * dt)
+    k3 = deriv(X + 0.5 * dt * k2, U, plant, t + 0.5 * dt)
+    k4 = deriv(X + dt * k3, U, plant, t + dt)
     return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def integrate(X, U, dt, steps, plant):
+def integrate(X, U, dt, steps, plant, t=0.0):
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 
@@ -387,6 +401,8 @@ def integrate(X, U, dt, steps, plant):
         Number of steps, ``dt_control / dt_integration`` for one control period.
     plant : Plant
         The model and its physical parameters.
+    t : float, optional
+        Time at the start of the period (s), where the flow varies in time.
 
     Returns
     -------
@@ -399,13 +415,14 @@ def integrate(X, U, dt, steps, plant):
     Fleets of fewer than PLAIN_BELOW vehicles, where the cost is per numpy call, take
     :func:`rk4_step`. Larger ones take :func:`_rk4_block` (the same numbers to rounding,
     several times faster) on blocks of BLOCK vehicles, which are independent over the period,
-    so that each block's work rows stay in cache.
+    so that each block's work rows stay in cache; a flow that is not uniform takes
+    :func:`rk4_step` at every size.
 
     """
     n = np.shape(X)[1]
-    if n < PLAIN_BELOW:
-        for _ in range(steps):
-            X = rk4_step(X, U, dt, plant)
+    if n < PLAIN_BELOW or not plant.flow.uniform:
+        for step in range(steps):
+            X = rk4_step(X, U, dt, plant, t + step * dt)
         return X
     X = np.array(X, dtype=float)
     U = np.broadcast_to(np.asarray(U, dtype=float), (2, n))

@@ -17,10 +17,56 @@ One vehicle's own controller: its view of itself, and its command from what it h
 
 The simulator commands the whole fleet with one :class:`control.Controller`; a vehicle node
 commands itself with an :class:`Onboard`, which calls the same controller on the view of the
-vehicles it hears.
+vehicles it hears. It commands with the flow it has: told (``flow_source: known``) or its own
+estimate (:class:`estimation.FlowEstimator`, ``estimated``). A measurement that comes on a second
+topic (the local flow, the through-water velocity) is paired with the odometry of the same
+stamp (:class:`Pairing`).
 """
 from formation_control.core.control import Controller
+from formation_control.core.estimation import FlowEstimator
+from formation_control.core.models import RIGID_MODELS
 import numpy as np
+
+
+def needs_second_sensor(sc):
+    """
+    Return which per-step message a vehicle pairs with its odometry: 'flow', 'water' or None.
+
+    A known flow that is not uniform comes with each odometry ('flow'); an estimating rigid
+    body needs its through-water velocity ('water'); a known uniform flow is latched once and
+    a particle knows its own through-water velocity (None).
+    """
+    if sc.flow_source == 'known':
+        return None if sc.flow_model == 'uniform' else 'flow'
+    return 'water' if sc.model in RIGID_MODELS else None
+
+
+class Pairing:
+    """
+    The odometry of one step held until the second sensor's message of the same stamp.
+
+    Either may come first (two topics); a newer stamp on either side drops the older one.
+    """
+
+    def __init__(self):
+        self.odom = self.other = None
+
+    def add_odometry(self, ns, values):
+        """Hold odometry ``values`` of stamp ns; return (ns, values, other) once paired."""
+        self.odom = (ns, values)
+        return self._pair()
+
+    def add_other(self, ns, value):
+        """Hold the second sensor's ``value`` of stamp ns; return the pair once paired."""
+        self.other = (ns, value)
+        return self._pair()
+
+    def _pair(self):
+        if self.odom is None or self.other is None or self.odom[0] != self.other[0]:
+            return None
+        pair = (*self.odom, self.other[1])
+        self.odom = None
+        return pair
 
 
 class Onboard:
@@ -37,6 +83,10 @@ class Onboard:
         read.
     speed_dot : float
         Its own s' (m/s^2) at :attr:`X`.
+    flow : (1,) complex
+        The flow it commands with (m/s, map frame): the known local flow or its estimate.
+    estimator : estimation.FlowEstimator or None
+        Its flow estimator (``flow_source: estimated``).
 
     """
 
@@ -45,14 +95,18 @@ class Onboard:
         self.X = None
         self.U_held = np.zeros((2, 1))
         self.speed_dot = 0.0
+        self.flow = np.full(1, complex(sc.flow_c))
+        self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
 
     def retune(self, sc):
         """Take the gains of ``sc`` (changed at run time); the PI integrator carries on."""
         integral = self.ctrl.integral
         self.ctrl = Controller(sc)
         self.ctrl.integral = integral
+        if self.estimator is not None:
+            self.estimator.retune(sc)
 
-    def observe(self, X, delay=0.0):
+    def observe(self, X, flow=None, v_ground=None, delay=0.0):
         """
         Note the vehicle's sampled state and return what it tells its neighbours.
 
@@ -60,6 +114,11 @@ class Onboard:
         ----------
         X : (6,) float
             State x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s).
+        flow : complex, optional
+            The known local flow (m/s, map frame); the scenario's uniform flow by default;
+            ignored by an estimating vehicle.
+        v_ground : complex, optional
+            The measured ground velocity (m/s, map frame), which an estimating vehicle needs.
         delay : float, optional
             Seconds from the sample to the time its command acts (real time); 0 in lockstep.
 
@@ -70,8 +129,13 @@ class Onboard:
             rad/s, m/s).
 
         """
-        self.X = self.ctrl.predict(np.asarray(X, float)[:, None], self.U_held, delay)
-        view = self.ctrl.view(self.X, self.U_held[1])
+        sampled = np.asarray(X, float)[:, None]
+        if self.estimator is None:
+            self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow), (1,)))
+        else:
+            self.flow = self.estimator.update(sampled, np.full(1, v_ground)).copy()
+        self.X = self.ctrl.predict(sampled, self.U_held, self.flow, delay)
+        view = self.ctrl.view(self.X, self.U_held[1], self.flow)
         self.speed_dot = float(view.speed_dot[0])
         return view.r[0], view.phase[0], view.rate[0], view.speed[0]
 
@@ -95,6 +159,6 @@ class Onboard:
             limit.
 
         """
-        U = self.ctrl.command(view, self.X, [own], members=members)
+        U = self.ctrl.command(view, self.X, [own], members=members, flow=self.flow)
         self.U_held = U.copy()
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

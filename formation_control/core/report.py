@@ -47,10 +47,11 @@ def series(run):
 
     """
     ctrl = Controller(run.sc)
-    snaps = [metrics.snapshot(ctrl, X, inputs) for X, inputs in zip(run.X, run.U)]
+    snaps = [metrics.snapshot(ctrl, X, inputs, t) for t, X, inputs in zip(run.t, run.X, run.U)]
     X = run.X.transpose(1, 0, 2)
-    beta, beta_hat = metrics.crab_angles(X, run.sc.flow_c)
-    ground = ground_velocity(X, run.sc.flow_c)
+    flow = np.array([ctrl.plant.flow(t, x, y) for t, x, y in zip(run.t, X[ROW_X], X[ROW_Y])])
+    beta, beta_hat = metrics.crab_angles(X, flow)
+    ground = ground_velocity(X, flow)
     out = {'t': run.t, 'x': X[ROW_X], 'y': X[ROW_Y], 'theta': X[ROW_THETA],
            'omega': X[ROW_OMEGA], 'u': X[ROW_U],
            'ground': ground, 'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
@@ -172,7 +173,7 @@ def report(run):
     out = summary(run)
     if run.sc.pattern != 'none':
         out = dict(out, pattern=pattern_text(run.sc))
-    final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1]).values()
+    final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1], run.t[-1]).values()
     predicted = predictions(run.sc, run.X[-1])
     rows = [(name, value, *predicted.get(name, (None, ''))) for name, value in final.items()]
     return out, rows

@@ -25,6 +25,7 @@ import json
 import math
 import re
 
+from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
 import numpy as np
@@ -40,6 +41,8 @@ PATTERN_GAIN = 0.5
 PATTERN_GAIN_M = 0.1
 """Default |K_M| (rad/s): K_M = -0.1 gives (3, 12) from seeds 1-3 (-0.05 too, more slowly),
 -0.2 leaves unequal clusters from seed 2."""
+FLOW_SOURCES = ('known', 'estimated')
+FLOW_ESTIMATORS = ('filter', 'observer')
 INIT_ARRAYS = tuple(f'init_{name}' for name in STATE_NAMES)
 
 
@@ -143,8 +146,41 @@ class Scenario:
                           **_POSITIVE)
     omega0: float = _param(1.0, 'rad/m', 'circle curvature omega0: radius 1/|omega0|',
                            rule='!= 0 for circular', runtime=True)
-    flow: tuple = _param((0.0, 0.0), 'm/s', 'uniform steady flow [fx, fy], map frame (1.4)',
-                         rule='|flow| < 1 for particles (1.6), < u0 for rigid bodies')
+    flow: tuple = _param((0.0, 0.0), 'm/s', 'uniform steady flow [fx, fy], map frame (1.4); '
+                         'the background of the other flow models',
+                         rule='max |f| < 1 for particles (1.6), < u0 for rigid bodies')
+    flow_model: str = _param('uniform', '', 'flowfield: uniform (the thesis), time_varying '
+                             '(flow plus a rotating part), shear (layer along x), vortex '
+                             '(Rankine) or grid (file, bilinear); see core/flowfields.py',
+                             choices=FLOW_MODELS)
+    flow_amplitude: float = _param(0.0, 'm/s', 'time_varying: amplitude A of the flow part '
+                                   'that turns once per flow_period', low=0.0)
+    flow_period: float = _param(600.0, 's', 'time_varying: period T of that turn', **_POSITIVE)
+    flow_shear: float = _param(0.0, '1/s', 'shear: gradient G, fx = flow_x + G clip(y, -w, w)')
+    flow_shear_width: float = _param(5.0, 'm', 'shear: half-width w of the shear layer',
+                                     **_POSITIVE)
+    flow_center: tuple = _param((0.0, 0.0), 'm', 'vortex: centre [x, y], map frame')
+    flow_radius: float = _param(2.0, 'm', 'vortex: core radius R', **_POSITIVE)
+    flow_circulation: float = _param(0.0, 'm^2/s', 'vortex: circulation Gamma (> 0 counter-'
+                                     'clockwise); peak speed Gamma / (2 pi R) at r = R')
+    flow_grid_file: str = _param('', '', 'grid: .npz (x, y, fx, fy) or .csv (x,y,fx,fy) file of '
+                                 'the flow', rule='an existing file with finite values')
+    flow_source: str = _param('known', '', 'where a vehicle gets the flow: known (the flow '
+                              'topic: the local flow) or estimated (from its own ground and '
+                              'through-water velocities, no flow topic)', choices=FLOW_SOURCES)
+    flow_estimator: str = _param('filter', '', "estimated: filter fhat' = lambda_f (v_ground - "
+                                 "v_rel - fhat), or observer from the position only (rhat' = "
+                                 "v_rel + fhat + l1 (r - rhat), fhat' = l2 (r - rhat))",
+                                 choices=FLOW_ESTIMATORS)
+    flow_gain: float = _param(1.0, '1/s', 'filter: estimator bandwidth lambda_f', runtime=True,
+                              **_POSITIVE)
+    flow_observer_l1: float = _param(2.0, '1/s', 'observer: position gain l1', runtime=True,
+                                     **_POSITIVE)
+    flow_observer_l2: float = _param(1.0, '1/s^2', 'observer: flow gain l2', runtime=True,
+                                     **_POSITIVE)
+    flow_consensus: float = _param(0.0, '1/s', 'estimated: gain of the consensus term that pulls '
+                                   "each estimate toward its neighbours' (uniform flows)",
+                                   low=0.0, zero='none', runtime=True)
     K_p: float = _param(5.0, '1/s', 'proportional steering gain K_p (5.5)', runtime=True,
                         **_POSITIVE)
     # Chapters 6-8 and Appendix A: rigid bodies
@@ -362,7 +398,8 @@ def _coerce(name, value):
         return float(value)
     if isinstance(default, str):
         if not isinstance(value, str):
-            _fail(name, value, f"must be one of {' | '.join(CHOICES[name])}")
+            _fail(name, value, f"must be one of {' | '.join(CHOICES[name])}" if name in CHOICES
+                  else 'must be a string')
         return value
     if not isinstance(value, (list, tuple)):
         _fail(name, value, 'must be a list')
@@ -504,7 +541,7 @@ def _check_structure(sc):
     if (sc.model == 'first_order') != (sc.controller == 'first_order'):
         _fail('controller', sc.controller, "model 'first_order' goes with controller "
               "'first_order' only, and controller 'first_order' with model 'first_order' only")
-    for name in ('flow', 'c0'):
+    for name in ('flow', 'c0', 'flow_center'):
         if len(getattr(sc, name)) != 2:
             _fail(name, list(getattr(sc, name)), 'must be a list of 2 numbers [x, y] (m/s or m)')
     for name in INIT_ARRAYS:
@@ -544,11 +581,28 @@ def _check_gains(sc):
         if periods < 1 - 1e-9 or abs(periods - round(periods)) > 1e-6:
             _fail(name, getattr(sc, name),
                   f'must be a whole number (>= 1) of control periods dt_control = {sc.dt_control}')
-    speed = abs(sc.flow_c)
+    _check_flow(sc)
+
+
+def flowfield(sc):
+    """Return the :class:`flowfields.Flowfield` of a scenario (ScenarioError if it cannot)."""
+    try:
+        return Flowfield(sc)
+    except FlowfieldError as err:
+        raise ScenarioError(str(err)) from None
+
+
+def _check_flow(sc):
+    """Refuse a flowfield whose speed reaches the vehicles' (the laws need |f| < speed)."""
+    speed = flowfield(sc).max_speed
+    where = 'flow' if sc.flow_model == 'uniform' else 'flow_model'
+    value = list(sc.flow) if where == 'flow' else sc.flow_model
+    what = '|flow|' if where == 'flow' else \
+        f'the {sc.flow_model} flow reaches {speed:.3g} m/s: max |f|'
     if sc.model in PARTICLE_MODELS and speed >= 1:
-        _fail('flow', list(sc.flow), 'unit-speed particles need |flow| < 1 m/s (1.6)')
+        _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
     if sc.model in RIGID_MODELS and speed >= sc.u0:
-        _fail('flow', list(sc.flow), f'rigid bodies need |flow| < u0 = {sc.u0} m/s')
+        _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
 
 
 def _check_pattern(sc):
@@ -558,8 +612,9 @@ def _check_pattern(sc):
     if sc.formation != 'circular':
         _fail('pattern', sc.pattern, 'a symmetric pattern places vehicles on the circle: it '
               'needs formation circular')
-    if sc.flow_c != 0:
-        _fail('pattern', sc.pattern, f'flow = {list(sc.flow)} m/s is not zero: in a flow no '
+    if sc.flow_c != 0 or sc.flow_model != 'uniform':
+        _fail('pattern', sc.pattern, f'flow = {list(sc.flow)} m/s ({sc.flow_model}) is not '
+              f'zero: in a flow no '
               f'fixed phase pattern exists on a circle (the course rate omega0 s_k varies '
               f'with the course, so the vehicles move along the circle relative to each '
               f'other); use flow: [0.0, 0.0] or pattern: none')

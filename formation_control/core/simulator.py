@@ -17,15 +17,18 @@ Offline simulator: the sampled-data loop the ROS plant runs too.
 
 Each control period every vehicle's command is computed from the state at the start of the
 period, predicted to the middle of the hold (``hold_prediction``), and held while RK4 integrates
-the plant over ``dt_control / dt_integration`` steps.
+the plant over ``dt_control / dt_integration`` steps. Each vehicle commands with the flow it has:
+the local flow at its place (``flow_source: known``) or its estimate (``estimated``,
+:mod:`estimation`), from what it measures at the period's start.
 """
 from dataclasses import dataclass, field
 import json
 
 from formation_control.core import metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import (integrate, RIGID_MODELS, ROW_OMEGA, ROW_U, ROW_V,
-                                           STATE_NAMES)
+from formation_control.core.estimation import FlowEstimator, neighbour_mean
+from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
+                                           ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
 from formation_control.core.scenario import initial_state, resolve
 import numpy as np
 
@@ -47,6 +50,10 @@ class Run:
         Inputs held from those times on.
     meta : dict
         Where it came from (a bag's path, ...), saved as JSON.
+    flow_hat : ndarray of complex, shape (T, N), or None
+        The flow each vehicle commanded with (its known local flow or its estimate, m/s);
+        None where the record does not hold it (the plant node's: the estimates are the
+        vehicles').
 
     """
 
@@ -55,6 +62,7 @@ class Run:
     X: np.ndarray
     U: np.ndarray
     meta: dict = field(default_factory=dict)
+    flow_hat: np.ndarray = None
 
     def arrays(self):
         """
@@ -64,8 +72,9 @@ class Run:
         -------
         dict of str to ndarray
             t (T,); x, y, theta, omega, u, v (T, N); the held inputs, T and F (N) for rigid
-            bodies, ``command`` for particles (rad/s^2, or rad/s for first order); ``params``,
-            the scenario as JSON, and ``meta``.
+            bodies, ``command`` for particles (rad/s^2, or rad/s for first order);
+            ``flow_hat_x``, ``flow_hat_y`` (T, N) where recorded; ``params``, the scenario as
+            JSON, and ``meta``.
 
         """
         out = {'t': self.t, 'params': np.array(self.sc.to_json()),
@@ -75,6 +84,8 @@ class Run:
             out['T'], out['F'] = self.U[:, 0], self.U[:, 1]
         else:
             out['command'] = self.U[:, 1]
+        if self.flow_hat is not None:
+            out['flow_hat_x'], out['flow_hat_y'] = self.flow_hat.real, self.flow_hat.imag
         return out
 
     def save(self, path):
@@ -106,7 +117,8 @@ def load_run(path):
         else:
             U[:, 1] = d['command']
         meta = json.loads(str(d['meta'])) if 'meta' in d else {}
-        return Run(sc, d['t'].copy(), X, U, meta)
+        flow_hat = d['flow_hat_x'] + 1j * d['flow_hat_y'] if 'flow_hat_x' in d else None
+        return Run(sc, d['t'].copy(), X, U, meta, flow_hat)
 
 
 class Stepper:
@@ -126,6 +138,10 @@ class Stepper:
         The fleet's current state.
     U : ndarray, shape (2, N)
         The inputs held over the current period.
+    flow_hat : complex or ndarray of complex, shape (N,)
+        The flow each vehicle commanded with at the last :meth:`command` (m/s).
+    steps : int
+        Integration steps taken: the state is at ``t = steps * dt_integration``.
 
     """
 
@@ -134,6 +150,38 @@ class Stepper:
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
         self.U = np.zeros((2, self.X.shape[1]))
+        self.steps = 0
+        self.estimator = None
+        if sc.flow_source == 'estimated':
+            self.estimator = FlowEstimator(sc, self.X.shape[1])
+        self.flow_hat = self.local_flow()
+
+    @property
+    def t(self):
+        """Return the time of the current state (s)."""
+        return self.steps * self.sc.dt_integration
+
+    def local_flow(self):
+        """Return the flow (N,) complex at each vehicle's place now (m/s)."""
+        return self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
+
+    def vehicles_flow(self):
+        """
+        Return the flow (N,) complex each vehicle uses now: known, or its updated estimate.
+
+        An estimating vehicle measures its ground velocity in the local flow and its own
+        velocity through it (:meth:`estimation.FlowEstimator.update`). A known uniform flow is
+        the complex number itself (the same for all, and cheapest).
+        """
+        field = self.ctrl.plant.flow
+        if self.estimator is None and field.uniform:
+            return field.value
+        flow = self.local_flow()
+        if self.estimator is None:
+            return flow
+        est = self.estimator
+        near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
+        return est.update(self.X, ground_velocity(self.X, flow), near).copy()
 
     def hold(self, U):
         """
@@ -151,10 +199,13 @@ class Stepper:
         Compute every vehicle's command, hold and return it (2, N).
 
         It is computed for the state :meth:`control.Controller.predict` gives from the current
-        state and the inputs held so far, as each vehicle node computes its own.
+        state, the inputs held so far and the flow each vehicle has, as each vehicle node
+        computes its own.
         """
-        X = self.ctrl.predict(self.X, self.U)
-        return self.hold(self.ctrl.command(self.ctrl.view(X, self.U[1]), X))
+        self.flow_hat = flow = self.vehicles_flow()
+        X = self.ctrl.predict(self.X, self.U, flow)
+        view = self.ctrl.view(X, self.U[1], flow)
+        return self.hold(self.ctrl.command(view, X, flow=flow))
 
     def advance(self, steps=None):
         """
@@ -163,9 +214,9 @@ class Stepper:
         ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
         (the real-time plant advances one step per tick).
         """
-        sc = self.sc
-        self.X = integrate(self.X, self.U, sc.dt_integration, steps or sc.substeps,
-                           self.ctrl.plant)
+        sc, steps = self.sc, steps or self.sc.substeps
+        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t)
+        self.steps += steps
         return self.X
 
 
@@ -180,18 +231,22 @@ class Recorder:
     def __init__(self, sc):
         self.sc = sc
         self.steps = sc.periods
-        self.t, self.X, self.U = [], [], []
+        self.t, self.X, self.U, self.flow_hat = [], [], [], []
 
-    def record(self, n, X, U):
-        """Record the state X (6, N) and inputs U (2, N) of step n if it is a recorded step."""
+    def record(self, n, X, U, flow_hat=None):
+        """Record the state X (6, N), inputs U (2, N) and flows used of step n if recorded."""
         if n % self.sc.record_every == 0 or n == self.steps:
             self.t.append(n * self.sc.dt_control)
             self.X.append(X.copy())
             self.U.append(U.copy())
+            if flow_hat is not None:
+                self.flow_hat.append(np.broadcast_to(flow_hat, X.shape[1:]).copy())
 
     def run(self):
         """Return what was recorded as a :class:`Run`."""
-        return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U))
+        flow_hat = np.array(self.flow_hat) if self.flow_hat else None
+        return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U),
+                   flow_hat=flow_hat)
 
 
 def simulate(sc, X0=None):
@@ -215,7 +270,8 @@ def simulate(sc, X0=None):
     stepper = Stepper(sc, X0)
     rec = Recorder(sc)
     for n in range(rec.steps + 1):
-        rec.record(n, stepper.X, stepper.command())
+        U = stepper.command()
+        rec.record(n, stepper.X, U, stepper.flow_hat)
         if n < rec.steps:
             stepper.advance()
     return rec.run()
@@ -241,7 +297,7 @@ def summary(run):
     """
     sc = run.sc
     ctrl = Controller(sc)
-    snaps = [metrics.snapshot(ctrl, X, U) for X, U in zip(run.X, run.U)]
+    snaps = [metrics.snapshot(ctrl, X, U, t) for t, X, U in zip(run.t, run.X, run.U)]
     flags = [metrics.converged(sc, s) for s in snaps]
     final = snaps[-1]
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),

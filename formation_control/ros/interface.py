@@ -26,7 +26,17 @@ topic                          type                             content
                                                                 twist in the base frame
                                                                 (``vehicle_k/base_link``)
                                                                 = ground velocity, yaw rate
-``vehicle_k/flow``             geometry_msgs/Vector3Stamped     flow the vehicle measures
+``vehicle_k/flow``             geometry_msgs/Vector3Stamped     the local flow at the vehicle
+                                                                (world frame; ``flow_source:
+                                                                known``: latched once if
+                                                                uniform, else with each
+                                                                odometry, same stamp)
+``vehicle_k/water_velocity``   geometry_msgs/TwistStamped       rigid bodies, ``flow_source:
+                                                                estimated``: velocity through
+                                                                the flow in the base frame
+                                                                (u, v), as a DVL or airspeed
+                                                                sensor gives it; with each
+                                                                odometry, same stamp
 ``vehicle_k/formation_state``  sensor_msgs/JointState           see :data:`STATE_FIELDS`
 ``vehicle_k/cmd``              geometry_msgs/WrenchStamped      force.x = T, force.y = F (N);
                                                                 torque.z = angular acceleration
@@ -47,9 +57,9 @@ from operator import attrgetter
 import struct
 
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position,
-                                           ROW_OMEGA, ROW_THETA)
+                                           ROW_OMEGA, ROW_THETA, ROW_U, ROW_V)
 from formation_control.core.node_parameters import BASE_FRAME, base_frame, WORLD_FRAME
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -228,6 +238,22 @@ def state_from_odom_values(values, flow, model):
     return np.array([x, y, theta, yaw_rate, rel.real, rel.imag])
 
 
+def ground_velocity_of(values):
+    """Return the ground velocity (complex m/s, world frame) of :data:`ODOM_FIELDS` values."""
+    _, _, qz, qw, vx, vy, _ = values
+    theta = 2.0 * math.atan2(qz, qw)
+    return complex(vx, vy) * complex(math.cos(theta), math.sin(theta))
+
+
+def water_velocity_msg(k, ns, X, frames=DEFAULT_FRAMES):
+    """Return the TwistStamped of vehicle k's through-flow velocity (u, v; its base frame)."""
+    msg = TwistStamped()
+    set_stamp(msg.header, ns)
+    msg.header.frame_id = frames.base(k)
+    msg.twist.linear.x, msg.twist.linear.y = float(X[ROW_U]), float(X[ROW_V])
+    return msg
+
+
 def cmd_values(u, model):
     """Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,)."""
     if model in PARTICLE_MODELS:
@@ -261,6 +287,7 @@ def state_from_odom(msg, flow, model):
 
 
 def flow_msg(k, ns, flow, frames=DEFAULT_FRAMES):
+    """Return the Vector3Stamped of the flow (complex m/s) at vehicle k, world frame."""
     msg = Vector3Stamped()
     set_stamp(msg.header, ns)
     msg.header.frame_id = frames.world

@@ -40,7 +40,7 @@ import sys
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import graphs, laws, metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import ground_velocity, position, ROW_THETA
+from formation_control.core.models import ground_velocity, position, ROW_THETA, ROW_X, ROW_Y
 from formation_control.core.node_parameters import MONITOR
 from formation_control.core.scenario import resolve, RUNTIME, ScenarioError
 from formation_control.ros import common, markers, parameters
@@ -199,7 +199,9 @@ class MonitorNode(Node):
             return self.reject('wrong_frame', f'an odometry of vehicle {k} in frame '
                                f'{msg.header.frame_id!r} (world_frame is '
                                f"{self.p['world_frame']!r})")
-        x = itf.state_from_odom(msg, self.sc.flow_c, self.sc.model)
+        pos = msg.pose.pose.position
+        flow = complex(self.ctrl.plant.flow(self.t, pos.x, pos.y))
+        x = itf.state_from_odom(msg, flow, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
         ns = itf.stamp_ns(msg.header.stamp)
@@ -215,17 +217,19 @@ class MonitorNode(Node):
             self.t0_ns = ns
         self.next_ns = ns + int(round(self.p['period'] * 1e9))
         self.t = (ns - self.t0_ns) * 1e-9
-        snap = metrics.snapshot(self.ctrl, self.X, self.U)
+        snap = metrics.snapshot(self.ctrl, self.X, self.U, self.t)
         fresh, live = self.live_graph()
         self.values = {**snap.values(), 'live_links': float(len(live)),
                        'algebraic_connectivity': graphs.connectivity(fresh, live)}
         self.metrics_pub.publish(itf.metrics_msg(ns, self.values, self.p['world_frame']))
         if self.live is not None:
             self.live.log_metrics(ns, self.values)
-        self.shown = ns, self.X.copy(), self.U.copy()
+        self.shown = ns, self.t, self.X.copy(), self.U.copy()
         self.trails[self.samples % len(self.trails)] = position(self.X)
         self.samples += 1
-        self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(self.X, self.U[1]))
+        flow = self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
+        self.vehicle_ok = metrics.vehicles_converged(self.ctrl,
+                                                     self.ctrl.view(self.X, self.U[1], flow))
         self.saturated = self.ctrl.saturated(self.U)
         was = self.since is not None
         if not metrics.converged(self.sc, snap):
@@ -285,13 +289,17 @@ class MonitorNode(Node):
 
     def _picture(self):
         """Return the last sample's state, stamp, trails, velocities, centres and c0."""
-        (ns, X, U), sc = self.shown, self.sc
+        ns, t, X, U = self.shown
+        sc = self.sc
         count = min(self.samples, len(self.trails))
         order = (np.arange(count) + self.samples - count) % len(self.trails)
-        ground = ground_velocity(X, sc.flow_c) if sc.flow_c != 0 else None
+        ground = None
+        flow = self.ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+        if np.any(flow != 0):
+            ground = ground_velocity(X, flow)
         centres = target = None
         if isinstance(self.ctrl.formation, laws.Circular):
-            centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1]))
+            centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1], flow))
             target = sc.c0_c if sc.informed else None
         return X, ns, self.trails[order].T, ground, centres, target
 

@@ -26,6 +26,11 @@ is up (a writer on each command topic; ``wait_for_fleet``); then a wall timer in
 steps the clock has reached with the last command of each vehicle held, and vehicle k's
 odometry is sent at integration step (k - 1) mod substeps of each period.
 
+The flow each vehicle meets is the plant's flowfield at its own place and time (the simulator's
+:func:`models.integrate`). Known to the vehicles (``flow_source: known``), it goes on
+``/vehicle_k/flow``: latched once if uniform, else with every odometry; for estimating rigid
+bodies each odometry comes with the through-water velocity on ``/vehicle_k/water_velocity``.
+
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
 state becomes non-finite is stopped with an error naming it. Counts and status:
@@ -40,8 +45,9 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import links, lockstep
 from formation_control.core.fleet import FleetPlant
 from formation_control.core.node_parameters import check_frames, PLANT, START_TOPIC
+from formation_control.core.onboard import needs_second_sensor
 from formation_control.ros import common, interface as itf, parameters
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.node import Node
@@ -97,10 +103,18 @@ class PlantNode(Node):
                                                   lambda data, k=k: self._on_cmd(k, data),
                                                   raw=True,
                                                   **itf.state_qos_kwargs()) for k in ids]
-        for k in ids:
-            flow_pub = self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
-                                             itf.LATCHED_QOS)
-            flow_pub.publish(itf.flow_msg(k, 0, sc.flow_c, self.frames))
+        self.flow_pubs = self.water_pubs = None
+        second = needs_second_sensor(sc)
+        if sc.flow_source == 'known':
+            self.flow_pubs = [self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
+                                                    itf.LATCHED_QOS) for k in ids]
+            if second is None:
+                for k, pub in zip(ids, self.flow_pubs):
+                    pub.publish(itf.flow_msg(k, 0, sc.flow_c, self.frames))
+                self.flow_pubs = None
+        if second == 'water':
+            self.water_pubs = [self.create_publisher(TwistStamped, itf.topic(k, 'water_velocity'),
+                                                     **itf.state_qos_kwargs()) for k in ids]
         self.clock_pub = None
         if self.mode == 'lockstep':
             self.clock_pub = self.create_publisher(Clock, itf.CLOCK_TOPIC, itf.LATCHED_QOS)
@@ -154,9 +168,14 @@ class PlantNode(Node):
         self._publish_odom(np.ones(self.sc.num_vehicles, bool), ns)
 
     def _publish_odom(self, which, ns):
-        X = self.fleet.X
+        X, flow = self.fleet.X, self.fleet.stepper.local_flow()
         for i in np.flatnonzero(which & ~self.fleet.stopped):
-            values = itf.odom_values(X[:, i], self.sc.flow_c)
+            if self.flow_pubs is not None:
+                self.flow_pubs[i].publish(itf.flow_msg(i + 1, ns, flow[i], self.frames))
+            if self.water_pubs is not None:
+                self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, X[:, i],
+                                                                  self.frames))
+            values = itf.odom_values(X[:, i], flow[i])
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
     def _on_cmd(self, k, data):

@@ -17,7 +17,9 @@
 
 It hears its own odometry and flow, publishes its ``formation_state`` (pose, heading, yaw
 rate and the phase values of the law), hears the formation states of its neighbours, and
-publishes its own command. It knows nothing of the others but what it receives.
+publishes its own command. It knows nothing of the others but what it receives. With
+``flow_source: estimated`` it hears no flow: it estimates it from its odometry and, a rigid
+body, its through-water velocity (``water_velocity``); its estimate is in its diagnostics.
 
 When it commands, and from which neighbours, is :class:`neighbours.NeighbourTable`; the faults
 injected on what it hears are :class:`links.Inbox`; the law is :class:`control.Controller`:
@@ -31,12 +33,13 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import links, lockstep
+from formation_control.core.models import ROW_U, ROW_V
 from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.node_parameters import check_frames, FRAMES, VEHICLE
-from formation_control.core.onboard import Onboard
+from formation_control.core.onboard import needs_second_sensor, Onboard, Pairing
 from formation_control.core.scenario import ScenarioError
 from formation_control.ros import common, interface as itf, parameters
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.node import Node
@@ -69,6 +72,10 @@ class VehicleNode(Node):
         if not 1 <= vehicle_id <= sc.num_vehicles:
             raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
                                 f'1..num_vehicles = {sc.num_vehicles}')
+        if sc.flow_consensus > 0:
+            raise ScenarioError(f"parameter 'flow_consensus' = {sc.flow_consensus} is invalid "
+                                f'for a vehicle node: the formation_state does not carry the '
+                                f'flow estimates; use 0 (the offline simulator runs consensus)')
         link = parameters.declare_links(self, LINK_PARAMETERS, sc.num_vehicles, vehicle_id)
         frames = parameters.declare_node(self, FRAMES)
         check_frames(frames, per_vehicle=False)
@@ -87,6 +94,8 @@ class VehicleNode(Node):
         self.tick_wait = 0.5 * sc.dt_integration if self.mode == 'realtime' else 0.0
         self.onboard = Onboard(sc)
         self.flow = sc.flow_c
+        self.second = needs_second_sensor(sc)
+        self.pairing = Pairing()
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
                       for j in (*self.neighbours, vehicle_id)}
         self.wires = {j: itf.StateWire(j, hears, self.frames)
@@ -120,8 +129,12 @@ class VehicleNode(Node):
         self.odom_wire, self.cmd_wire = itf.odom_wire(k, self.frames), itf.cmd_wire(k, self.frames)
         self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
-        self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
-                                 itf.LATCHED_QOS)
+        if self.sc.flow_source == 'known':
+            self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
+                                     itf.LATCHED_QOS)
+        if self.second == 'water':
+            self.create_subscription(TwistStamped, itf.topic(k, 'water_velocity'),
+                                     self._on_water, **qos())
         for j in self.neighbours:
             self.create_subscription(JointState, itf.topic(j, 'formation_state'),
                                      lambda data, j=j: self._on_state(j, data), raw=True,
@@ -139,6 +152,21 @@ class VehicleNode(Node):
         if msg.header.frame_id != self.frames.world:
             return self.reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
         self.flow = flow
+        if self.second == 'flow':
+            self._paired(self.pairing.add_other(itf.stamp_ns(msg.header.stamp), flow))
+
+    def _on_water(self, msg):
+        rel = (msg.twist.linear.x, msg.twist.linear.y)
+        if not all(map(math.isfinite, rel)):
+            return self.reject('non_finite', 'a non-finite water_velocity')
+        if msg.header.frame_id != itf.base_link(self.k):
+            return self.reject('wrong_frame', f'a water_velocity in frame '
+                               f'{msg.header.frame_id!r}')
+        self._paired(self.pairing.add_other(itf.stamp_ns(msg.header.stamp), rel))
+
+    def _paired(self, pair):
+        if pair is not None:
+            self._on_measurement(*pair)
 
     def _odometry(self, data):
         """(stamp, ODOM_FIELDS) of odometry bytes, or None once rejected."""
@@ -161,8 +189,18 @@ class VehicleNode(Node):
         got = self._odometry(data)
         if got is None:
             return
-        ns, values = got
-        X = itf.state_from_odom_values(values, self.flow, self.sc.model)
+        if not all(map(math.isfinite, got[1])):
+            return self.reject('non_finite', 'a non-finite odometry')
+        if self.second is None:
+            return self._on_measurement(*got)
+        self._paired(self.pairing.add_odometry(*got))
+
+    def _on_measurement(self, ns, values, other=None):
+        """Take the odometry of stamp ns with the second sensor's value of the same stamp."""
+        flow = other if self.second == 'flow' else self.flow
+        X = itf.state_from_odom_values(values, flow, self.sc.model)
+        if self.second == 'water':
+            X[ROW_U], X[ROW_V] = other
         if not np.all(np.isfinite(X)):
             return self.reject('non_finite', 'a non-finite odometry')
         kind = self.known.odometry(ns)
@@ -171,7 +209,8 @@ class VehicleNode(Node):
                                f'the last one')
         if kind == lockstep.REPEATED:
             return self._answer_again()
-        row = self.onboard.observe(X, self.delay + self.tick_wait)
+        row = self.onboard.observe(X, flow, itf.ground_velocity_of(values),
+                                   self.delay + self.tick_wait)
         self.known.store(self.k, ns, row)
         hearing = self.known.hearing()[self.heard_rows]
         self.last_state = self.wires[self.k].encode(
@@ -271,7 +310,10 @@ class VehicleNode(Node):
         gone = (np.flatnonzero(self.known.gone()) + 1).tolist()
         live = int(np.count_nonzero(self.known.live())) - 1
         delayed = self.inbox.counts[links.DELAYED]
+        fhat = complex(self.onboard.flow[0])
         values = {'live_neighbours': live, 'gone_neighbours': gone, **self.reject.counts,
+                  'flow_source': self.sc.flow_source, 'flow_hat_x': f'{fhat.real:.6f}',
+                  'flow_hat_y': f'{fhat.imag:.6f}',
                   **self.inbox.counts, 'saturated': self.saturated,
                   'mean_delay': f'{self.inbox.delay_total / max(1, delayed):.4f}',
                   **self.latency.summary()}

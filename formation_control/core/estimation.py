@@ -1,0 +1,180 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Onboard flow estimation: what a vehicle that is not told the flow uses instead.
+
+With ``flow_source: estimated``, a vehicle measures its ground velocity (odometry) and its
+velocity through the water or air (a DVL or airspeed sensor; a unit-speed particle knows its
+own: ``e^{i theta}``). Their difference is the flow at the vehicle, ``m = v_ground - v_rel``
+(8.1). The estimators, one state per vehicle, sampled every control period ``dt``:
+
+- ``filter``: ``fhat' = lambda_f (m - fhat)``, discretised exactly for the measurement held over
+  the period: ``fhat <- m + (fhat - m) e^{-lambda_f dt}``;
+- ``observer``, from the position only: ``rhat' = v_rel + fhat + l1 (r - rhat)``,
+  ``fhat' = l2 (r - rhat)``, discretised as a predictor-corrector whose error matrix has the
+  poles ``e^{s dt}`` of the continuous error ``s^2 + l1 s + l2``;
+- a consensus term, gain ``flow_consensus``: ``fhat_k <- fhat_k + (1 - e^{-k_c dt})
+  (mean_{j in N_k} fhat_j - fhat_k)`` over the neighbours' estimates (a uniform flow).
+
+In a flow that is uniform and steady the estimation error ``e = fhat - f`` obeys a linear
+equation that does not depend on the control (``e' = -lambda_f e``): the cascade argument of
+docs/errata.md, "Flow estimation". Every estimate is clamped to ``|fhat| <= CLAMP * speed``
+(1 for particles, u0 for rigid bodies), so that the transforms (5.1)-(5.4) stay defined.
+"""
+from formation_control.core.models import position, RIGID_MODELS, ROW_THETA, ROW_U, ROW_V
+import numpy as np
+
+CLAMP = 0.95
+"""Largest |fhat| as a fraction of the vehicle's speed through the water."""
+
+
+def relative_velocity(X):
+    """
+    Return the velocity through the flow of each vehicle, world frame.
+
+    Parameters
+    ----------
+    X : array_like, shape (6, n)
+        States (rows of :mod:`models`); particles have u = 1, v = 0.
+
+    Returns
+    -------
+    ndarray of complex, shape (n,)
+        ``v_rel = (u + i v) e^{i theta}`` (m/s): what a DVL or airspeed sensor measures, in the
+        map frame.
+
+    """
+    return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA])
+
+
+def observer_gains(l1, l2, dt):
+    """
+    Return the corrector gains of the discrete position-only observer.
+
+    Parameters
+    ----------
+    l1, l2 : float
+        Continuous gains (1/s, 1/s^2): error poles the roots of ``s^2 + l1 s + l2``.
+    dt : float
+        Sample period (s).
+
+    Returns
+    -------
+    k1, k2 : float
+        ``rhat <- rhat_pred + k1 (r - rhat_pred)``, ``fhat <- fhat + k2 (r - rhat_pred)``: the
+        error matrix ``[[1 - k1, (1 - k1) dt], [-k2, 1 - k2 dt]]`` has determinant
+        ``1 - k1 = e^{-l1 dt}`` and trace ``2 - k1 - k2 dt = e^{s1 dt} + e^{s2 dt}``.
+
+    """
+    root = np.sqrt(complex(0.25 * l1 * l1 - l2))
+    trace = float((2.0 * np.exp(-0.5 * l1 * dt) * np.cosh(root * dt)).real)
+    k1 = 1.0 - np.exp(-l1 * dt)
+    return k1, (2.0 - k1 - trace) / dt
+
+
+class FlowEstimator:
+    """
+    The flow estimates of ``n`` vehicles of scenario ``sc`` (its flow_* gains).
+
+    Attributes
+    ----------
+    fhat : ndarray of complex, shape (n,)
+        The estimates (m/s, map frame), 0 before the first measurement.
+    rhat : ndarray of complex, shape (n,) or None
+        The observer's position estimates (m), None before the first measurement.
+
+    """
+
+    def __init__(self, sc, n):
+        self.sc = sc
+        self.fhat = np.zeros(n, complex)
+        self.rhat = self.v_rel = None
+        self.limit = CLAMP * (sc.u0 if sc.model in RIGID_MODELS else 1.0)
+
+    def update(self, X, v_ground, neighbours=None):
+        """
+        Take one period's measurements; return the estimates (n,) complex.
+
+        Parameters
+        ----------
+        X : array_like, shape (6, n)
+            The vehicles' states as they measure them (position, heading, u, v).
+        v_ground : array_like of complex, shape (n,)
+            Their ground velocities (m/s, map frame), the odometry twist.
+        neighbours : array_like of complex, shape (n,), optional
+            The mean of each vehicle's neighbours' estimates, for the consensus term.
+
+        """
+        sc, dt = self.sc, self.sc.dt_control
+        v_rel = relative_velocity(X)
+        if sc.flow_estimator == 'filter':
+            m = np.asarray(v_ground) - v_rel
+            self.fhat = m + (self.fhat - m) * np.exp(-sc.flow_gain * dt)
+        else:
+            self._observe(position(X), v_rel, dt)
+        if neighbours is not None and sc.flow_consensus > 0:
+            self.fhat = self.fhat + (1.0 - np.exp(-sc.flow_consensus * dt)) * (
+                np.asarray(neighbours) - self.fhat)
+        return self.clamp()
+
+    def _observe(self, r, v_rel, dt):
+        """Advance the position-only observer to the position samples r."""
+        if self.rhat is None:
+            self.rhat, self.v_rel = r.copy(), v_rel
+            return
+        k1, k2 = observer_gains(self.sc.flow_observer_l1, self.sc.flow_observer_l2, dt)
+        predicted = self.rhat + dt * (0.5 * (self.v_rel + v_rel) + self.fhat)
+        innovation = r - predicted
+        self.rhat = predicted + k1 * innovation
+        self.fhat = self.fhat + k2 * innovation
+        self.v_rel = v_rel
+
+    def clamp(self):
+        """Clamp the estimates to ``|fhat| <= limit``; return them."""
+        size = abs(self.fhat)
+        over = size > self.limit
+        self.fhat[over] *= self.limit / size[over]
+        return self.fhat
+
+    def retune(self, sc):
+        """Take the gains of ``sc`` (changed at run time); the estimates carry on."""
+        self.sc = sc
+
+
+def neighbour_mean(graph, fhat):
+    """
+    Return the mean of each vehicle's neighbours' estimates over a communication graph.
+
+    Parameters
+    ----------
+    graph : graphs.Graph
+        Who hears whom (connected: every vehicle has a neighbour when n > 1).
+    fhat : ndarray of complex, shape (n,)
+        The estimates.
+
+    Returns
+    -------
+    ndarray of complex, shape (n,)
+        ``mean_{j in N_k} fhat_j``; ``fhat`` itself for a single vehicle.
+
+    """
+    n = fhat.size
+    if n < 2:
+        return fhat.copy()
+    if graph.complete:
+        return (fhat.sum() - fhat) / (n - 1)
+    src, dst = graph.arcs
+    total = (np.bincount(dst, fhat.real[src], n) + 1j * np.bincount(dst, fhat.imag[src], n))
+    return total / graph.degrees()
