@@ -22,9 +22,10 @@ run, Ctrl-C stops every process.
 import json
 from pathlib import Path
 
-from formation_control.core import simulator
+from formation_control.core import faults, simulator
 from formation_control.core.scenario import resolve
 from formation_control.ros import interface as itf
+import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
 from rosutil import CONFIG
@@ -37,7 +38,7 @@ def _swarm(ros, tmp_path, name, *args, timeout=300):
     result = ros.procs.run('formation-control', 'swarm', CONFIG / f'{name}.yaml', *args,
                            '--summary', summary, timeout=timeout)
     assert result.returncode == 0, result.stderr + result.stdout
-    return json.loads(summary.read_text()), result.stdout
+    return json.loads(summary.read_text()), result.stdout + result.stderr
 
 
 def test_lockstep_fleet_equals_the_offline_simulator(ros, tmp_path):
@@ -143,3 +144,57 @@ def test_a_recorded_fleet_keeps_a_deep_history_on_its_state_writers(tmp_path):
     assert 'qos_overrides' not in plain['/**']['ros__parameters'] and RECORDED_DEPTH >= 100
     assert overrides == {f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
                          for k in (1, 2) for name in ('odom', 'formation_state', 'cmd')}
+
+
+FAULTS = ('kill:6@0.2', 'stop:2@1.5', 'cont:2@2.5', 'cut:1-3@3.5..5')
+
+
+def _statuses(bag, name):
+    """Return (bag time s, values) of every /diagnostics status ``name`` in the bag."""
+    out = []
+    with AnyReader([bag]) as reader:
+        for c, t, raw in reader.messages([c for c in reader.connections
+                                          if c.topic == '/diagnostics']):
+            for s in reader.deserialize(raw, c.msgtype).status:
+                if s.name == name:
+                    out.append((t * 1e-9, {v.key: v.value for v in s.values}))
+    return out
+
+
+def _faults_in(bag):
+    with AnyReader([bag]) as reader:
+        return [json.loads(reader.deserialize(raw, c.msgtype).data) for c, _, raw
+                in reader.messages([c for c in reader.connections if c.topic == itf.FAULTS_TOPIC])]
+
+
+def test_swarm_survives_scripted_faults(ros, tmp_path):
+    """
+    Vehicle 6 killed before convergence, 2 frozen and resumed, the link 1-3 cut for 1.5 s.
+
+    The five converge without 6 (at 7 s; not the six) and the swarm exits 0; each fault is in
+    the summary and the bag at its fleet time.
+    """
+    bag = tmp_path / 'bag'
+    args = [a for p in ('num_vehicles:=6', 'dt_control:=0.05', 'command_timeout:=1.0',
+                        'neighbor_timeout:=0.5') for a in ('-p', p)]
+    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '9',
+                         '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
+    assert 'swarm: t = 0.20 s: vehicle_6 exited with -9 (SIGKILL) (fault kill:6@0.2)' in stderr
+    assert [f['fault'] for f in out['faults']] == [*FAULTS, FAULTS[3]]
+    assert all(abs(f['applied'] - f['scheduled']) < 0.1 for f in out['faults']), out['faults']
+    assert _faults_in(bag) == out['faults']
+    (lost,) = out['lost']
+    assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
+    assert out['survivors'] == [1, 2, 3, 4, 5]
+    assert out['survivors_converged'] and not out['converged']
+    run = simulator.load_run(Path(out['logs']) / 'run.npz')
+    early = simulator.Run(run.sc, run.t[:3], run.X[:3], run.U[:3])
+    assert not faults.survivors_converged(early, [1, 2, 3, 4, 5])
+    commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
+    assert not commanded[run.t > 0.3, 5].any()
+    frozen = (run.t > 1.7) & (run.t < 2.5)
+    assert not commanded[frozen, 1].any() and commanded[(run.t > 2.5) & (run.t < 4.0), 1].any()
+    links = _statuses(bag, 'formation_control/vehicle_1/links')
+    cut = [t for t, v in links if '3' in v['gone_neighbours'].strip('[]').split(', ')]
+    assert cut and 3.5 <= min(cut) and max(cut) <= 5.5, links
+    assert int(links[-1][1]['dropped']) > 0 and '3' not in links[-1][1]['gone_neighbours']

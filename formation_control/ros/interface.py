@@ -57,6 +57,8 @@ MAP_FRAME = 'map'
 DIAGNOSTICS_TOPIC = '/diagnostics'
 SCENARIO_TOPIC = '/formation/scenario'
 METRICS_TOPIC = '/formation/metrics'
+FAULTS_TOPIC = '/formation/faults'
+"""swarm: each scripted fault as it is applied (std_msgs/String, JSON; :data:`FAULTS_QOS`)."""
 MARKERS_TOPIC = '/formation/markers'
 STALL = 3.0
 """Lockstep: after this many wall seconds without progress, a node says what it waits for."""
@@ -117,6 +119,11 @@ LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """The flow: published when it changes, kept for late joiners."""
+
+FAULTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""The faults of a run: every one kept for late joiners."""
 
 STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                         reliability=ReliabilityPolicy.RELIABLE,

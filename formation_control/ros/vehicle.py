@@ -39,6 +39,7 @@ from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
@@ -83,6 +84,7 @@ class VehicleNode(Node):
                         for j, hears in self.hears.items() if hears and j != vehicle_id}
         self._create_topics()
         self.add_on_set_parameters_callback(parameters.validator(self))
+        self.add_on_set_parameters_callback(self._check_cut_links)
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'lockstep':
             self.create_timer(min(0.05, self.known.liveness.timeout / 4), self._try_command,
@@ -115,7 +117,19 @@ class VehicleNode(Node):
                                      **qos())
         self.diag_pub = common.diagnostics_publisher(self)
 
-    def _apply_parameters(self, _params):
+    def _check_cut_links(self, params):
+        try:
+            links.check({p.name: tuple(p.value or ()) for p in params if p.name == 'cut_links'},
+                        self.sc.num_vehicles, self.k)
+        except ScenarioError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params):
+        for p in params:
+            if p.name == 'cut_links':
+                self.inbox.faults.cut = set(p.value or ())
+                self.get_logger().warn(f'links cut: {sorted(self.inbox.faults.cut)}')
         self.sc = parameters.current(self)
         self.onboard.retune(self.sc)
 
