@@ -679,7 +679,8 @@ def resolve(params):
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
-    return replace(sc, warnings=_check_physics(sc))
+    from formation_control.core.stability import step_warnings
+    return replace(sc, warnings=tuple(_check_physics(sc)) + tuple(step_warnings(sc)))
 
 
 def parse_override(text):

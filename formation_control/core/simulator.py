@@ -21,7 +21,7 @@ period and held while RK4 integrates the plant over ``dt_control / dt_integratio
 from dataclasses import dataclass, field
 import json
 
-from formation_control.core import metrics
+from formation_control.core import metrics, stability
 from formation_control.core.control import Controller
 from formation_control.core.models import (integrate, RIGID_MODELS, ROW_OMEGA, ROW_U, ROW_V,
                                            STATE_NAMES)
@@ -204,13 +204,23 @@ def simulate(sc, X0=None):
     Run
         Samples every ``record_dt`` and at the end.
 
+    Raises
+    ------
+    stability.DivergenceError
+        Once a vehicle's state diverges (:func:`stability.diverging`), naming the time, the
+        vehicle and the likely cause.
+
     """
     stepper = Stepper(sc, X0)
     rec = Recorder(sc)
     for n in range(rec.steps + 1):
         rec.record(n, stepper.X, stepper.command())
         if n < rec.steps:
-            stepper.advance()
+            with np.errstate(over='ignore', invalid='ignore'):
+                stepper.advance()
+            bad = np.flatnonzero(stability.diverging(stepper.X))
+            if bad.size:
+                raise stability.divergence(sc, (n + 1) * sc.dt_control, bad[0], stepper.X)
     return rec.run()
 
 

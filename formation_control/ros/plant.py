@@ -35,7 +35,7 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import links, lockstep
+from formation_control.core import links, lockstep, stability
 from formation_control.core.fleet import FleetPlant
 from formation_control.core.node_parameters import PLANT, START_TOPIC
 from formation_control.ros import common, interface as itf, parameters
@@ -217,7 +217,8 @@ class PlantNode(Node):
         for i in self.fleet.integrate(steps):
             self.get_logger().error(
                 f'vehicle {i + 1}: its state became non-finite after t = {self.fleet.time:.3f} '
-                f's (command {self.fleet.pending[:, i].tolist()}); vehicle {i + 1} is stopped')
+                f's (command {self.fleet.pending[:, i].tolist()}); vehicle {i + 1} is stopped. '
+                f'Likely cause: {stability.likely_cause(self.sc)}')
 
     def _publish_diagnostics(self):
         stopped_mask = self.fleet.stopped
