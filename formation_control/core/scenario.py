@@ -772,3 +772,27 @@ def initial_state(sc):
     if sc.model in PARTICLE_MODELS:
         X[ROW_U], X[ROW_V] = 1.0, 0.0
     return X
+
+
+PLANT_ONLY = ('seed', 'duration', 'record_dt', 'init_box') + INIT_ARRAYS
+"""Parameters only the plant uses (the initial state, the run's length and record)."""
+
+
+def differences(mine, theirs):
+    """
+    Return the parameters on which a vehicle's scenario differs from the plant's.
+
+    Parameters
+    ----------
+    mine, theirs : Scenario
+        The vehicle's scenario and the plant's (its latched ``/formation/scenario``).
+
+    Returns
+    -------
+    list of tuple
+        ``(name, mine, theirs)`` for each parameter outside :data:`PLANT_ONLY` that differs, in
+        table order: a vehicle with any of them would fly another law or fleet.
+
+    """
+    return [(name, getattr(mine, name), getattr(theirs, name)) for name in PARAMETER_NAMES
+            if name not in PLANT_ONLY and getattr(mine, name) != getattr(theirs, name)]

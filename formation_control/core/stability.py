@@ -108,5 +108,5 @@ def divergence(sc, t, i, X):
     """
     state = ', '.join(f'{n} = {v:.3g}' for n, v in zip(('x', 'y', 'theta', 'omega', 'u', 'v'),
                                                        X[:, i]))
-    return DivergenceError(f'the integration diverged at t = {t:.3f} s: vehicle {i + 1} ({state}). '
-                           f'Likely cause: {likely_cause(sc)}; lower the step')
+    return DivergenceError(f'the integration diverged at t = {t:.3f} s: vehicle {i + 1} '
+                           f'({state}). Likely cause: {likely_cause(sc)}; lower the step')

@@ -28,7 +28,8 @@ at integration step (k - 1) mod substeps of each period.
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
-state becomes non-finite is stopped with an error naming it. Counts and status:
+state diverges (non-finite or exploding) is stopped with an error naming it and the likely
+cause; once every vehicle is, the run ends (exit code 1). Counts and status:
 ``/diagnostics``, ``formation_control/plant``.
 """
 import sys
@@ -71,6 +72,7 @@ class PlantNode(Node):
         self.pacer = self.missing = self.wall_start = None
         self.t0_ns = 0
         self.started = self.finished = self.done = False
+        self.exit_code = 0
         self._create_topics()
         self.get_logger().info(f'plant: {sc.num_vehicles} x {sc.model}, {sc.formation} '
                                f'({sc.controller}), {self.mode}, {sc.duration:g} s')
@@ -191,6 +193,8 @@ class PlantNode(Node):
             return
         if self._hold(self.gate.gone(), True):
             self._integrate()
+            if self.finished:
+                return
             self.fleet.n += 1
             self._publish_step()
 
@@ -216,9 +220,14 @@ class PlantNode(Node):
     def _integrate(self, steps=None):
         for i in self.fleet.integrate(steps):
             self.get_logger().error(
-                f'vehicle {i + 1}: its state became non-finite after t = {self.fleet.time:.3f} '
-                f's (command {self.fleet.pending[:, i].tolist()}); vehicle {i + 1} is stopped. '
-                f'Likely cause: {stability.likely_cause(self.sc)}')
+                f'vehicle {i + 1}: its state became non-finite or exploded after t = '
+                f'{self.fleet.time:.3f} s (command {self.fleet.pending[:, i].tolist()}); '
+                f'vehicle {i + 1} is stopped. Likely cause: {stability.likely_cause(self.sc)}')
+        if self.fleet.stopped.all() and not self.finished:
+            self.get_logger().error(f'every vehicle diverged by t = {self.fleet.time:.3f} s: '
+                                    f'the run stops')
+            self._finish()
+            self.done, self.exit_code = True, 1
 
     def _publish_diagnostics(self):
         stopped_mask = self.fleet.stopped

@@ -25,12 +25,13 @@ this node converts messages and publishes. Malformed, stale or foreign messages 
 logged and counted; the counts are in its ``/diagnostics`` status
 ``formation_control/vehicle_k/links``.
 """
+import json
 import math
 import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import links, lockstep
+from formation_control.core import links, lockstep, scenario
 from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.node_parameters import VEHICLE
 from formation_control.core.onboard import Onboard
@@ -43,6 +44,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 LINK_PARAMETERS = tuple(name for name in links.PARAMETERS if name != 'command_timeout')
 REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
@@ -58,6 +60,7 @@ class VehicleNode(Node):
     def __init__(self, vehicle_id, **kwargs):
         super().__init__(f'vehicle_{vehicle_id}', **kwargs)
         self.k = vehicle_id
+        self.done, self.exit_code = False, 0
         self._declare(vehicle_id)
         sc = self.sc = parameters.current(self)
         self.mode = parameters.choice(self, 'mode', parameters.MODES)
@@ -111,6 +114,7 @@ class VehicleNode(Node):
                                  **qos())
         self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
                                  itf.LATCHED_QOS)
+        self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
         for j in self.neighbours:
             self.create_subscription(JointState, itf.topic(j, 'formation_state'),
                                      lambda data, j=j: self._on_state(j, data), raw=True,
@@ -132,6 +136,20 @@ class VehicleNode(Node):
                 self.get_logger().warn(f'links cut: {sorted(self.inbox.faults.cut)}')
         self.sc = parameters.current(self)
         self.onboard.retune(self.sc)
+
+    def _on_scenario(self, msg):
+        """Refuse to fly when the plant's latched scenario differs from this vehicle's."""
+        try:
+            theirs = scenario.resolve(json.loads(msg.data))
+        except (ValueError, TypeError, ScenarioError) as err:
+            return self.reject('malformed', f'an unreadable plant scenario ({err})')
+        diffs = scenario.differences(self.sc, theirs)
+        if diffs:
+            listed = '; '.join(f'{name} = {mine!r} here, {plant!r} at the plant'
+                               for name, mine, plant in diffs)
+            self.get_logger().error(f"refused: this vehicle's scenario differs from the "
+                                    f"plant's ({itf.SCENARIO_TOPIC}): {listed}")
+            self.done, self.exit_code = True, 2
 
     def _on_flow(self, msg):
         flow = complex(msg.vector.x, msg.vector.y)
