@@ -198,3 +198,38 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     cut = [t for t, v in links if '3' in v['gone_neighbours'].strip('[]').split(', ')]
     assert cut and 3.5 <= min(cut) and max(cut) <= 5.5, links
     assert int(links[-1][1]['dropped']) > 0 and '3' not in links[-1][1]['gone_neighbours']
+
+
+def test_swarm_notes_dead_processes_restarts_them_and_applies_process_faults(tmp_path):
+    """The bookkeeping of :class:`Swarm` on stand-in processes (no ROS): fleet time is set."""
+    import sys
+
+    from formation_control.swarm import Swarm
+    sc = resolve({'num_vehicles': 3})
+    swarm = Swarm(sc, workdir=tmp_path, monitor=False, restart_dead=0.5)
+    sleeper = [sys.executable, '-c', 'import time; time.sleep(60)']
+    swarm.commands = [sleeper, [sys.executable, '-c', 'import sys; sys.exit(3)'], sleeper,
+                      sleeper]
+    with swarm:
+        swarm.t = 1.0
+        swarm.procs[1].wait(timeout=30)
+        swarm.check()
+        assert swarm.lost == [{'process': 'vehicle_1', 'vehicles': [1], 'time': 1.0, 'exit': 3,
+                               'cause': 'not scripted', 'restarted': None}]
+        swarm.t = 1.4
+        swarm.check()
+        assert swarm.lost[0]['restarted'] is None
+        swarm.commands[1] = sleeper                         # started again, it stays up
+        swarm.t = 1.5
+        swarm.check()
+        assert swarm.lost[0]['restarted'] == 1.5 and len(swarm.lost) == 1
+        for text in ('stop:2@1.5', 'kill:3@1.5'):
+            swarm.apply(faults.parse(text)[0])
+        swarm.procs[3].wait(timeout=30)
+        swarm.check()
+        assert swarm.lost[-1]['cause'] == 'fault kill:3@1.5' and swarm.lost[-1]['exit'] == -9
+        assert swarm.lost[-1]['restarted'] is None and not swarm.restarts   # scripted: no restart
+        assert 2 not in swarm.running_vehicles()
+        stopped = swarm.procs[2]
+    assert stopped.returncode is not None                  # a frozen process is stopped too
+    assert [f['fault'] for f in swarm.faults] == ['stop:2@1.5', 'kill:3@1.5']
