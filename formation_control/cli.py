@@ -76,7 +76,7 @@ def _report(run, source, what, extra=None, summary_path=None):
              f'({sc.controller}), {out["duration"]:g} s {what}')
     print(report.format_report(title, out, rows))
     for key, value in (extra or {}).items():
-        if key in ('faults', 'lost', 'survivors', 'survivors_converged'):
+        if key in ('faults', 'lost') or key.startswith('survivors'):
             continue
         text = f'{value:.4g}' if isinstance(value, float) else value
         print(f'  {key:20s} {text}')
@@ -128,7 +128,8 @@ def cmd_swarm(args):
         print(f'error: {err}', file=sys.stderr)
         return 1
     extra = {k: out[k] for k in ('mode', 'real_time_factor', 'logs', 'bag', 'faults', 'lost',
-                                 'survivors', 'survivors_converged') if k in out}
+                                 'survivors', 'survivors_converged',
+                                 'survivors_convergence_time') if k in out}
     _report(run, args.scenario, 'as ROS 2 processes', extra, args.summary)
     _write(args, run)
     return 0
@@ -145,8 +146,10 @@ def _fault_lines(out):
         lines.append(f'  lost  {p["process"]:18s} at t = {at(p["time"])} (exit '
                      f'{p["exit"]}, {p["cause"]}){again}')
     if out['lost'] or out['faults']:
-        lines.append(f'  survivors {out["survivors"]}: '
-                     f'{"converged" if out["survivors_converged"] else "not converged"}')
+        since = out['survivors_convergence_time']
+        state = 'not converged' if not out['survivors_converged'] else (
+            f'converged at {since:.2f} s' if since is not None else 'converged')
+        lines.append(f'  survivors {out["survivors"]}: {state}')
     return lines
 
 

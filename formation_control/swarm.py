@@ -264,7 +264,8 @@ class Swarm:
         out['mode'] = self.mode
         out['faults'], out['lost'] = self.faults, self.lost
         out['survivors'] = self.survivors
-        out['survivors_converged'] = faults.survivors_converged(run, self.survivors)
+        out['survivors_converged'], out['survivors_convergence_time'] = \
+            faults.survivors_converged(run, self.survivors)
         return run, out
 
 

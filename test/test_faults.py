@@ -70,7 +70,8 @@ def test_survivors_converged_measures_the_members_alone():
     sc = scenario.resolve({'num_vehicles': 5, 'duration': 15.0, 'seed': 1})
     run = simulator.simulate(sc)
     assert simulator.summary(run)['converged']
-    assert faults.survivors_converged(run, [1, 2, 4]) is True
+    converged, since = faults.survivors_converged(run, [1, 2, 4])
+    assert converged is True and 0 < since < 15.0
     start = simulator.Run(sc, run.t[:1], run.X[:1], run.U[:1])
-    assert faults.survivors_converged(start, [1, 2, 4]) is False
-    assert faults.survivors_converged(run, []) is None
+    assert faults.survivors_converged(start, [1, 2, 4]) == (False, None)
+    assert faults.survivors_converged(run, []) == (None, None)

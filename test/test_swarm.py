@@ -187,17 +187,17 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
     assert out['survivors'] == [1, 2, 3, 4, 5]
     assert out['survivors_converged'] and not out['converged']
+    assert 2.0 < out['survivors_convergence_time'] < 9.0          # after the kill at 0.2 s
     run = simulator.load_run(Path(out['logs']) / 'run.npz')
-    early = simulator.Run(run.sc, run.t[:3], run.X[:3], run.U[:3])
-    assert not faults.survivors_converged(early, [1, 2, 3, 4, 5])
     commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
     assert not commanded[run.t > 0.3, 5].any()
     frozen = (run.t > 1.7) & (run.t < 2.5)
     assert not commanded[frozen, 1].any() and commanded[(run.t > 2.5) & (run.t < 4.0), 1].any()
-    links = _statuses(bag, 'formation_control/vehicle_1/links')
-    cut = [t for t, v in links if '3' in v['gone_neighbours'].strip('[]').split(', ')]
-    assert cut and 3.5 <= min(cut) and max(cut) <= 5.5, links
-    assert int(links[-1][1]['dropped']) > 0 and '3' not in links[-1][1]['gone_neighbours']
+    for k, other in ((1, 3), (3, 1)):
+        log = (Path(out['logs']) / f'vehicle_{k}.log').read_text()
+        assert log.index(f'links cut: [{other}]') < log.index('links cut: []'), log
+        last = _statuses(bag, f'formation_control/vehicle_{k}/links')[-1][1]
+        assert int(last['dropped']) > 0 and str(other) not in last['gone_neighbours'], last
 
 
 def test_swarm_notes_dead_processes_restarts_them_and_applies_process_faults(tmp_path):

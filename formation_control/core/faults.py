@@ -201,7 +201,7 @@ class Schedule:
 
 def survivors_converged(run, members):
     """
-    Return whether the vehicles ``members`` reach the formation at the end of ``run``.
+    Return whether, and from when, the vehicles ``members`` reach the formation in ``run``.
 
     Parameters
     ----------
@@ -212,17 +212,21 @@ def survivors_converged(run, members):
 
     Returns
     -------
-    bool or None
-        :func:`metrics.converged` on the members' states alone, measured as a complete fleet
-        of their number (the survivors' own formation); None without members.
+    (bool or None, float or None)
+        :func:`metrics.converged` at the end on the members' states alone, measured as a
+        complete fleet of their number (the survivors' own formation), and
+        :func:`metrics.convergence_time` of that test over the run (s); (None, None) without
+        members.
 
     """
     rows = [k - 1 for k in members]
     if not rows:
-        return None
+        return None, None
     sub = resolve({**run.sc.to_dict(), 'num_vehicles': len(rows), 'graph': 'complete',
                    'graph_edges': [], 'graph_nu': 0.0, 'informed': [], 'pattern': 'none',
                    'pattern_form': 'auto', 'init_x': [], 'init_y': [], 'init_theta': [],
                    'init_omega': [], 'init_u': [], 'init_v': []})
-    snap = metrics.snapshot(Controller(sub), run.X[-1][:, rows], run.U[-1][:, rows])
-    return bool(metrics.converged(sub, snap))
+    ctrl = Controller(sub)
+    flags = [metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows]))
+             for X, U in zip(run.X, run.U)]
+    return bool(flags[-1]), metrics.convergence_time(run.t, flags)
