@@ -73,17 +73,20 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['storage_identifier'] == 'mcap'
     with AnyReader([bag]) as reader:
-        def read(topic):
-            return [reader.deserialize(raw, c.msgtype) for c, _, raw
+        def raw(topic):
+            return [(reader.deserialize(data, c.msgtype), bytes(data)) for c, _, data
                     in reader.messages([c for c in reader.connections if c.topic == topic])]
+
+        def read(topic):
+            return [m for m, _ in raw(topic)]
         for k in (1, 2, 3):
             for name in ('odom', 'cmd', 'formation_state'):
-                msgs = read(f'/vehicle_{k}/{name}')
+                msgs, data = zip(*raw(f'/vehicle_{k}/{name}'))
                 stamps = [itf.stamp_ns(m.header.stamp) for m in msgs]
                 assert stamps == sorted(stamps)
                 assert sorted(set(stamps)) == [n * 20_000_000 for n in range(steps)]
-                for m, before, s, s_before in zip(msgs[1:], msgs, stamps[1:], stamps):
-                    assert s != s_before or m == before     # a step asked again, sent unchanged
+                for d, before, s, s_before in zip(data[1:], data, stamps[1:], stamps):
+                    assert s != s_before or d == before     # a step asked again, sent unchanged
             assert len(read(f'/vehicle_{k}/flow')) == 1
         odom = read('/vehicle_2/odom')
     fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
@@ -171,28 +174,29 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     """
     Vehicle 6 killed before convergence, 2 frozen and resumed, the link 1-3 cut for 1.5 s.
 
-    The five converge without 6 (at 7 s; not the six) and the swarm exits 0; each fault is in
-    the summary and the bag at its fleet time.
+    The five converge without 6 (at about 7 s; not the six) and the swarm exits 0; each fault
+    is in the summary and the bag at its fleet time.
     """
     bag = tmp_path / 'bag'
-    args = [a for p in ('num_vehicles:=6', 'dt_control:=0.05', 'command_timeout:=1.0',
-                        'neighbor_timeout:=0.5') for a in ('-p', p)]
-    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '9',
+    args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05']
+    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '12',
                          '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
-    assert 'swarm: t = 0.20 s: vehicle_6 exited with -9 (SIGKILL) (fault kill:6@0.2)' in stderr
+    assert 'swarm: t = 0.20 s: kill vehicle 6 (kill:6@0.2)' in stderr
+    assert 'vehicle_6 exited with -9 (SIGKILL) (fault kill:6@0.2); the others carry on' in stderr
     assert [f['fault'] for f in out['faults']] == [*FAULTS, FAULTS[3]]
     assert all(abs(f['applied'] - f['scheduled']) < 0.1 for f in out['faults']), out['faults']
     assert _faults_in(bag) == out['faults']
     (lost,) = out['lost']
     assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
+    assert 0.2 <= lost['time'] < 1.0                    # its death is seen a few steps later
     assert out['survivors'] == [1, 2, 3, 4, 5]
     assert out['survivors_converged'] and not out['converged']
-    assert 2.0 < out['survivors_convergence_time'] < 9.0          # after the kill at 0.2 s
+    assert 2.0 < out['survivors_convergence_time'] < 12.0         # after the kill at 0.2 s
     run = simulator.load_run(Path(out['logs']) / 'run.npz')
     commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
     assert not commanded[run.t > 0.3, 5].any()
     frozen = (run.t > 1.7) & (run.t < 2.5)
-    assert not commanded[frozen, 1].any() and commanded[(run.t > 2.5) & (run.t < 4.0), 1].any()
+    assert not commanded[frozen, 1].any() and commanded[run.t > 2.5, 1].any()   # resumed
     for k, other in ((1, 3), (3, 1)):
         log = (Path(out['logs']) / f'vehicle_{k}.log').read_text()
         assert log.index(f'links cut: [{other}]') < log.index('links cut: []'), log
