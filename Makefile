@@ -6,8 +6,9 @@ STAMP := $(VENV)/.installed
 # Exact versions of everything `make setup` installs (the ROS 2 wheels too), so that a new
 # release upstream cannot change a fresh install or CI. Refreshed on purpose by `make upgrade`.
 CONSTRAINTS := constraints.txt
-# What is installed: the package with its ROS wheels and test/linter tools (setup.py's extras).
-EXTRAS := .[ros,test]
+# What is installed: the package with its ROS wheels, the Foxglove live view and test/linter
+# tools (setup.py's extras).
+EXTRAS := .[ros,view,test]
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 

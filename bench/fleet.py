@@ -85,7 +85,7 @@ def swarm(n, *args, domain, timeout=900):
 
 
 def rtf(args):
-    print(f'# lockstep, {SCENARIO}, dt_control 0.02 s, dt_integration 0.002 s, '
+    print(f'# lockstep, {SCENARIO}, dt_control 0.02 s, dt_integration 0.005 s, '
           f'{os.cpu_count()} cores, median of {args.repeat}')
     print(f"{'N':>4s} {'graph':>14s} {'d':>4s} {'per process':>11s} {'RTF':>7s} {'ms/step':>8s}"
           f" {'deliveries/step':>16s} {'us/delivery':>12s}")

@@ -16,8 +16,8 @@
 Measure the offline simulator's throughput on one core.
 
 A Stepper runs control periods, each one ``command()`` (every vehicle's command) then
-``advance()`` (``substeps`` RK4 steps of ``dt_integration`` with the command held; 10 steps of
-2 ms in the scenarios measured).
+``advance()`` (``substeps`` RK4 steps of ``dt_integration`` with the command held; 4 steps of
+5 ms in the scenarios measured).
 
 Two rates are printed, both dividing by the time of whole periods (command + integration):
 

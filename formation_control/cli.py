@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """
-Command line: ``formation-control sim | swarm | plot | report | params``.
+Command line: ``formation-control`` sim, swarm, plot, report, play, doctor, params, layout.
 
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
 process per vehicle + monitor); ``plot`` and ``report`` read a run back from a simulator/plant
-``.npz`` or a rosbag2 bag; ``params`` prints the table of scenario parameters
-(docs/parameters.md).
+``.npz`` or a rosbag2 bag; ``play`` republishes a bag; ``doctor`` checks a running fleet;
+``params`` prints the table of scenario parameters (docs/parameters.md); ``layout`` prints the
+Foxglove layout (foxglove/formation_control.json).
 """
 import argparse
 import json
@@ -109,6 +110,9 @@ def cmd_swarm(args):
     if args.vehicles_per_process < 1:
         raise scenario.ScenarioError(f'--vehicles-per-process {args.vehicles_per_process} is '
                                      f'invalid: must be >= 1')
+    if args.foxglove is not None and (args.no_monitor or not 0 < args.foxglove < 65536):
+        raise scenario.ScenarioError(f'--foxglove {args.foxglove} is invalid: a TCP port in '
+                                     f'1..65535, served by the monitor (not with --no-monitor)')
     sc = _load(args, node_params_allowed=True)
     note = swarm.environment_note()
     if note:
@@ -120,6 +124,7 @@ def cmd_swarm(args):
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
                                    monitor=not args.no_monitor, node_params=_split(args.param)[1],
                                    per_process=args.vehicles_per_process,
+                                   monitor_params=_live_view(args.foxglove),
                                    fault_script=args.fault, restart_dead=args.restart_dead)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
@@ -153,6 +158,15 @@ def _fault_lines(out):
     return lines
 
 
+def _live_view(port):
+    """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
+    if port is None:
+        return []
+    print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app (layout: '
+          f'formation-control layout)', file=sys.stderr)
+    return [f'foxglove_port:={port}']
+
+
 def load_source(path):
     """Return the run of a simulator/plant ``.npz`` or of a rosbag2 bag directory."""
     if Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists():
@@ -181,6 +195,50 @@ def cmd_report(args):
 
 def cmd_params(args):
     print(scenario.markdown() + node_parameters.markdown(), end='')
+    return 0
+
+
+def cmd_play(args):
+    from formation_control.playback import Bag, BagError, CLOCK_TOPIC
+    try:
+        if not args.rate > 0:
+            raise BagError(f'--rate {args.rate} is invalid: must be > 0')
+        bag = Bag(args.bag, args.topics, skip=(CLOCK_TOPIC,) if args.clock else ())
+    except BagError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 2
+    from formation_control.ros.player import PlayerNode
+    from formation_control.ros.runner import run
+    nodes = []
+
+    def make(context):
+        nodes.append(PlayerNode(bag, args.rate, args.clock, args.loop,
+                                args.wait_for_subscribers, context=context))
+        return nodes[0]
+    code = run(make, args.ros_args)
+    error = nodes[0].error if nodes else None
+    if error is not None:
+        print(f'error: {error}', file=sys.stderr)
+        return 1
+    return code
+
+
+def cmd_doctor(args):
+    from formation_control.doctor import exit_status, format_report
+    from formation_control.ros.doctor import run
+    facts, findings = run(args.namespace, args.listen, args.discover)
+    print(format_report(facts, findings), end='')
+    return exit_status(findings)
+
+
+def cmd_layout(args):
+    from formation_control.layout import layout_json
+    text = layout_json()
+    if args.out:
+        Path(args.out).write_text(text)
+        print(f'wrote {args.out}')
+    else:
+        print(text, end='')
     return 0
 
 
@@ -214,6 +272,9 @@ def build_parser():
     swarm.add_argument('--vehicles-per-process', type=int, default=1, metavar='M',
                        help='run M vehicle nodes per process (still one node per vehicle, '
                             'talking through topics only)')
+    swarm.add_argument('--foxglove', type=int, metavar='PORT',
+                       help="serve a Foxglove live view on this port (the monitor's "
+                            'foxglove_port)')
     swarm.add_argument('--no-monitor', action='store_true',
                        help='do not start the monitor node (no metrics or diagnostics)')
     swarm.add_argument('--fault', action='append', default=[], metavar='FAULT',
@@ -236,11 +297,44 @@ def build_parser():
     params = sub.add_parser('params', help='print the table of scenario parameters (Markdown, '
                                            'docs/parameters.md)')
     params.set_defaults(func=cmd_params)
+    play = sub.add_parser('play', help='republish a rosbag2 bag with its recorded QoS, like '
+                                       '`ros2 bag play`',
+                          epilog='Arguments after --ros-args go to the player node (e.g. '
+                                 'remappings: --ros-args -r /clock:=/other_clock).')
+    play.add_argument('bag', help='the bag directory (any rosbag2 bag: MCAP or sqlite3)')
+    play.add_argument('--rate', type=float, default=1.0,
+                      help='recorded seconds per wall second (default 1)')
+    play.add_argument('--clock', action='store_true',
+                      help='publish /clock with the recorded time being played (for nodes '
+                           "with use_sim_time); the bag's own /clock is not replayed")
+    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='replay these topics only')
+    play.add_argument('--loop', action='store_true', help='start again at the end, until SIGINT')
+    play.add_argument('--wait-for-subscribers', action='store_true',
+                      help='hold the start until every replayed topic has a subscriber')
+    play.set_defaults(func=cmd_play)
+    doc = sub.add_parser('doctor', help='join the domain and report what keeps a fleet from '
+                                        'working (exit 1 if anything)')
+    doc.add_argument('--namespace', default='/', help="the fleet's namespace (default /)")
+    doc.add_argument('--listen', type=float, default=2.0,
+                     help='seconds to listen to the formation states (default 2)')
+    doc.add_argument('--discover', type=float, default=5.0,
+                     help="seconds to wait for the plant's scenario (default 5)")
+    doc.set_defaults(func=cmd_doctor)
+    lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
+                                        'foxglove/formation_control.json)')
+    lay.add_argument('--out', help='write it to this file instead')
+    lay.set_defaults(func=cmd_layout)
     return parser
 
 
 def main(argv=None):
-    args = build_parser().parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    cut = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv[:cut])
+    args.ros_args = argv[cut:]
+    if args.ros_args and args.command != 'play':
+        parser.error('--ros-args: only play takes them (swarm: -p NAME:=VALUE)')
     try:
         return args.func(args)
     except scenario.ScenarioError as err:

@@ -31,9 +31,6 @@ import time
 from formation_control.core import faults, simulator
 import yaml
 
-MONITOR_TOPICS = ('/formation/metrics',)
-
-
 RECORDED_DEPTH = 500
 """With a bag: the history of the odometry, state and command writers (samples; 10 s at
 50 Hz). DDS matches a writer to the recorder's reader on each side in its own time; a writer
@@ -117,7 +114,7 @@ class Swarm:
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None, restart_dead=None):
+                 env=None, monitor_params=(), restart_dead=None):
         self.sc, self.mode = sc, mode
         self.place, self.env = place or (lambda name: []), env
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
@@ -145,7 +142,8 @@ class Swarm:
             self.members.append(tuple(group))
         if monitor:
             self.commands.append([executable('monitor'), '--ros-args', '-p',
-                                  f'use_sim_time:={str(mode == "lockstep").lower()}'])
+                                  f'use_sim_time:={str(mode == "lockstep").lower()}',
+                                  *(a for p in monitor_params for a in ('-p', p))])
             self.logs.append('monitor.log')
             self.members.append(())
         self.names = [log[:-4] for log in self.logs]
@@ -344,7 +342,8 @@ class Supervisor:
         self.params = {}
         self.recorder = None
         if bag is not None:
-            topics = [t for t in fleet_topics(n) if monitor or t[0] not in MONITOR_TOPICS]
+            topics = [t for t in fleet_topics(n)
+                      if monitor or t[0] not in (itf.METRICS_TOPIC, itf.MARKERS_TOPIC)]
             topics.append((itf.FAULTS_TOPIC, 'std_msgs/msg/String', itf.FAULTS_QOS))
             self.topics = [t for t, _, _ in topics if mode == 'lockstep' or t != '/clock']
             self.recorder = BagRecorder(str(bag), topics, context=self.context,
@@ -417,10 +416,11 @@ class Supervisor:
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
               monitor=True, node_params=(), per_process=1, place=None, env=None,
-              fault_script=(), restart_dead=None):
+              monitor_params=(), fault_script=(), restart_dead=None):
     """
     Run a fleet as processes; return (run, summary). Every process is stopped on exit.
 
+    ``monitor_params`` (``name:=value``) go to the monitor only (``foxglove_port``).
     ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
     ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
     ``env`` replaces the environment of every process. ``fault_script`` lists the faults
@@ -434,7 +434,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     supervisor = Supervisor(sc.num_vehicles, mode, bag, monitor)
     try:
         with Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
-                   per_process, place, env, restart_dead) as swarm:
+                   per_process, place, env, monitor_params, restart_dead) as swarm:
             wait_plant(swarm, timeout, supervisor, schedule)
     finally:
         supervisor.close()

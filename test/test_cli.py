@@ -24,6 +24,9 @@ import struct
 import subprocess
 import sys
 
+from formation_control.core import simulator
+from formation_control.core.control import Controller
+from formation_control.core.models import ROW_OMEGA, ROW_U, ROW_V
 from formation_control.core.scenario import initial_state, load, resolve
 import numpy as np
 import pytest
@@ -81,7 +84,7 @@ def rigid_run(tmp_path_factory):
     cwd = tmp_path_factory.mktemp('rigid')
     proc = run_cli(cwd, 'sim', CONFIG / 'rigid_parallel.yaml', '--duration', '5', '--out',
                    'rigid.npz', '--plot', 'rigid.png', '-p', 'num_vehicles:=3', '-p',
-                   'I0:=0.25')
+                   'I0:=0.25', '-p', 'record_dt:=0.02')
     return cwd, proc
 
 
@@ -183,14 +186,18 @@ def test_rigid_npz_has_thrust_and_steering_force(rigid_run):
     assert (params['model'], params['num_vehicles'], params['duration'], params['I0']) == (
         'rigid', 3, 5.0, 0.25)
     for key in ('T', 'F', *STATE_KEYS):
-        assert arrays[key].shape == (51, 3), key
+        assert arrays[key].shape == (251, 3), key
         assert np.all(np.isfinite(arrays[key])), key
-    u, v, w = arrays['u'], arrays['v'], arrays['omega']
-    thrust = (params['h'] * np.hypot(u, v) * u - params['m0'] * v * w
-              + params['m0'] * params['K_f'] * (params['u0'] - u))
-    np.testing.assert_allclose(arrays['T'], thrust, atol=1e-12)
+    run = simulator.load_run(cwd / 'rigid.npz')             # every period: T (7.1) is for the
+    ctrl = Controller(run.sc)                               # state predicted to mid-hold
+    for n in range(1, 251):
+        X = ctrl.predict(run.X[n], run.U[n - 1])
+        u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
+        thrust = (params['h'] * np.hypot(u, v) * u - params['m0'] * v * w
+                  + params['m0'] * params['K_f'] * (params['u0'] - u))
+        np.testing.assert_allclose(run.U[n, 0], thrust, atol=1e-12)
     assert np.any(arrays['F'] != 0)
-    assert np.all(u > 0)
+    assert np.all(arrays['u'] > 0)
     assert (cwd / 'rigid.png').read_bytes().startswith(b'\x89PNG\r\n\x1a\n')
 
 

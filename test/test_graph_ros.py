@@ -63,7 +63,7 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
     """Vehicle 1 of a ring hears 2 and 12; 12 says it does not hear 1: 1 commands without 12."""
     cfg = CONFIG / 'particle_circular_ring.yaml'
     sc = scenario.load(cfg)
-    node = nodes.vehicle(1, cfg)
+    node = nodes.vehicle(1, cfg, 'hold_prediction:=none')   # its command of the sampled state
     cmds = nodes.collect(WrenchStamped, itf.topic(1, 'cmd'), itf.STATE_QOS)
     X = scenario.initial_state(sc)
     pubs = {j: nodes.node.create_publisher(JointState, itf.topic(j, 'formation_state'),

@@ -16,6 +16,7 @@
 from formation_control.core import links, lockstep, scenario, simulator
 from formation_control.core.control import Controller
 from formation_control.core.fleet import FleetPlant
+from formation_control.core.laws import View
 from formation_control.core.lockstep import FRESH, REPEATED, STALE
 from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.onboard import Onboard
@@ -205,6 +206,7 @@ def test_view_of_the_members_is_the_controllers_view_of_that_subfleet(clock):
     X = scenario.initial_state(sc)
     full = ctrl.view(X)
     table = NeighbourTable(5, own=4, timeout=1.0, clock=clock)
+    table.odometry(0)
     for j in range(1, 6):
         i = j - 1
         table.store(j, 0, (full.r[i], full.phase[i], full.rate[i], full.speed[i]))
@@ -217,6 +219,21 @@ def test_view_of_the_members_is_the_controllers_view_of_that_subfleet(clock):
     assert view.speed_dot[own] == sub.speed_dot[own]
     np.testing.assert_array_equal(ctrl.command(view, X[:, [3]], [own], members=members),
                                   ctrl.command(sub, X[:, [3]], [own], members=members))
+
+
+def test_real_time_neighbour_sampled_earlier_is_carried_along_its_arc_to_the_own_stamp(clock):
+    table = NeighbourTable(2, own=2, timeout=1.0, clock=clock, lockstep=False)
+    speed, rate, tau = 1.2, 0.8, 0.015                     # a circle of radius 1.5 m
+    centre, phase = 1.0 + 2.0j, 0.3
+    on_circle = centre - 1j * speed / rate * np.exp(1j * phase)
+    table.odometry(15_000_000)
+    table.store(2, 15_000_000, (0j, 0.0, 0.0, 1.0))
+    table.hear(1, 0, (on_circle, phase, rate, speed))
+    view, own = table.view(np.array([True, True]), 0.0)
+    later = centre - 1j * speed / rate * np.exp(1j * (phase + rate * tau))
+    assert abs(view.r[0] - later) < 1e-12
+    assert view.phase[0] == pytest.approx(phase + rate * tau, abs=1e-15)
+    assert (view.r[1], view.phase[1]) == (0j, 0.0)          # its own, at the stamp already
 
 
 def test_inbox_drops_delays_and_limits_range_and_counts_each(clock):
@@ -248,16 +265,17 @@ def test_the_plants_fleet_loop_is_the_offline_simulator(name):
     sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=4', 'duration:=1.0',
                                                  'informed:=[1, 3]'], seed=3)
     fleet = FleetPlant(sc)
-    ctrls = [Controller(sc) for _ in range(4)]
-    held = np.zeros(4)
+    onboards = [Onboard(sc) for _ in range(4)]
+    everyone = np.ones(4, bool)
     while True:
-        X = fleet.X.copy()
-        for i, ctrl in enumerate(ctrls):
-            view = ctrl.view(X, held)
-            fleet.set_command(i, ctrl.command(view, X[:, [i]], [i])[:, 0])
+        rows = [onboard.observe(fleet.X[:, i]) for i, onboard in enumerate(onboards)]
+        r, phase, rate, speed = map(np.array, zip(*rows))
+        for i, onboard in enumerate(onboards):
+            s_dot = np.where(np.arange(4) == i, onboard.speed_dot, 0.0)
+            view = View(r, phase, rate, speed, s_dot)
+            fleet.set_command(i, onboard.command(view, i, everyone)[0])
         if not fleet.hold(np.zeros(4, bool), True):
             break
-        held = fleet.pending[1].copy()
         assert fleet.integrate().size == 0
         fleet.n += 1
     run, ref = fleet.run({}), simulator.simulate(sc)
@@ -296,9 +314,9 @@ def test_the_fleet_run_ends_after_its_last_period():
 def test_onboard_controller_commands_as_the_fleet_controller_does(name, clock):
     """A vehicle's Onboard, fed its own state and its neighbours' rows, equals the simulator."""
     sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=4', 'informed:=[2]'], seed=5)
-    X = scenario.initial_state(sc)
-    fleet = Controller(sc)
-    expected = fleet.command(fleet.view(X), X)
+    stepper = simulator.Stepper(sc)
+    X = stepper.X.copy()
+    expected = stepper.command()
     table = NeighbourTable(4, own=3, timeout=1.0, clock=clock)
     onboards = [Onboard(sc) for _ in range(4)]
     for j, onboard in enumerate(onboards, start=1):

@@ -334,8 +334,9 @@ def _vehicle_1_of_two(nodes, *params):
 def test_vehicle_hears_a_neighbour_only_after_the_injected_delay(nodes):
     """Real time: until the delay has passed, the vehicle commands as if it were alone."""
     delay = 0.5
-    odom, state, cmds = _vehicle_1_of_two(nodes, 'mode:=realtime', f'delay:={delay}')
-    sc = scenario.load(PARTICLE, ['num_vehicles:=2'])
+    odom, state, cmds = _vehicle_1_of_two(nodes, 'mode:=realtime', f'delay:={delay}',
+                                          'hold_prediction:=none')   # of the sampled state
+    sc = scenario.load(PARTICLE, ['num_vehicles:=2', 'hold_prediction:=none'])
     X = np.array([[0.5, 1.0], [-1.0, 2.0], [0.2, 0.3], [0.0, 0.2], [1.0, 1.0], [0.0, 0.0]])
     alone = Controller(scenario.resolve({**sc.to_dict(), 'num_vehicles': 1})).command(
         Controller(sc).view(X[:, [0]]), X[:, [0]])[1, 0]

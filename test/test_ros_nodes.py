@@ -25,6 +25,7 @@ import re
 
 from formation_control.core import scenario
 from formation_control.core.control import Controller
+from formation_control.core.laws import View
 from formation_control.core.scenario import initial_state, ScenarioError
 from formation_control.ros import interface as itf
 from geometry_msgs.msg import Vector3Stamped, WrenchStamped
@@ -102,7 +103,7 @@ def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(nodes
     assert nodes.spin_until(lambda: all(len(msgs) > 5 for msgs in odom.values()))
     sc = scenario.load(PARTICLE)
     period, step = (round(dt * 1e9) for dt in (sc.dt_control, sc.dt_integration))
-    assert sc.substeps == 10
+    assert sc.substeps == 4
     stamps = {k: np.array([itf.stamp_ns(m.header.stamp) for m in msgs])
               for k, msgs in odom.items()}
     start = stamps[1][0]
@@ -140,16 +141,21 @@ def test_vehicle_answers_its_neighbours_with_state_and_command(nodes):
     sc = scenario.load(PARTICLE, ['num_vehicles:=2'])
     ctrl = Controller(sc)
     X = np.array([[0.5, -1.0], [1.0, 2.0], [0.3, 2.5], [0.2, -0.4], [1.0, 1.0], [0.0, 0.0]])
-    view = ctrl.view(X)
-    expected = ctrl.command(view, X[:, [0]], [0])
+    sent = ctrl.view(X[:, [1]])
+    own = ctrl.predict(X[:, [0]], np.zeros((2, 1)))      # half a period on, nothing held yet
+    mine = ctrl.view(own)
+    view = View(*(np.r_[getattr(mine, name), getattr(sent, name)]
+                  for name in ('r', 'phase', 'rate', 'speed')), np.r_[mine.speed_dot, 0.0])
+    expected = ctrl.command(view, own, [0])
     ns = 400_000_000
-    state_pub.publish(itf.state_msg(2, ns, X[:, 1], (view.r[1], view.phase[1], view.rate[1],
-                                                     view.speed[1])))
+    state_pub.publish(itf.state_msg(2, ns, X[:, 1], (sent.r[0], sent.phase[0], sent.rate[0],
+                                                     sent.speed[0])))
     odom_pub.publish(itf.odom_msg(1, ns, X[:, 0], 0j))
     assert nodes.spin_until(lambda: cmds and states)
     assert list(states[0].name) == list(itf.STATE_FIELDS)
-    np.testing.assert_allclose(states[0].position, [0.5, 1.0, 0.3, 0.2, 0.3, 0.2, 1.0],
-                               atol=1e-12)
+    heading = 0.3 + 0.2 * sc.dt_control / 2
+    np.testing.assert_allclose(states[0].position, [mine.r[0].real, mine.r[0].imag, heading,
+                                                    0.2, heading, 0.2, 1.0], atol=1e-12)
     assert itf.stamp_ns(cmds[0].header.stamp) == ns
     assert cmds[0].header.frame_id == 'vehicle_1/base_link'
     assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)

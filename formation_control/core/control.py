@@ -24,7 +24,8 @@ from dataclasses import replace
 from formation_control.core import laws
 from formation_control.core.geometry import inner
 from formation_control.core.models import (body_accel, ground_velocity, Plant, position,
-                                           RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V)
+                                           RIGID_MODELS, rk4_step, ROW_OMEGA, ROW_THETA, ROW_U,
+                                           ROW_V)
 from formation_control.core.scenario import uses_held_force
 import numpy as np
 
@@ -336,6 +337,34 @@ class Controller:
         if not self.rigid:
             return np.zeros(X.shape[1])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
+
+    def predict(self, X, U_held, delay=0.0):
+        """
+        Return the state a command is computed for: ``X`` predicted to the middle of its hold.
+
+        Parameters
+        ----------
+        X : array_like, shape (6, n)
+            The sampled states.
+        U_held : array_like, shape (2, n)
+            The inputs held until the new command acts (the previous command).
+        delay : float, optional
+            Seconds from the sample to the time the new command acts (real time: the delay a
+            vehicle measures); 0 in lockstep and offline.
+
+        Returns
+        -------
+        ndarray, shape (6, n)
+            One RK4 step of the model over ``delay + sc.command_lead`` (errata, sampled-data
+            laws): a command held over ``[t, t + h]`` and computed for the state at
+            ``t + h/2`` makes each period a midpoint-rule step of the continuous closed loop,
+            whose error is of order h^2 instead of the zero-order hold's h. ``X`` itself,
+            whatever the delay, when ``hold_prediction`` is none.
+
+        """
+        if self.sc.hold_prediction == 'none':
+            return np.array(X, float)
+        return rk4_step(X, U_held, delay + self.sc.command_lead, self.plant)
 
     def view(self, X, F_held=None):
         """

@@ -64,6 +64,21 @@ class View:
         """(N,) complex unit vectors ``e_k = e^{i phase_k}``."""
         return np.exp(1j * self.phase)
 
+    def ahead(self, tau):
+        """
+        Return the view ``tau`` (N,) seconds later, at constant phase rate and speed.
+
+        ``phase + rate tau`` and ``r + s e^{i phase} (e^{i rate tau} - 1) / (i rate)``, the arc
+        each vehicle is on (``r + s e^{i phase} tau`` at zero rate), to ``O(tau^2)`` in the
+        phase and speed changes; a vehicle with ``tau = 0`` is left exactly as it is.
+        """
+        tau = np.asarray(tau, float)
+        turn = self.rate * tau
+        small = abs(turn) < 1e-8
+        arc = np.where(small, tau, np.expm1(1j * turn) / (1j * np.where(small, 1.0, self.rate)))
+        return View(self.r + self.speed * self.e * arc, self.phase + turn, self.rate,
+                    self.speed + self.speed_dot * tau, self.speed_dot)
+
 
 @dataclass(frozen=True)
 class Coupling:

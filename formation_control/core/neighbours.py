@@ -56,6 +56,9 @@ class NeighbourTable:
         Lockstep (wait for every neighbour's state of the step) or real time.
     neighbours : iterable of int, optional
         The ids this vehicle hears on the communication graph; every other vehicle by default.
+    carry : bool, optional
+        Carry the states of neighbours sampled earlier forward to this vehicle's stamp
+        (:meth:`view`); off for the plain zero-order hold (``hold_prediction: none``).
 
     Attributes
     ----------
@@ -70,8 +73,9 @@ class NeighbourTable:
 
     """
 
-    def __init__(self, n, own, timeout, clock, lockstep=True, neighbours=None):
+    def __init__(self, n, own, timeout, clock, lockstep=True, neighbours=None, carry=True):
         self.own = own - 1
+        self.carry = carry
         self.linked = np.ones(n, bool)
         if neighbours is not None:
             self.linked[:] = False
@@ -216,6 +220,11 @@ class NeighbourTable:
             This vehicle's own s' (m/s^2); the neighbours' are taken as 0 (the laws use s' of
             the commanded vehicle only).
 
+        A neighbour's state stamped earlier than this vehicle's odometry (real time: each
+        vehicle samples in its own slot of the period) is carried forward to the odometry's
+        stamp along its arc, from the rate and speed it sent (:meth:`laws.View.ahead`); in
+        lockstep every state answers the step, so none is.
+
         Returns
         -------
         (laws.View, int)
@@ -225,4 +234,8 @@ class NeighbourTable:
         s_dot = np.zeros(np.count_nonzero(members))
         s_dot[own] = speed_dot
         phase, rate, speed = self.table[:, members]
-        return View(self.r[members], phase, rate, speed, s_dot), own
+        view = View(self.r[members], phase, rate, speed, s_dot)
+        behind = self.odom_ns - self.stamp[members]
+        if not (self.carry and behind.any()):
+            return view, own
+        return view.ahead(1e-9 * behind), own

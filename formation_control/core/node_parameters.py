@@ -68,6 +68,11 @@ MONITOR = {
                                  high=60.0)),
     'trail_length': (300, Spec('', "points of each vehicle's trail marker", low=2,
                                high=100_000)),
+    'foxglove_port': (0, Spec('', 'TCP port of the Foxglove live view (a Foxglove WebSocket '
+                              'server: scene, metrics, diagnostics); 0 = off', low=0,
+                              high=65535)),
+    'foxglove_host': ('127.0.0.1', Spec('', 'address the Foxglove live view listens on '
+                                        '(0.0.0.0: every interface)')),
 }
 """``monitor``."""
 

@@ -30,18 +30,20 @@ class Onboard:
     Attributes
     ----------
     X : (6, 1) float or None
-        The vehicle's latest state (None before its first odometry).
-    F_held : (1,) float
-        The steering force (or turn input) it holds, which the full law's view reads.
+        The state its next command is computed for: its latest sampled state predicted to the
+        middle of the hold (:meth:`control.Controller.predict`); None before its first odometry.
+    U_held : (2, 1) float
+        The input it holds (its last command), which the prediction and the full law's view
+        read.
     speed_dot : float
-        Its own s' (m/s^2) at the latest state.
+        Its own s' (m/s^2) at :attr:`X`.
 
     """
 
     def __init__(self, sc):
         self.ctrl = Controller(sc)
         self.X = None
-        self.F_held = np.zeros(1)
+        self.U_held = np.zeros((2, 1))
         self.speed_dot = 0.0
 
     def retune(self, sc):
@@ -50,23 +52,26 @@ class Onboard:
         self.ctrl = Controller(sc)
         self.ctrl.integral = integral
 
-    def observe(self, X):
+    def observe(self, X, delay=0.0):
         """
-        Note the vehicle's state and return what it tells its neighbours.
+        Note the vehicle's sampled state and return what it tells its neighbours.
 
         Parameters
         ----------
         X : (6,) float
             State x, y, theta, omega, u, v (m, m, rad, rad/s, m/s, m/s).
+        delay : float, optional
+            Seconds from the sample to the time its command acts (real time); 0 in lockstep.
 
         Returns
         -------
         tuple
-            ``(r, phase, rate, speed)`` of its particle view (complex m, rad, rad/s, m/s).
+            ``(r, phase, rate, speed)`` of its particle view at :attr:`X` (complex m, rad,
+            rad/s, m/s).
 
         """
-        self.X = np.asarray(X, float)[:, None]
-        view = self.ctrl.view(self.X, self.F_held)
+        self.X = self.ctrl.predict(np.asarray(X, float)[:, None], self.U_held, delay)
+        view = self.ctrl.view(self.X, self.U_held[1])
         self.speed_dot = float(view.speed_dot[0])
         return view.r[0], view.phase[0], view.rate[0], view.speed[0]
 
@@ -91,5 +96,5 @@ class Onboard:
 
         """
         U = self.ctrl.command(view, self.X, [own], members=members)
-        self.F_held = U[1].copy()
+        self.U_held = U.copy()
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

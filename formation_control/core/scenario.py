@@ -34,6 +34,7 @@ FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
 LAW_VARIANTS = ('practical', 'full')
 PATTERNS = ('none', 'splay', 'symmetric')
+HOLD_PREDICTIONS = ('midpoint', 'none')
 PATTERN_GAIN = 0.5
 """Default K_m (rad/s) of the symmetric patterns (README, "Symmetric patterns")."""
 PATTERN_GAIN_M = 0.1
@@ -218,8 +219,12 @@ class Scenario:
     seed: int = _param(0, '', 'random seed of the initial state', low=0)
     dt_control: float = _param(0.02, 's', 'control period: each command is held this long',
                                **_POSITIVE)
-    dt_integration: float = _param(0.002, 's', 'RK4 integration step', rule='divides '
+    dt_integration: float = _param(0.005, 's', 'RK4 integration step', rule='divides '
                                    'dt_control into a whole number of steps', **_POSITIVE)
+    hold_prediction: str = _param(
+        'midpoint', '', 'the state each held command is computed for: midpoint (predicted to '
+        'the middle of its hold, errors of order dt_control^2) or none (the sampled state, the '
+        "thesis' zero-order hold, errors of order dt_control)", choices=HOLD_PREDICTIONS)
     duration: float = _param(60.0, 's', 'length of the run',
                              rule='a whole number of dt_control', **_POSITIVE)
     record_dt: float = _param(0.1, 's', 'recording period (simulator, plant and bags)',
@@ -299,6 +304,11 @@ class Scenario:
     def substeps(self):
         """Integration steps in one control period, ``dt_control / dt_integration``."""
         return int(round(self.dt_control / self.dt_integration))
+
+    @property
+    def command_lead(self):
+        """How far ahead of its sample a command's state is predicted (s): half a period or 0."""
+        return 0.5 * self.dt_control if self.hold_prediction == 'midpoint' else 0.0
 
     @property
     def periods(self):
@@ -774,8 +784,9 @@ def initial_state(sc):
     return X
 
 
-PLANT_ONLY = ('seed', 'duration', 'record_dt', 'init_box') + INIT_ARRAYS
-"""Parameters only the plant uses (the initial state, the run's length and record)."""
+PLANT_ONLY = ('seed', 'duration', 'record_dt', 'dt_integration', 'init_box') + INIT_ARRAYS
+"""Parameters only the plant uses (the initial state, the integration, the run's length and
+record): a vehicle may differ there (``formation-control doctor`` notes it)."""
 
 
 def differences(mine, theirs):

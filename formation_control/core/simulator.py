@@ -16,7 +16,8 @@
 Offline simulator: the sampled-data loop the ROS plant runs too.
 
 Each control period every vehicle's command is computed from the state at the start of the
-period and held while RK4 integrates the plant over ``dt_control / dt_integration`` steps.
+period, predicted to the middle of the hold (``hold_prediction``), and held while RK4 integrates
+the plant over ``dt_control / dt_integration`` steps.
 """
 from dataclasses import dataclass, field
 import json
@@ -146,8 +147,14 @@ class Stepper:
         return self.U
 
     def command(self):
-        """Compute every vehicle's command from the current state, hold and return it (2, N)."""
-        return self.hold(self.ctrl.command(self.ctrl.view(self.X, self.U[1]), self.X))
+        """
+        Compute every vehicle's command, hold and return it (2, N).
+
+        It is computed for the state :meth:`control.Controller.predict` gives from the current
+        state and the inputs held so far, as each vehicle node computes its own.
+        """
+        X = self.ctrl.predict(self.X, self.U)
+        return self.hold(self.ctrl.command(self.ctrl.view(X, self.U[1]), X))
 
     def advance(self, steps=None):
         """

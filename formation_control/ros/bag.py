@@ -33,7 +33,8 @@ def fleet_topics(n):
     topics = [('/clock', 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
               (itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
-              (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS)]
+              (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS),
+              (itf.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray', itf.STREAM_QOS)]
     for k in range(1, n + 1):
         topics += [(itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
                    (itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),
@@ -58,10 +59,14 @@ def _record_qos(qos):
                       reliability=qos.reliability, durability=qos.durability)
 
 
-def _msg_class(type_name):
+def msg_class(type_name):
+    """Return the Python class of a ROS message type ``pkg/msg/Name`` (ImportError if none)."""
     package, _, name = type_name.split('/')
     module = __import__(f'{package}.msg', fromlist=[name])
-    return getattr(module, name)
+    try:
+        return getattr(module, name)
+    except AttributeError:
+        raise ImportError(f'no message {type_name} in the installed {package}') from None
 
 
 class BagRecorder(Node):
@@ -78,7 +83,7 @@ class BagRecorder(Node):
             conn = self.writer.add_connection(name, type_name, typestore=typestore,
                                               offered_qos_profiles=[bag_qos(qos)])
             self.readers[name] = self.create_subscription(
-                _msg_class(type_name), name, lambda data, conn=conn: self._write(conn, data),
+                msg_class(type_name), name, lambda data, conn=conn: self._write(conn, data),
                 _record_qos(qos), raw=True)
 
     def _write(self, conn, data):

@@ -76,10 +76,11 @@ def diagnostics_publisher(node):
 
 
 def publish_diagnostics(node, publisher, statuses):
-    """Publish ``statuses`` as one DiagnosticArray stamped with the node's clock."""
+    """Publish ``statuses`` as one DiagnosticArray stamped with the node's clock; return it."""
     msg = DiagnosticArray(status=list(statuses))
     msg.header.stamp = node.get_clock().now().to_msg()
     publisher.publish(msg)
+    return msg
 
 
 class Latencies:

@@ -35,7 +35,7 @@ Fleet-wide: ``/formation/scenario`` (std_msgs/String, latched: the plant's scena
 ``/formation/metrics`` (sensor_msgs/JointState: :data:`METRIC_DOC` names in ``name``, values
 in ``position``), ``/diagnostics`` and ``/formation/markers`` (from the ``monitor`` node).
 
-Every stamp is the time of the state it carries; in lockstep it names the step.
+Every stamp is the time of the sample a message comes from; in lockstep it names the step.
 """
 import copy
 import math
@@ -60,6 +60,8 @@ METRICS_TOPIC = '/formation/metrics'
 FAULTS_TOPIC = '/formation/faults'
 """swarm: each scripted fault as it is applied (std_msgs/String, JSON; :data:`FAULTS_QOS`)."""
 MARKERS_TOPIC = '/formation/markers'
+SCENE_TOPIC = '/formation/scene'
+"""The Foxglove live view's SceneUpdate channel (not a ROS topic)."""
 STALL = 3.0
 """Lockstep: after this many wall seconds without progress, a node says what it waits for."""
 METRIC_DOC = {
@@ -83,8 +85,10 @@ METRIC_DOC = {
                               'recently and their live links); 0 = disconnected',
 }
 STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
-"""formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s);
-on a communication graph other than the complete one, ``hears_j`` follows for each graph
+"""formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s) of
+the state the sender computes its command for: its odometry of the stamp predicted to the middle
+of the command's hold (``hold_prediction``; in real time also over its measured delay). On a
+communication graph other than the complete one, ``hears_j`` follows for each graph
 neighbour j of the sender: 1 while it hears j, else 0 (:func:`state_names`)."""
 
 

@@ -24,7 +24,10 @@ odometry, command and formation state, and publishes
 - ``/diagnostics``: one status per vehicle (stale odometry, command or formation state, saturated
   command, not converging) and one for the formation ("converged" with the time it took),
   every ``diagnostics_period`` wall seconds and whenever the formation's status changes;
-- ``/formation/markers`` for RViz, every ``markers_period`` wall seconds while subscribed.
+- ``/formation/markers`` for RViz, every ``markers_period`` wall seconds while subscribed;
+- with ``foxglove_port``, a Foxglove live view of the same (:mod:`formation_control.ros.live`):
+  the scene every ``markers_period`` while a client subscribes, every metrics sample, every
+  ``/diagnostics``.
 
 Times in the reports count from the first step the monitor heard.
 """
@@ -34,7 +37,7 @@ import sys
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core import graphs, laws, metrics
 from formation_control.core.control import Controller
-from formation_control.core.models import ground_velocity, position
+from formation_control.core.models import ground_velocity, position, ROW_THETA
 from formation_control.core.node_parameters import MONITOR
 from formation_control.core.scenario import resolve, ScenarioError
 from formation_control.ros import common, markers, parameters
@@ -43,7 +46,7 @@ from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.node import Node
-from rclpy.serialization import deserialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -70,6 +73,12 @@ class MonitorNode(Node):
                                         ('malformed', 'non_finite', 'wrong_frame'))
         self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
         self.diag_pub = common.diagnostics_publisher(self)
+        self.live = None
+        if self.p['foxglove_port']:
+            from formation_control.ros.live import LiveView
+            self.live = LiveView(self, self.p['foxglove_host'], self.p['foxglove_port'])
+            self.get_logger().info(f"Foxglove live view on ws://{self.p['foxglove_host']}:"
+                                   f'{self.live.port}')
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
                           clock=self.wall)
         self.get_logger().info(f"waiting for the fleet's scenario on {itf.SCENARIO_TOPIC}")
@@ -177,6 +186,9 @@ class MonitorNode(Node):
         self.values = {**snap.values(), 'live_links': float(len(live)),
                        'algebraic_connectivity': graphs.connectivity(fresh, live)}
         self.metrics_pub.publish(itf.metrics_msg(ns, self.values))
+        if self.live is not None:
+            self.live.log_metrics(ns, self.values)
+        self.shown = ns, self.X.copy(), self.U.copy()
         self.trails[self.samples % len(self.trails)] = position(self.X)
         self.samples += 1
         self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(self.X, self.U[1]))
@@ -233,26 +245,43 @@ class MonitorNode(Node):
             now = self.now()
             statuses = [self._formation_status()] + [
                 self._vehicle_status(i, now) for i in range(self.sc.num_vehicles)]
-        common.publish_diagnostics(self, self.diag_pub, statuses)
+        msg = common.publish_diagnostics(self, self.diag_pub, statuses)
+        if self.live is not None:
+            self.live.log_diagnostics(itf.stamp_ns(msg.header.stamp), serialize_message(msg))
 
-    def publish_markers(self):
-        if self.samples == 0 or self.markers_pub.get_subscription_count() == 0:
-            return
-        X, sc = self.X, self.sc
+    def _picture(self):
+        """Return the last sample's state, stamp, trails, velocities, centres and c0."""
+        (ns, X, U), sc = self.shown, self.sc
         count = min(self.samples, len(self.trails))
         order = (np.arange(count) + self.samples - count) % len(self.trails)
-        trails = self.trails[order].T
-        ground = None
-        if sc.flow_c != 0:
-            ground = ground_velocity(X, sc.flow_c)
+        ground = ground_velocity(X, sc.flow_c) if sc.flow_c != 0 else None
         centres = target = None
         if isinstance(self.ctrl.formation, laws.Circular):
-            centres = self.ctrl.formation.centres(self.ctrl.view(X, self.U[1]))
+            centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1]))
             target = sc.c0_c if sc.informed else None
-        ns = self.t0_ns + int(round(self.t * 1e9))
-        msg = markers.fleet_markers(ns, X, ground, trails, centres, target)
-        msg.markers.append(markers.link_marker(ns, position(X), self.live_graph()[1]))
-        self.markers_pub.publish(msg)
+        return X, ns, self.trails[order].T, ground, centres, target
+
+    def publish_markers(self):
+        """Publish the markers and the live view's scene, to whichever has a subscriber."""
+        rviz = self.markers_pub.get_subscription_count() > 0
+        live = self.live is not None and self.live.wants_scene()
+        if self.samples == 0 or not (rviz or live):
+            return
+        X, ns, trails, ground, centres, target = self._picture()
+        edges = self.live_graph()[1]
+        if rviz:
+            msg = markers.fleet_markers(ns, X, ground, trails, centres, target)
+            msg.markers.append(markers.link_marker(ns, position(X), edges))
+            self.markers_pub.publish(msg)
+        if live:
+            self.live.log_scene(ns, position(X), X[ROW_THETA], ground, trails, edges, centres,
+                                target)
+
+    def destroy_node(self):
+        if self.live is not None:
+            self.live.close()
+            self.live = None
+        return super().destroy_node()
 
 
 def main(args=None):

@@ -52,6 +52,12 @@ LATENCIES = ('odom_to_command', 'stamp_to_command')
 """Real time, last 1000 commands: odometry handed to the node -> command sent (the node's own
 latency), and odometry stamp -> command sent (adds the transport, the queue and any lag of the
 plant behind the wall clock)."""
+DELAY_GAIN = 0.1
+"""Real time: the weight of each new delay, odometry handed to the node -> command sent (at most
+a period), in the running mean the vehicle predicts its state over, with half a period and half
+an integration step (the plant applies a command from its next step), before it computes its
+command. The stamp -> command latency is not used: a simulated plant that slips behind the wall
+clock makes it grow without being a delay in simulated time."""
 
 
 class VehicleNode(Node):
@@ -72,11 +78,14 @@ class VehicleNode(Node):
         self.born = self.now()
         self.neighbours = sc.comm_graph.neighbours(vehicle_id)
         self.known = NeighbourTable(sc.num_vehicles, vehicle_id, link.pop('neighbor_timeout'),
-                                    self.now, self.mode == 'lockstep', self.neighbours)
+                                    self.now, self.mode == 'lockstep', self.neighbours,
+                                    sc.hold_prediction != 'none')
         self.inbox = links.Inbox(links.Faults(**link, vehicle_id=vehicle_id), self.now)
         self.reject = common.Rejections(self.get_logger(), REJECTS)
         self.saturated = 0
         self.latency = common.Latencies(LATENCIES)
+        self.delay = 0.0
+        self.tick_wait = 0.5 * sc.dt_integration if self.mode == 'realtime' else 0.0
         self.onboard = Onboard(sc)
         self.flow = sc.flow_c
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
@@ -188,10 +197,11 @@ class VehicleNode(Node):
                                f'the last one')
         if kind == lockstep.REPEATED:
             return self._answer_again()
-        row = self.onboard.observe(X)
+        row = self.onboard.observe(X, self.delay + self.tick_wait)
         self.known.store(self.k, ns, row)
         hearing = self.known.hearing()[self.heard_rows]
-        self.last_state = self.wires[self.k].encode(ns, itf.state_values(X, row, hearing))
+        self.last_state = self.wires[self.k].encode(
+            ns, itf.state_values(self.onboard.X[:, 0], row, hearing))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
@@ -261,8 +271,9 @@ class VehicleNode(Node):
         self.last_cmd = self.cmd_wire.encode(ns, itf.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
-            self.latency.add(time.perf_counter_ns() - self.odom_in,
-                             self.get_clock().now().nanoseconds - ns)
+            own = time.perf_counter_ns() - self.odom_in
+            self.latency.add(own, self.get_clock().now().nanoseconds - ns)
+            self.delay += DELAY_GAIN * (min(1e-9 * own, self.sc.dt_control) - self.delay)
 
     def _report_waiting(self, now):
         """Say what a lockstep vehicle has waited for more than itf.STALL seconds."""

@@ -1,0 +1,202 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``formation-control doctor``: the facts of a running fleet, gathered by one node.
+
+The node joins the domain in the fleet's namespace, reads the plant's latched scenario, the
+ROS graph (nodes, every endpoint's QoS), each vehicle's scenario parameters (its parameter
+services) and listens to the formation states for a while; :mod:`formation_control.doctor`
+checks what it gathered.
+"""
+import json
+import os
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from formation_control import doctor
+from formation_control.core.scenario import PARAMETER_NAMES
+from formation_control.ros import interface as itf
+from rcl_interfaces.srv import GetParameters
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import parameter_value_to_python
+from rclpy.qos import qos_check_compatible
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+ENVIRONMENT = ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY')
+NAME = 'formation_doctor'
+
+
+def _fq(name, namespace):
+    return namespace.rstrip('/') + '/' + name
+
+
+def _python(value):
+    v = parameter_value_to_python(value)
+    if v is None:
+        return []
+    return v if isinstance(v, (str, bool, int, float)) else list(v)
+
+
+class Gatherer:
+    """The doctor's node in ``namespace`` on ``context``, spun by ``executor`` (None: its own)."""
+
+    def __init__(self, namespace='/', context=None, executor=None):
+        self.node = rclpy.create_node(NAME, namespace=namespace or '/', context=context,
+                                      start_parameter_services=False)
+        self.own = executor is None
+        self.executor = SingleThreadedExecutor(context=context) if self.own else executor
+        self.executor.add_node(self.node)
+        self.me = self.node.get_fully_qualified_name()
+
+    def spin_until(self, predicate, timeout):
+        end = time.monotonic() + timeout
+        while not predicate() and time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.05)
+        return predicate()
+
+    def _call(self, client, names, timeout):
+        future = client.call_async(GetParameters.Request(names=list(names)))
+        if not self.spin_until(future.done, timeout) or future.result() is None:
+            raise TimeoutError(client.srv_name)
+        return future.result().values
+
+    def _parameters(self, name, names, timeout):
+        """
+        Return {name: value} of parameters of node ``name``; None if it does not answer.
+
+        A node answers nothing to a request that names a parameter declared without a value
+        (an empty list here, as :func:`parameters.declare` declares them): each is asked alone.
+        """
+        client = self.node.create_client(GetParameters, f'{name}/get_parameters')
+        try:
+            if not client.wait_for_service(timeout_sec=timeout):
+                return None
+            values = self._call(client, names, timeout)
+            if len(values) == len(names):
+                return {k: _python(v) for k, v in zip(names, values)}
+            out = {}
+            for k in names:
+                one = self._call(client, [k], timeout)
+                out[k] = _python(one[0]) if one else []
+            return out
+        except TimeoutError:
+            return None
+        finally:
+            self.node.destroy_client(client)
+
+    def _endpoints(self):
+        ns = self.node.get_namespace().rstrip('/') + '/'
+        out = []
+        for topic, _ in self.node.get_topic_names_and_types():
+            if not (topic.startswith(ns) or topic in ('/clock', itf.DIAGNOSTICS_TOPIC)):
+                continue
+            for kind, infos in (('pub', self.node.get_publishers_info_by_topic(topic)),
+                                ('sub', self.node.get_subscriptions_info_by_topic(topic))):
+                out += [doctor.Endpoint(topic, _fq(i.node_name, i.node_namespace), kind,
+                                        i.qos_profile) for i in infos
+                        if _fq(i.node_name, i.node_namespace) != self.me]
+        return out
+
+    def _listen(self, facts, seconds):
+        for k, topic in facts.state_topics.items():
+            stream = facts.streams[topic] = doctor.Stream()
+            self.node.create_subscription(JointState, topic,
+                                          lambda data, s=stream: self._heard(s, data), raw=True,
+                                          qos_profile=itf.STATE_QOS)
+        self.node.create_subscription(DiagnosticArray, self.node.resolve_topic_name(
+            itf.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), itf.STREAM_QOS)
+        end = time.monotonic() + seconds                # a span: what arrives in it is counted
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.05)
+
+    @staticmethod
+    def _clocked(facts, msg):
+        lag = (time.time_ns() - itf.stamp_ns(msg.header.stamp)) * 1e-9
+        for status in msg.status:
+            match = doctor.CLOCKED.match(status.name)
+            if match:
+                facts.clock_lags.setdefault(match[1], []).append(lag)
+
+    @staticmethod
+    def _heard(stream, data):
+        try:
+            msg = deserialize_message(data, JointState)
+        except Exception:
+            return
+        stream.count += 1
+        stream.hears = {name: value > 0.5 for name, value in zip(msg.name, msg.position)
+                        if name.startswith('hears_')}
+
+    def _graph(self, facts, scenario_topic):
+        node = self.node
+        facts.nodes = [_fq(n, ns) for n, ns in node.get_node_names_and_namespaces()
+                       if _fq(n, ns) != self.me]
+        facts.scenario_publishers = [_fq(i.node_name, i.node_namespace)
+                                     for i in node.get_publishers_info_by_topic(scenario_topic)]
+
+    def gather(self, listen=2.0, discover=5.0):
+        """Return the :class:`doctor.Facts` of the fleet (waits ``discover`` s for the plant)."""
+        node = self.node
+        facts = doctor.Facts(namespace=node.get_namespace(),
+                             env={k: os.environ[k] for k in ENVIRONMENT if k in os.environ})
+        topic = node.resolve_topic_name(itf.SCENARIO_TOPIC)
+        box = []
+        node.create_subscription(String, topic, box.append, itf.LATCHED_QOS)
+        self.spin_until(lambda: box, discover)
+        if not box:
+            self._graph(facts, topic)
+            return facts
+        try:
+            facts.scenario = json.loads(box[0].data)
+            n = int(facts.scenario['num_vehicles'])
+        except (ValueError, KeyError, TypeError):
+            facts.scenario = None
+            return facts
+        facts.state_topics = {k: node.resolve_topic_name(itf.topic(k, 'formation_state'))
+                              for k in range(1, n + 1)}
+        self._listen(facts, listen)
+        self._graph(facts, topic)
+        for names in doctor.vehicle_ids(facts).values():
+            for name in set(names):
+                facts.parameters[name] = self._parameters(name, PARAMETER_NAMES, 2.0)
+        for plant in set(facts.scenario_publishers):
+            mode = self._parameters(plant, ['mode'], 2.0)
+            facts.mode = mode and mode['mode']
+        facts.endpoints = self._endpoints()
+        return facts
+
+    def close(self):
+        self.executor.remove_node(self.node)
+        if self.own:
+            self.executor.shutdown()
+        self.node.destroy_node()
+
+
+def run(namespace='/', listen=2.0, discover=5.0):
+    """Gather the facts of the fleet in ``namespace``; return (facts, findings)."""
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+    try:
+        gatherer = Gatherer(namespace, context)
+        try:
+            facts = gatherer.gather(listen, discover)
+        finally:
+            gatherer.close()
+    finally:
+        context.try_shutdown()
+    return facts, doctor.diagnose(facts, qos_check_compatible)

@@ -1,0 +1,97 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The monitor's Foxglove live view: a Foxglove WebSocket server (``foxglove-sdk``).
+
+Channels, named as the node resolves its topics (a namespace shows in them):
+
+- ``<ns>/formation/scene``: ``foxglove.SceneUpdate`` (protobuf), :func:`scene.fleet_scene`;
+- ``<ns>/formation/metrics``: JSON, ``timestamp`` and each metric of :data:`interface.METRIC_DOC`
+  by name (plot ``/formation/metrics.order_parameter``);
+- ``/diagnostics``: ``diagnostic_msgs/msg/DiagnosticArray`` as CDR (schema encoding
+  ``ros2msg``, what ``foxglove_bridge`` serves), for the Diagnostics panels.
+
+Each message is logged at the fleet time of the state it shows (ns).
+"""
+from formation_control import scene
+from formation_control.core.scenario import ScenarioError
+from formation_control.ros import interface as itf
+import foxglove
+from foxglove.channels import SceneUpdateChannel
+from rosbags.typesys import get_typestore, Stores
+
+DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
+
+
+def ros2msg_schema(type_name):
+    """Return the foxglove Schema of a ROS 2 message type (``ros2msg`` text, as in MCAP)."""
+    text, _ = get_typestore(Stores.ROS2_JAZZY).generate_msgdef(type_name, ros_version=2)
+    return foxglove.Schema(name=type_name, encoding='ros2msg', data=text.encode())
+
+
+class LiveView:
+    """
+    A Foxglove WebSocket server on ``host:port`` with the monitor's channels.
+
+    Parameters
+    ----------
+    node : rclpy.node.Node
+        The monitor (names the server and resolves the channel names).
+    host : str
+        Address to listen on.
+    port : int
+        TCP port (1..65535).
+
+    """
+
+    def __init__(self, node, host, port):
+        self.context = foxglove.Context()
+        try:
+            self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
+                                                host=host, port=port, context=self.context)
+        except RuntimeError as err:          # FoxgloveError: Failed to bind port: ...
+            raise ScenarioError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
+                                f'{host}:{port} ({err})') from None
+        self.scene = SceneUpdateChannel(node.resolve_topic_name(itf.SCENE_TOPIC),
+                                        context=self.context)
+        self.metrics = foxglove.Channel(node.resolve_topic_name(itf.METRICS_TOPIC),
+                                        schema=scene.metrics_schema(itf.METRIC_DOC),
+                                        context=self.context)
+        self.diagnostics = foxglove.Channel(node.resolve_topic_name(itf.DIAGNOSTICS_TOPIC),
+                                            schema=ros2msg_schema(DIAGNOSTIC_ARRAY),
+                                            message_encoding='cdr', context=self.context)
+
+    @property
+    def port(self):
+        return self.server.port
+
+    def wants_scene(self):
+        return self.scene.has_sinks()
+
+    def log_scene(self, ns, *fleet):
+        """Log the scene of a fleet at ``ns``: ``fleet`` as :func:`scene.fleet_scene` takes."""
+        self.scene.log(scene.fleet_scene(ns, *fleet), log_time=int(ns))
+
+    def log_metrics(self, ns, values):
+        if self.metrics.has_sinks():
+            self.metrics.log(scene.metrics_message(ns, values), log_time=int(ns))
+
+    def log_diagnostics(self, ns, data):
+        """Log a serialized DiagnosticArray (CDR bytes)."""
+        if self.diagnostics.has_sinks():
+            self.diagnostics.log(data, log_time=int(ns))
+
+    def close(self):
+        self.server.stop()

@@ -1,0 +1,172 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``formation-control doctor``: each finding on the facts of a deliberately broken fleet.
+
+Pure checks on facts built here (the QoS ones with rclpy's own compatibility check), then the
+gathering node on a real in-process fleet with a vehicle missing and one mis-configured.
+"""
+import copy
+import json
+
+from formation_control import doctor
+from formation_control.core import scenario
+from formation_control.ros import interface as itf
+from formation_control.ros.doctor import Gatherer
+import pytest
+from rclpy.qos import qos_check_compatible, QoSProfile, ReliabilityPolicy
+from rosutil import CONFIG
+
+ENV = {'ROS_DOMAIN_ID': '7', 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'}
+
+
+def _scenario(**values):
+    sc = scenario.load(CONFIG / 'particle_circular.yaml', [], num_vehicles=3, **values)
+    return json.loads(sc.to_json())
+
+
+def _healthy(n=3, **values):
+    """Facts of a fleet that works: a plant, n vehicles each hearing every other."""
+    sc = _scenario(**values)
+    topics = {k: itf.topic(k, 'formation_state') for k in range(1, n + 1)}
+    endpoints = []
+    for k, topic in topics.items():
+        endpoints.append(doctor.Endpoint(topic, f'/vehicle_{k}', 'pub', itf.STATE_QOS))
+        endpoints += [doctor.Endpoint(topic, f'/vehicle_{j}', 'sub', itf.STATE_QOS)
+                      for j in topics if j != k]
+    return doctor.Facts(
+        namespace='/', env=dict(ENV), scenario=sc, scenario_publishers=['/plant'],
+        nodes=['/plant', '/formation_monitor'] + [f'/vehicle_{k}' for k in topics],
+        parameters={f'/vehicle_{k}': copy.deepcopy(sc) for k in topics}, mode='realtime',
+        endpoints=endpoints, streams={t: doctor.Stream(count=50) for t in topics.values()},
+        state_topics=topics, clock_lags={'plant': [0.002], 'vehicle_1': [0.003, 0.001]})
+
+
+def _problems(facts):
+    return [(f.level, f.subject, f.text) for f in doctor.diagnose(facts, qos_check_compatible)
+            if f.level != doctor.NOTE]
+
+
+def test_a_healthy_fleet_has_no_problem():
+    facts = _healthy()
+    findings = doctor.diagnose(facts, qos_check_compatible)
+    assert _problems(facts) == [] and doctor.exit_status(findings) == 0
+    assert doctor.format_report(facts, findings).endswith('no problem found\n')
+
+
+def test_a_vehicle_whose_scenario_differs_from_the_plants_is_an_error():
+    facts = _healthy()
+    facts.parameters['/vehicle_2'].update(kappa=2.5, duration=1.0)
+    facts.parameters['/vehicle_3'] = None
+    findings = doctor.diagnose(facts, qos_check_compatible)
+    assert _problems(facts) == [
+        ('error', '/vehicle_2', 'kappa = 2.5, the plant has 5.0'),
+        ('warning', '/vehicle_3', 'its parameters could not be read (no parameter service '
+                                  'answered)')]
+    assert ('note', '/vehicle_2', 'duration = 1.0, the plant has 100.0') in [
+        (f.level, f.subject, f.text) for f in findings]
+    assert doctor.exit_status(findings) == 1
+
+
+def test_incompatible_qos_pairs_are_named_with_rclpys_reason():
+    facts = _healthy()
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    facts.endpoints = [e if (e.node, e.kind) != ('/vehicle_1', 'pub')
+                       else doctor.Endpoint(e.topic, e.node, e.kind, best_effort)
+                       for e in facts.endpoints]
+    (problem, other) = _problems(facts)
+    assert problem[:2] == ('error', '/vehicle_1/formation_state')
+    assert problem[2].startswith('/vehicle_1 -> /vehicle_2: ') and 'reliab' in problem[2].lower()
+    assert other[2].startswith('/vehicle_1 -> /vehicle_3: ')
+
+
+def test_missing_duplicate_and_foreign_vehicle_ids():
+    facts = _healthy()
+    facts.nodes = [n for n in facts.nodes if n != '/vehicle_3'] + ['/vehicle_2', '/vehicle_9']
+    del facts.parameters['/vehicle_3']
+    found = _problems(facts)
+    assert ('error', 'fleet', 'vehicles [3] of the 3 are missing (no node vehicle_k)') in found
+    assert ('error', '/vehicle_2', '2 nodes have this name: two vehicles were started with '
+                                   'vehicle_id 2') in found
+    assert ('error', '/vehicle_9', 'vehicle 9 is not in the scenario (num_vehicles = 3)') in found
+
+
+def test_a_silent_vehicle_and_one_that_hears_nobody():
+    facts = _healthy()
+    facts.streams[itf.topic(2, 'formation_state')].count = 0
+    facts.endpoints = [e for e in facts.endpoints if e.kind == 'sub' or e.node == '/vehicle_1']
+    found = _problems(facts)
+    assert ('error', '/vehicle_2', 'publishes no formation_state on /vehicle_2/formation_state'
+            ) in found
+    assert ('error', '/vehicle_1', 'hears no neighbour: no vehicle of [2, 3] publishes its '
+                                   'formation_state') in found
+    assert [f[1] for f in found if 'hears no neighbour' in f[2]] == ['/vehicle_1']
+    ring = _healthy(graph='ring')
+    ring.streams[itf.topic(3, 'formation_state')].hears = {'hears_1': False, 'hears_2': False}
+    assert _problems(ring) == [('error', '/vehicle_3', 'hears no neighbour: every hears_j of '
+                                                       'its formation_state is 0')]
+
+
+@pytest.mark.parametrize('env, expected', [
+    ({}, [('warning', 'ROS_DOMAIN_ID')]),
+    ({'ROS_DOMAIN_ID': '300'}, [('error', 'ROS_DOMAIN_ID')]),
+    ({'ROS_DOMAIN_ID': '150'}, [('warning', 'ROS_DOMAIN_ID')]),
+    ({'ROS_DOMAIN_ID': '3', 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF'},
+     [('error', 'ROS_AUTOMATIC_DISCOVERY_RANGE')]),
+    ({'ROS_DOMAIN_ID': '3', 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'localhost'},
+     [('error', 'ROS_AUTOMATIC_DISCOVERY_RANGE')]),
+    ({'ROS_DOMAIN_ID': '3', 'ROS_LOCALHOST_ONLY': '1'}, [('warning', 'ROS_LOCALHOST_ONLY')]),
+])
+def test_unexpected_domain_and_discovery_settings(env, expected):
+    facts = _healthy()
+    facts.env = env
+    assert [p[:2] for p in _problems(facts)] == expected
+
+
+def test_clock_skew_between_hosts_in_real_time():
+    facts = _healthy()
+    facts.clock_lags['vehicle_2'] = [0.41, 0.40, 0.42]
+    facts.clock_lags['plant'] = [-0.3, -0.31]
+    (plant, vehicle) = _problems(facts)
+    assert plant[:2] == ('warning', 'plant') and '0.300 s ahead of' in plant[2]
+    assert vehicle[:2] == ('warning', 'vehicle_2') and '0.410 s behind' in vehicle[2]
+    facts.mode = 'lockstep'                          # stamps are the fleet's time then
+    assert _problems(facts) == []
+
+
+def test_no_plant_on_the_domain_is_an_error_naming_the_domain():
+    facts = doctor.Facts(namespace='/fleet_a', env=dict(ENV))
+    ((level, subject, text),) = _problems(facts)
+    assert (level, subject) == ('error', 'fleet')
+    assert '/fleet_a/formation/scenario' in text and 'ROS_DOMAIN_ID=7' in text
+
+
+def test_doctor_finds_the_missing_and_the_misconfigured_vehicle_of_a_real_fleet(nodes):
+    """Lockstep fleet of 3, vehicle 3 never started, vehicle 2 with another kappa."""
+    cfg = CONFIG / 'particle_circular.yaml'
+    nodes.plant(cfg, 'num_vehicles:=3')
+    nodes.vehicle(1, cfg, 'num_vehicles:=3')
+    nodes.vehicle(2, cfg, 'num_vehicles:=3', 'kappa:=2.5')
+    gatherer = Gatherer('/', nodes.context, nodes.executor)
+    try:
+        facts = gatherer.gather(listen=0.5, discover=10.0)
+    finally:
+        gatherer.close()
+    assert facts.mode == 'lockstep' and facts.scenario['num_vehicles'] == 3
+    assert facts.streams[itf.topic(1, 'formation_state')].count > 0
+    found = _problems(facts)
+    assert ('error', 'fleet', 'vehicles [3] of the 3 are missing (no node vehicle_k)') in found
+    assert ('error', '/vehicle_2', 'kappa = 2.5, the plant has 5.0') in found
+    assert not [f for f in found if f[1] == '/vehicle_1'], found
