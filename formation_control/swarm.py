@@ -31,6 +31,11 @@ import time
 from formation_control.core import faults, simulator
 import yaml
 
+CLOCK_EVENTS = 8
+"""Supervisor events handled before each slice of recording (clock samples, service answers)."""
+RECORD_SLICE = 0.005
+"""Wall seconds of recording between two looks at the fleet time."""
+
 RECORDED_DEPTH = 500
 """With a bag: the history of the odometry, state and command writers (samples; 10 s at
 50 Hz). DDS matches a writer to the recorder's reader on each side in its own time; a writer
@@ -350,7 +355,8 @@ class Supervisor:
                                         parameter_overrides=[
                                             Parameter('use_sim_time', value=mode == 'lockstep')])
             self.start = self.node.create_publisher(Empty, START_TOPIC, itf.LATCHED_QOS)
-            self.executor.add_node(self.recorder)
+            self.recording = EventsExecutor(context=self.context)
+            self.recording.add_node(self.recorder)
 
     def _on_clock(self, msg):
         self.t = msg.clock.sec + 1e-9 * msg.clock.nanosec
@@ -396,12 +402,24 @@ class Supervisor:
         self.start.publish(self.Empty())
 
     def spin_once(self, timeout):
-        self.executor.spin_once(timeout_sec=timeout)
+        """
+        Handle the fleet time and the faults' calls first, then the bag for up to ``timeout`` s.
+
+        The recorder has its own executor: behind a lockstep fleet's stream of samples it may
+        lag, and fleet time must not lag with it.
+        """
+        if self.recorder is None:
+            return self.executor.spin_once(timeout_sec=timeout)
+        for _ in range(CLOCK_EVENTS):
+            self.executor.spin_once(timeout_sec=0.0)
+        end = time.monotonic() + min(timeout, RECORD_SLICE)
+        while time.monotonic() < end:
+            self.recording.spin_once(timeout_sec=max(0.0, end - time.monotonic()))
 
     def spin(self, seconds):
         end = time.monotonic() + seconds
         while True:
-            self.executor.spin_once(timeout_sec=max(0.0, end - time.monotonic()))
+            self.spin_once(max(0.0, end - time.monotonic()))
             if time.monotonic() >= end:
                 break
 

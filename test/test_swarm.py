@@ -21,6 +21,7 @@ run, Ctrl-C stops every process.
 """
 import json
 from pathlib import Path
+import re
 
 from formation_control.core import faults, simulator
 from formation_control.core.scenario import resolve
@@ -181,22 +182,25 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05']
     out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '12',
                          '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
-    assert 'swarm: t = 0.20 s: kill vehicle 6 (kill:6@0.2)' in stderr
-    assert 'vehicle_6 exited with -9 (SIGKILL) (fault kill:6@0.2); the others carry on' in stderr
+    assert re.search(r'swarm: t = \d+\.\d\d s: kill vehicle 6 \(kill:6@0\.2\)', stderr)
+    assert re.search(r'swarm: t = \d+\.\d\d s: vehicle_6 exited with -9 \(SIGKILL\) \(fault '
+                     r'kill:6@0\.2\); the others carry on', stderr)
     assert [f['fault'] for f in out['faults']] == [*FAULTS, FAULTS[3]]
-    assert all(abs(f['applied'] - f['scheduled']) < 0.1 for f in out['faults']), out['faults']
+    applied = [f['applied'] for f in out['faults']]
+    # at the first fleet step the swarm sees at or after the time: later on a loaded machine
+    assert all(0 <= f['applied'] - f['scheduled'] < 2.0 for f in out['faults']), out['faults']
     assert _faults_in(bag) == out['faults']
     (lost,) = out['lost']
     assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
-    assert 0.2 <= lost['time'] < 1.0                    # its death is seen a few steps later
+    assert 0.2 <= lost['time'] < 2.0                    # its death is seen a few steps later
     assert out['survivors'] == [1, 2, 3, 4, 5]
     assert out['survivors_converged'] and not out['converged']
     assert 2.0 < out['survivors_convergence_time'] < 12.0         # after the kill at 0.2 s
     run = simulator.load_run(Path(out['logs']) / 'run.npz')
     commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
-    assert not commanded[run.t > 0.3, 5].any()
-    frozen = (run.t > 1.7) & (run.t < 2.5)
-    assert not commanded[frozen, 1].any() and commanded[run.t > 2.5, 1].any()   # resumed
+    assert not commanded[run.t > lost['time'] + 0.1, 5].any()
+    frozen = (run.t > applied[1] + 0.2) & (run.t < applied[2])
+    assert not commanded[frozen, 1].any() and commanded[run.t > applied[2], 1].any()
     for k, other in ((1, 3), (3, 1)):
         log = (Path(out['logs']) / f'vehicle_{k}.log').read_text()
         assert log.index(f'links cut: [{other}]') < log.index('links cut: []'), log
