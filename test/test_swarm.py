@@ -150,7 +150,7 @@ def test_a_recorded_fleet_keeps_a_deep_history_on_its_state_writers(tmp_path):
                          for k in (1, 2) for name in ('odom', 'formation_state', 'cmd')}
 
 
-FAULTS = ('kill:6@0.2', 'stop:2@1.5', 'cont:2@2.5', 'cut:1-3@3.5..5')
+FAULTS = ('kill:6@0.2', 'stop:2@1.5', 'cont:2@2.5', 'cut:1-3@3.5..8')
 
 
 def _statuses(bag, name):
@@ -173,14 +173,14 @@ def _faults_in(bag):
 
 def test_swarm_survives_scripted_faults(ros, tmp_path):
     """
-    Vehicle 6 killed before convergence, 2 frozen and resumed, the link 1-3 cut for 1.5 s.
+    Vehicle 6 killed before convergence, 2 frozen and resumed, the link 1-3 cut for 4.5 s.
 
     The five converge without 6 (at about 7 s; not the six) and the swarm exits 0; each fault
     is in the summary and the bag at its fleet time.
     """
     bag = tmp_path / 'bag'
     args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05']
-    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '12',
+    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '20',
                          '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
     assert re.search(r'swarm: t = \d+\.\d\d s: kill vehicle 6 \(kill:6@0\.2\)', stderr)
     assert re.search(r'swarm: t = \d+\.\d\d s: vehicle_6 exited with -9 \(SIGKILL\) \(fault '
@@ -195,7 +195,7 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     assert 0.2 <= lost['time'] < 2.0                    # its death is seen a few steps later
     assert out['survivors'] == [1, 2, 3, 4, 5]
     assert out['survivors_converged'] and not out['converged']
-    assert 2.0 < out['survivors_convergence_time'] < 12.0         # after the kill at 0.2 s
+    assert 2.0 < out['survivors_convergence_time'] < 20.0         # after the kill at 0.2 s
     run = simulator.load_run(Path(out['logs']) / 'run.npz')
     commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
     assert not commanded[run.t > lost['time'] + 0.1, 5].any()
