@@ -80,8 +80,12 @@ def _report(run, source, what, extra=None, summary_path=None):
              f'({sc.controller}), {out["duration"]:g} s {what}')
     print(report.format_report(title, out, rows))
     for key, value in (extra or {}).items():
+        if key in ('faults', 'lost') or key.startswith('survivors'):
+            continue
         text = f'{value:.4g}' if isinstance(value, float) else value
         print(f'  {key:20s} {text}')
+    if extra and 'lost' in extra:
+        print('\n'.join(_fault_lines(extra)))
     if summary_path:
         Path(summary_path).write_text(json.dumps(out, indent=2))
 
@@ -116,22 +120,46 @@ def cmd_swarm(args):
     note = swarm.environment_note()
     if note:
         print(note, file=sys.stderr)
+    if args.restart_dead is not None and not args.restart_dead >= 0:
+        raise scenario.ScenarioError(f'--restart-dead {args.restart_dead:g} is invalid: a delay '
+                                     f'in fleet seconds, >= 0')
     try:
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
                                    monitor=not args.no_monitor, node_params=_split(args.param)[1],
                                    per_process=args.vehicles_per_process,
                                    monitor_params=_live_view(args.foxglove),
-                                   namespace=args.namespace)
+                                   namespace=args.namespace, fault_script=args.fault,
+                                   restart_dead=args.restart_dead)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
     except (RuntimeError, TimeoutError, FileExistsError, FileNotFoundError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 1
-    extra = {k: out[k] for k in ('mode', 'real_time_factor', 'logs', 'bag') if k in out}
+    extra = {k: out[k] for k in ('mode', 'real_time_factor', 'logs', 'bag', 'faults', 'lost',
+                                 'survivors', 'survivors_converged',
+                                 'survivors_convergence_time') if k in out}
     _report(run, args.scenario, 'as ROS 2 processes', extra, args.summary)
     _write(args, run)
     return 0
+
+
+def _fault_lines(out):
+    """Return the summary lines of a swarm's faults and lost processes."""
+    def at(t):
+        return '?' if t is None else f'{t:.2f} s'
+    lines = [f'  fault {f["fault"]:18s} {f["action"]}, applied at t = {at(f["applied"])}'
+             for f in out['faults']]
+    for p in out['lost']:
+        again = '' if p['restarted'] is None else f', restarted at t = {at(p["restarted"])}'
+        lines.append(f'  lost  {p["process"]:18s} at t = {at(p["time"])} (exit '
+                     f'{p["exit"]}, {p["cause"]}){again}')
+    if out['lost'] or out['faults']:
+        since = out['survivors_convergence_time']
+        state = 'not converged' if not out['survivors_converged'] else (
+            f'converged at {since:.2f} s' if since is not None else 'converged')
+        lines.append(f'  survivors {out["survivors"]}: {state}')
+    return lines
 
 
 def _live_view(port):
@@ -277,6 +305,14 @@ def build_parser():
                        help='do not start the monitor node (no metrics or diagnostics)')
     swarm.add_argument('--namespace', default='/', metavar='NS',
                        help='run the fleet in this ROS namespace (default /)')
+    swarm.add_argument('--fault', action='append', default=[], metavar='FAULT',
+                       help='a scripted fault in fleet time (repeatable): kill:K@T, '
+                            'restart:K@T, stop:K@T (SIGSTOP: vehicle K freezes), cont:K@T '
+                            '(SIGCONT), cut:I-J@T1..T2 (the link between neighbours I and J '
+                            'is down from T1 to T2 s)')
+    swarm.add_argument('--restart-dead', type=float, metavar='DELAY',
+                       help='start a vehicle or monitor process that died by itself again, '
+                            'DELAY fleet seconds later (default: never)')
     swarm.set_defaults(func=cmd_swarm)
     tune = sub.add_parser('set', help='set run-time parameters (gains) on every vehicle of a '
                                       'running fleet')

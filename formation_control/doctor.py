@@ -25,14 +25,10 @@ from dataclasses import dataclass, field
 import math
 import re
 
-from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.scenario import PLANT_ONLY, resolve, ScenarioError
 
 ERROR, WARNING, NOTE = 'error', 'warning', 'note'
 DISCOVERY_RANGES = ('OFF', 'LOCALHOST', 'SUBNET', 'SYSTEM_DEFAULT')
-PLANT_ONLY = frozenset({'duration', 'record_dt', 'dt_integration', 'seed', 'init_box', 'init_x',
-                        'init_y', 'init_theta', 'init_omega', 'init_u', 'init_v'})
-"""Scenario parameters only the plant uses (the initial state, the integration, the record): a
-vehicle that differs there is noted, not an error."""
 SKEW_TOLERANCE = 0.05
 """Real time: |arrival - stamp| (s) of a node's /diagnostics above this is clock skew."""
 VEHICLE = re.compile(r'vehicle_(\d+)$')

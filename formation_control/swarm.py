@@ -18,6 +18,7 @@
 The processes are the plant, one ``vehicle`` process per vehicle and the ``monitor`` (the
 executables ``ros2 run`` starts).
 """
+import json
 import os
 from pathlib import Path
 import shutil
@@ -27,8 +28,13 @@ import sys
 import tempfile
 import time
 
-from formation_control.core import simulator
+from formation_control.core import faults, simulator
 import yaml
+
+CLOCK_EVENTS = 8
+"""Supervisor events handled before each slice of recording (clock samples, service answers)."""
+RECORD_SLICE = 0.005
+"""Wall seconds of recording between two looks at the fleet time."""
 
 RECORDED_DEPTH = 500
 """With a bag: the history of the odometry, state and command writers (samples; 10 s at
@@ -76,6 +82,9 @@ def executable(name):
 
 def stop(procs, grace=(5.0, 3.0)):
     """Send SIGINT, SIGINT again, then SIGKILL, each after its deadline; return the exit codes."""
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGCONT)              # a frozen process handles no SIGINT
     for deadline in (*grace, None):
         alive = [p for p in procs if p.poll() is None]
         if not alive:
@@ -91,19 +100,40 @@ def stop(procs, grace=(5.0, 3.0)):
     return [p.returncode for p in procs]
 
 
+def exit_text(code):
+    """Describe an exit code: ``-9`` is ``-9 (SIGKILL)``."""
+    if code is not None and code < 0:
+        try:
+            return f'{code} ({signal.Signals(-code).name})'
+        except ValueError:
+            pass
+    return str(code)
+
+
+def _at(t):
+    return 't = ?' if t is None else f't = {t:.2f} s'
+
+
 class Swarm:
-    """The processes of one run; use as a context manager so they are always stopped."""
+    """
+    The processes of one run; use as a context manager so they are always stopped.
+
+    A vehicle or monitor process that exits during the run is noted (:meth:`check`: fleet time,
+    exit code, cause) and the others carry on; with ``restart_dead`` (fleet seconds) a process
+    that died by itself is started again that long after. Scripted faults act on the processes
+    through :meth:`apply`.
+    """
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None, monitor_params=(), namespace='/'):
+                 env=None, monitor_params=(), restart_dead=None, namespace='/'):
         self.sc, self.mode = sc, mode
         self.place, self.env = place or (lambda name: []), env
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
         params = write_params(sc, self.dir / 'scenario.yaml', wait_for_start, namespace)
-        prefix = namespace_prefix(namespace)
+        self.prefix = prefix = namespace_prefix(namespace)
         names = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
         common = ['--ros-args', *names, '--params-file', params, '-p', f'mode:={mode}']
         for p in node_params:
@@ -112,6 +142,7 @@ class Swarm:
                           '-p', f'real_time_factor:={float(real_time_factor)}',
                           '-p', f'wait_for_start:={str(wait_for_start).lower()}']]
         self.logs = ['plant.log']
+        self.members = [()]
         ids = list(range(1, sc.num_vehicles + 1))
         for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
             if per_process == 1:
@@ -122,6 +153,7 @@ class Swarm:
                 self.commands.append([executable('vehicles'), *common, '-p',
                                       f'vehicle_ids:={group}'])
                 self.logs.append(f'vehicles_{group[0]}-{group[-1]}.log')
+            self.members.append(tuple(group))
         if monitor:
             world = [a for p in node_params if p.startswith('world_frame:=') for a in ('-p', p)]
             self.commands.append([executable('monitor'), '--ros-args', *names,
@@ -129,146 +161,319 @@ class Swarm:
                                   f'use_sim_time:={str(mode == "lockstep").lower()}',
                                   *(a for p in monitor_params for a in ('-p', p))])
             self.logs.append('monitor.log')
-        self.procs = []
+            self.members.append(())
+        self.names = [log[:-4] for log in self.logs]
+        self.process_of = {k: i for i, group in enumerate(self.members) for k in group}
+        self.procs, self.state, self.cause = [], [], {}
+        self.restart_dead, self.restarts = restart_dead, []
+        self.t = None
+        self.lost, self.faults, self.survivors = [], [], None
 
     def __enter__(self):
         try:
-            for cmd, name in zip(self.commands, self.logs):
-                with open(self.dir / name, 'w') as log:
-                    self.procs.append(subprocess.Popen(self.place(name[:-4]) + cmd, stdout=log,
-                                                       stderr=subprocess.STDOUT, env=self.env,
-                                                       stdin=subprocess.DEVNULL))
+            for i in range(len(self.commands)):
+                self.procs.append(None)
+                self.state.append('running')
+                self._start(i, 'w')
         except BaseException:
-            stop(self.procs)
+            stop([p for p in self.procs if p is not None])
             raise
         return self
 
     def __exit__(self, *exc):
         stop(self.procs)
 
+    def _start(self, i, mode='a'):
+        with open(self.dir / self.logs[i], mode) as log:
+            self.procs[i] = subprocess.Popen(self.place(self.names[i]) + self.commands[i],
+                                             stdout=log, stderr=subprocess.STDOUT, env=self.env,
+                                             stdin=subprocess.DEVNULL)
+        self.state[i] = 'running'
+
     @property
     def plant(self):
         return self.procs[0]
 
+    def say(self, text):
+        print(f'swarm: {_at(self.t)}: {text}', file=sys.stderr, flush=True)
+
     def check(self):
-        """Raise if a process other than the plant has exited while the plant runs."""
-        for proc, name in zip(self.procs[1:], self.logs[1:]):
-            if proc.poll() is not None:
-                raise RuntimeError(f'{name[:-4]} exited with {proc.returncode} during the run:\n'
-                                   + self.log_tail(name))
+        """
+        Note each vehicle or monitor process that has exited, and restart those that are due.
+
+        A death is logged with the fleet time and kept in :attr:`lost`; the others carry on.
+        """
+        for i in range(1, len(self.procs)):
+            code = self.procs[i].poll()
+            if code is None or self.state[i] == 'dead':
+                continue
+            self.state[i] = 'dead'
+            cause = self.cause.pop(i, None)
+            self.lost.append({'process': self.names[i], 'vehicles': list(self.members[i]),
+                              'time': self.t, 'exit': code, 'cause': cause or 'not scripted',
+                              'restarted': None})
+            again = ''
+            if cause is None and self.restart_dead is not None:
+                self.restarts.append(((self.t or 0.0) + self.restart_dead, i))
+                again = f'; restarted at t = {(self.t or 0.0) + self.restart_dead:.2f} s'
+            self.say(f'{self.names[i]} exited with {exit_text(code)} '
+                     f'({cause or "not scripted"}); the others carry on{again}')
+        due = [r for r in self.restarts if self.t is not None and r[0] <= self.t]
+        for r in due:
+            self.restarts.remove(r)
+            self.restart(r[1])
+
+    def note(self, fault):
+        """Record and log a scripted fault applied at the current fleet time."""
+        self.faults.append({'fault': fault.text, 'action': fault.describe(),
+                            'scheduled': fault.time, 'applied': self.t})
+        self.say(f'{fault.describe()} ({fault.text})')
+
+    def restart(self, i):
+        """Start process ``i`` again (killed first if it still runs)."""
+        if self.procs[i].poll() is None:
+            self.cause[i] = 'restarted'
+            self.procs[i].kill()
+            self.procs[i].wait()
+        self.check()
+        self._start(i)
+        for entry in self.lost[::-1]:
+            if entry['process'] == self.names[i] and entry['restarted'] is None:
+                entry['restarted'] = self.t
+                break
+        self.say(f'{self.names[i]} started again')
+
+    def apply(self, fault):
+        """Apply a scripted process fault (:class:`faults.Fault`) now; record it."""
+        self.note(fault)
+        if fault.kind in faults.LINK_KINDS:
+            return
+        i = self.process_of[fault.vehicles[0]]
+        if fault.kind == 'restart':
+            return self.restart(i)
+        if self.state[i] == 'dead' or self.procs[i].poll() is not None:
+            self.faults[-1]['applied'] = None
+            return self.say(f'{self.names[i]} is not running: {fault.text} not applied')
+        if fault.kind == 'kill':
+            self.cause[i] = f'fault {fault.text}'
+            self.procs[i].kill()
+        else:
+            self.procs[i].send_signal(signal.SIGSTOP if fault.kind == 'stop' else signal.SIGCONT)
+            self.state[i] = 'stopped' if fault.kind == 'stop' else 'running'
+
+    def running_vehicles(self):
+        """Return the ids of the vehicles whose process runs (not dead, not frozen)."""
+        return sorted(k for k, i in self.process_of.items()
+                      if self.state[i] == 'running' and self.procs[i].poll() is None)
 
     def log_tail(self, name='plant.log', lines=20):
         text = (self.dir / name).read_text(errors='replace').splitlines()
         return '\n'.join(text[-lines:])
 
     def result(self):
-        """Return the recorded run and its summary with the real-time factor."""
+        """Return the recorded run and its summary with the real-time factor and the faults."""
         run = simulator.load_run(self.record)
         out = simulator.summary(run)
         out['real_time_factor'] = run.meta['simulated_time'] / max(run.meta['wall_time'], 1e-9)
         out['mode'] = self.mode
+        out['faults'], out['lost'] = self.faults, self.lost
+        out['survivors'] = self.survivors
+        out['survivors_converged'], out['survivors_convergence_time'] = \
+            faults.survivors_converged(run, self.survivors)
         return run, out
 
 
-def wait_plant(swarm, timeout, recorder=None):
-    """Wait for the plant to finish (spinning the bag recorder meanwhile, then draining it)."""
+def wait_plant(swarm, timeout, supervisor=None, schedule=None):
+    """
+    Wait for the plant to finish; a dead plant raises with its log, a dead vehicle does not.
+
+    The ``supervisor`` (:class:`Supervisor`) is spun meanwhile: fleet time, the bag, the
+    ``schedule`` of scripted faults (:class:`faults.Schedule`) applied as fleet time passes.
+    """
     end = time.monotonic() + timeout
-    if recorder is not None:
-        recorder.start_when_discovered(timeout, swarm.check)
+    if supervisor is not None and supervisor.recorder is not None:
+        supervisor.start_when_discovered(timeout, swarm.check)
     while swarm.plant.poll() is None:
         swarm.check()
         if time.monotonic() > end:
             raise TimeoutError(f'the run did not finish within {timeout:g} s; plant log:\n'
                                + swarm.log_tail())
-        if recorder is None:
+        if supervisor is None:
             time.sleep(0.05)
-        else:
-            recorder.spin(0.05)
+            continue
+        supervisor.spin_once(0.02)
+        swarm.t = supervisor.t
+        for fault in schedule.due(swarm.t) if schedule and swarm.t is not None else ():
+            swarm.apply(fault)
+            if fault.kind in faults.LINK_KINDS:
+                supervisor.cut_links(schedule.cut_links(fault))
+            supervisor.publish(swarm.faults[-1])
     if swarm.plant.returncode != 0:
         raise RuntimeError(f'the plant exited with {swarm.plant.returncode}:\n'
                            + swarm.log_tail())
-    if recorder is not None:
-        recorder.spin(1.0)
+    swarm.check()
+    swarm.survivors = swarm.running_vehicles()
+    if supervisor is not None and supervisor.recorder is not None:
+        supervisor.spin(1.0)
 
 
-class Recording:
+class Supervisor:
     """
-    A bag recorder node on its own context, spun by :func:`wait_plant`.
+    The swarm's own node, on its own context: fleet time, the faults' record, the bag.
 
-    The plant holds step 0 until each of the recorder's readers is matched with a publisher of
-    its topic (not merely discovered it), so the bag misses nothing.
+    Fleet time is the fleet's ``clock`` in lockstep, and in real time vehicle 1's odometry
+    stamps from the first one heard (the supervisor exists before the plant starts); every name
+    is in the fleet's ``namespace``. Each applied fault is
+    published on :data:`interface.FAULTS_TOPIC` (std_msgs/String, JSON, latched) and so
+    recorded. With a bag, the plant holds step 0 until each of the recorder's readers is matched
+    with a publisher of its topic (not merely discovered it), so the bag misses nothing.
     """
 
-    def __init__(self, path, n, sim_time, monitor=True, namespace='/'):
+    def __init__(self, n, mode, bag=None, monitor=True, namespace='/'):
         import rclpy
+        from nav_msgs.msg import Odometry
         from rclpy.experimental import EventsExecutor
+        from rclpy.node import Node
         from rclpy.parameter import Parameter
-        from std_msgs.msg import Empty
+        from rosgraph_msgs.msg import Clock
+        from std_msgs.msg import Empty, String
 
+        from formation_control.ros import interface as itf
         from formation_control.ros.bag import BagRecorder, fleet_topics
-        from formation_control.ros.interface import (CLOCK_TOPIC, LATCHED_QOS, MARKERS_TOPIC,
-                                                     METRICS_TOPIC)
         from formation_control.ros.plant import START_TOPIC
+        self.String, self.Parameter, self.Empty = String, Parameter, Empty
+        self.prefix = prefix = namespace_prefix(namespace)
+        self.t, self.t0 = None, None
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
-        prefix = namespace_prefix(namespace)
-        monitored = [prefix + t for t in (METRICS_TOPIC, MARKERS_TOPIC)]
-        topics = [t for t in fleet_topics(n, prefix) if monitor or t[0] not in monitored]
-        self.topics = [t for t, _, _ in topics if sim_time or t != prefix + CLOCK_TOPIC]
-        self.node = BagRecorder(str(path), topics, context=self.context,
-                                cli_args=['--ros-args', '-r', f'/clock:={prefix}clock'],
-                                parameter_overrides=[Parameter('use_sim_time', value=sim_time)])
-        self.start = self.node.create_publisher(Empty, prefix + START_TOPIC, LATCHED_QOS)
-        self.start_msg = Empty()
         self.executor = EventsExecutor(context=self.context)
+        self.node = Node('formation_swarm', context=self.context,
+                         start_parameter_services=False)
         self.executor.add_node(self.node)
+        self.fault_pub = self.node.create_publisher(String, prefix + itf.FAULTS_TOPIC,
+                                                    itf.FAULTS_QOS)
+        if mode == 'lockstep':
+            self.node.create_subscription(Clock, prefix + itf.CLOCK_TOPIC, self._on_clock,
+                                          itf.LATCHED_QOS)
+        else:
+            self.wire = itf.odom_wire(1)
+            self.node.create_subscription(Odometry, prefix + itf.topic(1, 'odom'), self._on_odom,
+                                          itf.STATE_QOS, raw=True)
+        self.params = {}
+        self.recorder = None
+        if bag is not None:
+            monitored = [prefix + t for t in (itf.METRICS_TOPIC, itf.MARKERS_TOPIC)]
+            topics = [t for t in fleet_topics(n, prefix) if monitor or t[0] not in monitored]
+            topics.append((prefix + itf.FAULTS_TOPIC, 'std_msgs/msg/String', itf.FAULTS_QOS))
+            self.topics = [t for t, _, _ in topics
+                           if mode == 'lockstep' or t != prefix + itf.CLOCK_TOPIC]
+            self.recorder = BagRecorder(str(bag), topics, context=self.context,
+                                        cli_args=['--ros-args', '-r', f'/clock:={prefix}clock'],
+                                        parameter_overrides=[
+                                            Parameter('use_sim_time', value=mode == 'lockstep')])
+            self.start = self.node.create_publisher(Empty, prefix + START_TOPIC,
+                                                    itf.LATCHED_QOS)
+            self.recording = EventsExecutor(context=self.context)
+            self.recording.add_node(self.recorder)
+
+    def _on_clock(self, msg):
+        self.t = msg.clock.sec + 1e-9 * msg.clock.nanosec
+
+    def _on_odom(self, data):
+        got = self.wire.decode(data)
+        if got is None:
+            return
+        if self.t0 is None:
+            self.t0 = got[0]
+        self.t = max(self.t or 0.0, 1e-9 * (got[0] - self.t0))
+
+    def publish(self, record):
+        """Publish one applied fault (a dict) as JSON on the faults topic."""
+        self.fault_pub.publish(self.String(data=json.dumps(record)))
+
+    def cut_links(self, values):
+        """Set ``cut_links`` of each vehicle of ``values`` ({id: ids}): its parameter service."""
+        from rcl_interfaces.srv import SetParameters
+        for k, ids in values.items():
+            client = self.params.get(k)
+            if client is None:
+                client = self.params[k] = self.node.create_client(
+                    SetParameters, f'{self.prefix}vehicle_{k}/set_parameters')
+            request = SetParameters.Request(parameters=[self.Parameter(
+                'cut_links', self.Parameter.Type.INTEGER_ARRAY, list(ids)).to_parameter_msg()])
+            client.call_async(request).add_done_callback(
+                lambda future, k=k: self._cut_done(k, future))
+
+    def _cut_done(self, k, future):
+        results = future.result().results if future.result() else []
+        if not results or not results[0].successful:
+            reason = results[0].reason if results else 'no answer'
+            print(f'swarm: vehicle {k} refused cut_links: {reason}', file=sys.stderr)
 
     def start_when_discovered(self, timeout, check):
         end = time.monotonic() + timeout
-        while any(self.node.readers[t].get_publisher_count() == 0 for t in self.topics):
+        while any(self.recorder.readers[t].get_publisher_count() == 0 for t in self.topics):
             check()
             if time.monotonic() > end:
                 raise TimeoutError('the bag recorder did not discover every topic in time')
             self.spin(0.05)
-        self.start.publish(self.start_msg)
+        self.start.publish(self.Empty())
+
+    def spin_once(self, timeout):
+        """
+        Handle the fleet time and the faults' calls first, then the bag for up to ``timeout`` s.
+
+        The recorder has its own executor: behind a lockstep fleet's stream of samples it may
+        lag, and fleet time must not lag with it.
+        """
+        if self.recorder is None:
+            return self.executor.spin_once(timeout_sec=timeout)
+        for _ in range(CLOCK_EVENTS):
+            self.executor.spin_once(timeout_sec=0.0)
+        end = time.monotonic() + min(timeout, RECORD_SLICE)
+        while time.monotonic() < end:
+            self.recording.spin_once(timeout_sec=max(0.0, end - time.monotonic()))
 
     def spin(self, seconds):
         end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.executor.spin_once(timeout_sec=max(0.0, end - time.monotonic()))
+        while True:
+            self.spin_once(max(0.0, end - time.monotonic()))
+            if time.monotonic() >= end:
+                break
 
     def close(self, drain=1.0):
-        self.spin(drain)
-        self.node.close()
+        if self.recorder is not None:
+            self.spin(drain)
+            self.recorder.close()
+            self.recorder.destroy_node()
         self.node.destroy_node()
         self.context.try_shutdown()
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
               monitor=True, node_params=(), per_process=1, place=None, env=None,
-              monitor_params=(), namespace='/'):
+              monitor_params=(), fault_script=(), restart_dead=None, namespace='/'):
     """
     Run a fleet as processes in ``namespace``; return (run, summary). Every process is stopped.
 
     ``monitor_params`` (``name:=value``) go to the monitor only (``foxglove_port``).
     ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
     ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
-    ``env`` replaces the environment of every process.
+    ``env`` replaces the environment of every process. ``fault_script`` lists the faults
+    (:func:`faults.schedule`), ``restart_dead`` the fleet seconds after which a vehicle or
+    monitor process that died by itself is started again (None: never).
     """
     timeout = timeout or 60.0 + 20.0 * sc.duration
-    recording = None
-    if bag is not None:
-        if Path(bag).exists():
-            raise FileExistsError(f'bag directory {bag} exists already')
-        recording = Recording(bag, sc.num_vehicles, mode == 'lockstep', monitor, namespace)
+    schedule = faults.schedule(fault_script, sc)
+    if bag is not None and Path(bag).exists():
+        raise FileExistsError(f'bag directory {bag} exists already')
+    supervisor = Supervisor(sc.num_vehicles, mode, bag, monitor, namespace)
     try:
-        with Swarm(sc, mode, real_time_factor, workdir, recording is not None,
-                   monitor, node_params, per_process, place, env, monitor_params,
-                   namespace) as swarm:
-            wait_plant(swarm, timeout, recording)
+        with Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
+                   per_process, place, env, monitor_params, restart_dead, namespace) as swarm:
+            wait_plant(swarm, timeout, supervisor, schedule)
     finally:
-        if recording is not None:
-            recording.close()
+        supervisor.close()
     run, out = swarm.result()
     out['logs'] = str(swarm.dir)
     if bag is not None:

@@ -541,3 +541,15 @@ def test_vehicle_answers_a_repeated_step_with_the_same_state_and_command(nodes):
     odom.publish(_odom(1, 0, x=7.0))                 # the same step: answered as before
     assert nodes.spin_until(lambda: len(cmds) > 1 and len(states) > 1)
     assert states[1] == states[0] and cmds[1] == cmds[0]
+
+
+def test_vehicle_refuses_a_scenario_other_than_the_plants(nodes):
+    """Another fleet size and gain than the plant's latched scenario: refused, naming both."""
+    nodes.plant(PARTICLE, 'num_vehicles:=3')
+    same = nodes.vehicle(1, PARTICLE, 'num_vehicles:=3', 'seed:=9', 'duration:=5.0')
+    other = nodes.vehicle(2, PARTICLE, 'num_vehicles:=4', 'kappa:=2.0')
+    assert nodes.spin_until(lambda: other.done, timeout=20)
+    assert other.exit_code == 2 and not same.done
+    assert nodes.spin_until(lambda: nodes.logged(
+        other, "refused: this vehicle's scenario differs from the plant's (/formation/scenario): "
+               'num_vehicles = 4 here, 3 at the plant; kappa = 2.0 here, 5.0 at the plant'))

@@ -21,10 +21,12 @@ run, Ctrl-C stops every process.
 """
 import json
 from pathlib import Path
+import re
 
-from formation_control.core import simulator
+from formation_control.core import faults, simulator
 from formation_control.core.scenario import resolve
 from formation_control.ros import interface as itf
+import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
 from rosutil import CONFIG
@@ -37,7 +39,7 @@ def _swarm(ros, tmp_path, name, *args, timeout=300):
     result = ros.procs.run('formation-control', 'swarm', CONFIG / f'{name}.yaml', *args,
                            '--summary', summary, timeout=timeout)
     assert result.returncode == 0, result.stderr + result.stdout
-    return json.loads(summary.read_text()), result.stdout
+    return json.loads(summary.read_text()), result.stdout + result.stderr
 
 
 def test_lockstep_fleet_equals_the_offline_simulator(ros, tmp_path):
@@ -72,17 +74,20 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['storage_identifier'] == 'mcap'
     with AnyReader([bag]) as reader:
-        def read(topic):
-            return [reader.deserialize(raw, c.msgtype) for c, _, raw
+        def raw(topic):
+            return [(reader.deserialize(data, c.msgtype), bytes(data)) for c, _, data
                     in reader.messages([c for c in reader.connections if c.topic == topic])]
+
+        def read(topic):
+            return [m for m, _ in raw(topic)]
         for k in (1, 2, 3):
             for name in ('odom', 'cmd', 'formation_state'):
-                msgs = read(f'/vehicle_{k}/{name}')
+                msgs, data = zip(*raw(f'/vehicle_{k}/{name}'))
                 stamps = [itf.stamp_ns(m.header.stamp) for m in msgs]
                 assert stamps == sorted(stamps)
                 assert sorted(set(stamps)) == [n * 20_000_000 for n in range(steps)]
-                for m, before, s, s_before in zip(msgs[1:], msgs, stamps[1:], stamps):
-                    assert s != s_before or m == before     # a step asked again, sent unchanged
+                for d, before, s, s_before in zip(data[1:], data, stamps[1:], stamps):
+                    assert s != s_before or d == before     # a step asked again, sent unchanged
             assert len(read(f'/vehicle_{k}/flow')) == 1
         odom = read('/vehicle_2/odom')
     fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
@@ -143,3 +148,96 @@ def test_a_recorded_fleet_keeps_a_deep_history_on_its_state_writers(tmp_path):
     assert 'qos_overrides' not in plain['/**']['ros__parameters'] and RECORDED_DEPTH >= 100
     assert overrides == {f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
                          for k in (1, 2) for name in ('odom', 'formation_state', 'cmd')}
+
+
+FAULTS = ('kill:6@0.2', 'stop:2@1.5', 'cont:2@2.5', 'cut:1-3@3.5..8')
+
+
+def _statuses(bag, name):
+    """Return (bag time s, values) of every /diagnostics status ``name`` in the bag."""
+    out = []
+    with AnyReader([bag]) as reader:
+        for c, t, raw in reader.messages([c for c in reader.connections
+                                          if c.topic == '/diagnostics']):
+            for s in reader.deserialize(raw, c.msgtype).status:
+                if s.name == name:
+                    out.append((t * 1e-9, {v.key: v.value for v in s.values}))
+    return out
+
+
+def _faults_in(bag):
+    with AnyReader([bag]) as reader:
+        return [json.loads(reader.deserialize(raw, c.msgtype).data) for c, _, raw
+                in reader.messages([c for c in reader.connections if c.topic == itf.FAULTS_TOPIC])]
+
+
+def test_swarm_survives_scripted_faults(ros, tmp_path):
+    """
+    Vehicle 6 killed before convergence, 2 frozen and resumed, the link 1-3 cut for 4.5 s.
+
+    The five converge without 6 (at about 7 s; not the six) and the swarm exits 0; each fault
+    is in the summary and the bag at its fleet time.
+    """
+    bag = tmp_path / 'bag'
+    args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05']
+    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '20',
+                         '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
+    assert re.search(r'swarm: t = \d+\.\d\d s: kill vehicle 6 \(kill:6@0\.2\)', stderr)
+    assert re.search(r'swarm: t = \d+\.\d\d s: vehicle_6 exited with -9 \(SIGKILL\) \(fault '
+                     r'kill:6@0\.2\); the others carry on', stderr)
+    assert [f['fault'] for f in out['faults']] == [*FAULTS, FAULTS[3]]
+    applied = [f['applied'] for f in out['faults']]
+    # at the first fleet step the swarm sees at or after the time: later on a loaded machine
+    assert all(0 <= f['applied'] - f['scheduled'] < 2.0 for f in out['faults']), out['faults']
+    assert _faults_in(bag) == out['faults']
+    (lost,) = out['lost']
+    assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
+    assert 0.2 <= lost['time'] < 2.0                    # its death is seen a few steps later
+    assert out['survivors'] == [1, 2, 3, 4, 5]
+    assert out['survivors_converged'] and not out['converged']
+    assert 2.0 < out['survivors_convergence_time'] < 20.0         # after the kill at 0.2 s
+    run = simulator.load_run(Path(out['logs']) / 'run.npz')
+    commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
+    assert not commanded[run.t > lost['time'] + 0.1, 5].any()
+    frozen = (run.t > applied[1] + 0.2) & (run.t < applied[2])
+    assert not commanded[frozen, 1].any() and commanded[run.t > applied[2], 1].any()
+    for k, other in ((1, 3), (3, 1)):
+        log = (Path(out['logs']) / f'vehicle_{k}.log').read_text()
+        assert log.index(f'links cut: [{other}]') < log.index('links cut: []'), log
+        last = _statuses(bag, f'formation_control/vehicle_{k}/links')[-1][1]
+        assert int(last['dropped']) > 0 and str(other) not in last['gone_neighbours'], last
+
+
+def test_swarm_notes_dead_processes_restarts_them_and_applies_process_faults(tmp_path):
+    """The bookkeeping of :class:`Swarm` on stand-in processes (no ROS): fleet time is set."""
+    import sys
+
+    from formation_control.swarm import Swarm
+    sc = resolve({'num_vehicles': 3})
+    swarm = Swarm(sc, workdir=tmp_path, monitor=False, restart_dead=0.5)
+    sleeper = [sys.executable, '-c', 'import time; time.sleep(60)']
+    swarm.commands = [sleeper, [sys.executable, '-c', 'import sys; sys.exit(3)'], sleeper,
+                      sleeper]
+    with swarm:
+        swarm.t = 1.0
+        swarm.procs[1].wait(timeout=30)
+        swarm.check()
+        assert swarm.lost == [{'process': 'vehicle_1', 'vehicles': [1], 'time': 1.0, 'exit': 3,
+                               'cause': 'not scripted', 'restarted': None}]
+        swarm.t = 1.4
+        swarm.check()
+        assert swarm.lost[0]['restarted'] is None
+        swarm.commands[1] = sleeper                         # started again, it stays up
+        swarm.t = 1.5
+        swarm.check()
+        assert swarm.lost[0]['restarted'] == 1.5 and len(swarm.lost) == 1
+        for text in ('stop:2@1.5', 'kill:3@1.5'):
+            swarm.apply(faults.parse(text)[0])
+        swarm.procs[3].wait(timeout=30)
+        swarm.check()
+        assert swarm.lost[-1]['cause'] == 'fault kill:3@1.5' and swarm.lost[-1]['exit'] == -9
+        assert swarm.lost[-1]['restarted'] is None and not swarm.restarts   # scripted: no restart
+        assert 2 not in swarm.running_vehicles()
+        stopped = swarm.procs[2]
+    assert stopped.returncode is not None                  # a frozen process is stopped too
+    assert [f['fault'] for f in swarm.faults] == ['stop:2@1.5', 'kill:3@1.5']

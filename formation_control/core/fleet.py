@@ -19,7 +19,9 @@ The ``plant`` node holds each vehicle's latest command here, and :class:`FleetPl
 over the integration steps (:class:`simulator.Stepper`), records every ``record_dt``
 (:class:`simulator.Recorder`) and stops a vehicle whose state turns non-finite: frozen at its
 last finite state, zero command, no more odometry; the others go on.
+:func:`stability.likely_cause` names why.
 """
+from formation_control.core import stability
 from formation_control.core.simulator import Recorder, Stepper
 import numpy as np
 
@@ -94,14 +96,15 @@ class FleetPlant:
         Returns
         -------
         (k,) int
-            Indices of the vehicles whose state became non-finite in this integration: they
-            are stopped at their last finite state.
+            Indices of the vehicles whose state diverged in this integration (non-finite or
+            exploding, :func:`stability.diverging`): they are stopped at their last state
+            before it.
 
         """
         before = self.stepper.X
-        with np.errstate(invalid='ignore', over='ignore'):  # a vehicle turning non-finite
+        with np.errstate(invalid='ignore', over='ignore'):  # a vehicle diverging
             after = self.stepper.advance(steps)              # a new array
-        bad = ~np.all(np.isfinite(after), axis=0) & ~self.stopped
+        bad = stability.diverging(after) & ~self.stopped
         self.stopped |= bad
         after[:, self.stopped] = before[:, self.stopped]
         return np.flatnonzero(bad)

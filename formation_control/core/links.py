@@ -46,6 +46,9 @@ PARAMETERS = {
                              rule='ids in 1..num_vehicles other than its own')),
     'fault_seed': (0, Spec('', 'seed of the drops and delays (with the vehicle id)', low=0,
                            high=2 ** 31 - 1)),
+    'cut_links': ((), Spec('', 'neighbour ids whose every message is dropped (the link is '
+                           'down; swarm --fault cut:I-J@T1..T2 sets it at run time)',
+                           rule='ids in 1..num_vehicles other than its own', runtime=True)),
 }
 """name -> (default, :class:`scenario.Spec`): node parameters of the links (not scenario
 parameters: the offline simulator has no links)."""
@@ -58,10 +61,11 @@ def check(values, n, own):
         if low is not None and not (math.isfinite(value) and low <= value <= high):
             raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: allowed range "
                                 f'[{low:g}, {high:g}]')
-    bad = [j for j in values.get('fault_links', ()) if not 1 <= j <= n or j == own]
-    if bad:
-        raise ScenarioError(f"parameter 'fault_links' = {list(values['fault_links'])} is invalid: "
-                            f'neighbour ids in 1..{n} other than {own}')
+    for name in ('fault_links', 'cut_links'):
+        bad = [j for j in values.get(name, ()) if not 1 <= j <= n or j == own]
+        if bad:
+            raise ScenarioError(f"parameter '{name}' = {list(values[name])} is invalid: "
+                                f'neighbour ids in 1..{n} other than {own}')
     return values
 
 
@@ -98,7 +102,7 @@ class Liveness:
 
 @dataclass
 class Faults:
-    """Seeded drops, delays and range limit on the messages one vehicle hears."""
+    """Seeded drops, delays and range limit on the messages one vehicle hears; links cut."""
 
     drop_probability: float = 0.0
     delay: float = 0.0
@@ -106,11 +110,13 @@ class Faults:
     comm_range: float = 0.0
     fault_links: tuple = ()
     fault_seed: int = 0
+    cut_links: tuple = ()
     vehicle_id: int = 1
 
     def __post_init__(self):
         self.rng = np.random.default_rng([self.fault_seed, self.vehicle_id])
         self.links = set(self.fault_links)
+        self.cut = set(self.cut_links)
 
     @property
     def active(self):
@@ -124,6 +130,8 @@ class Faults:
 
     def admit(self, j):
         """None: the message from j is dropped; else the delay (s) before it is delivered."""
+        if j in self.cut:
+            return None
         if not self.applies(j):
             return 0.0
         if self.drop_probability and self.rng.random() < self.drop_probability:

@@ -168,7 +168,7 @@ def markdown():
     """
     out = ['', '# Node parameters', '',
            'Set per node (`--ros-args -p name:=value`, or `swarm ... -p name:=value`), not in '
-           'the scenario;', 'all are read-only once the node runs.', '']
+           'the scenario;', 'all but `cut_links` are read-only once the node runs.', '']
     for node, table in NODES.items():
         out += [f'## `{node}`', '', '| name | default | unit | allowed | meaning |',
                 '|---|---|---|---|---|']

@@ -744,7 +744,8 @@ def resolve(params):
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
-    return replace(sc, warnings=_check_physics(sc))
+    from formation_control.core.stability import step_warnings
+    return replace(sc, warnings=tuple(_check_physics(sc)) + tuple(step_warnings(sc)))
 
 
 def parse_override(text):
@@ -836,3 +837,28 @@ def initial_state(sc):
     if sc.model in PARTICLE_MODELS:
         X[ROW_U], X[ROW_V] = 1.0, 0.0
     return X
+
+
+PLANT_ONLY = ('seed', 'duration', 'record_dt', 'dt_integration', 'init_box') + INIT_ARRAYS
+"""Parameters only the plant uses (the initial state, the integration, the run's length and
+record): a vehicle may differ there (``formation-control doctor`` notes it)."""
+
+
+def differences(mine, theirs):
+    """
+    Return the parameters on which a vehicle's scenario differs from the plant's.
+
+    Parameters
+    ----------
+    mine, theirs : Scenario
+        The vehicle's scenario and the plant's (its latched ``/formation/scenario``).
+
+    Returns
+    -------
+    list of tuple
+        ``(name, mine, theirs)`` for each parameter outside :data:`PLANT_ONLY` that differs, in
+        table order: a vehicle with any of them would fly another law or fleet.
+
+    """
+    return [(name, getattr(mine, name), getattr(theirs, name)) for name in PARAMETER_NAMES
+            if name not in PLANT_ONLY and getattr(mine, name) != getattr(theirs, name)]

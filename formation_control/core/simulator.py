@@ -24,7 +24,7 @@ the local flow at its place (``flow_source: known``) or its estimate (``estimate
 from dataclasses import dataclass, field
 import json
 
-from formation_control.core import metrics
+from formation_control.core import metrics, stability
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
@@ -266,6 +266,12 @@ def simulate(sc, X0=None):
     Run
         Samples every ``record_dt`` and at the end.
 
+    Raises
+    ------
+    stability.DivergenceError
+        Once a vehicle's state diverges (:func:`stability.diverging`), naming the time, the
+        vehicle and the likely cause.
+
     """
     stepper = Stepper(sc, X0)
     rec = Recorder(sc)
@@ -273,7 +279,11 @@ def simulate(sc, X0=None):
         U = stepper.command()
         rec.record(n, stepper.X, U, stepper.flow_hat)
         if n < rec.steps:
-            stepper.advance()
+            with np.errstate(over='ignore', invalid='ignore'):
+                stepper.advance()
+            bad = np.flatnonzero(stability.diverging(stepper.X))
+            if bad.size:
+                raise stability.divergence(sc, (n + 1) * sc.dt_control, bad[0], stepper.X)
     return rec.run()
 
 

@@ -113,8 +113,7 @@ class FleetRecorder(BagRecorder):
     def __init__(self, path, n, prefix='/', monitor=True, **kwargs):
         from std_msgs.msg import Empty
 
-        from formation_control.swarm import MONITOR_TOPICS
-        left_out = () if monitor else [prefix + t for t in MONITOR_TOPICS]
+        left_out = () if monitor else [prefix + t for t in (itf.METRICS_TOPIC, itf.MARKERS_TOPIC)]
         topics = [t for t in fleet_topics(n, prefix) if t[0] not in left_out]
         super().__init__(path, topics, **kwargs)
         if not self.get_parameter('use_sim_time').value:

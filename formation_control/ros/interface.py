@@ -72,6 +72,8 @@ DIAGNOSTICS_TOPIC = '/diagnostics'
 CLOCK_TOPIC = 'clock'
 SCENARIO_TOPIC = 'formation/scenario'
 METRICS_TOPIC = 'formation/metrics'
+FAULTS_TOPIC = 'formation/faults'
+"""swarm: each scripted fault as it is applied (std_msgs/String, JSON; :data:`FAULTS_QOS`)."""
 MARKERS_TOPIC = 'formation/markers'
 SCENE_TOPIC = '/formation/scene'
 """The Foxglove live view's SceneUpdate channel (not a ROS topic)."""
@@ -136,6 +138,11 @@ LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """The flow: published when it changes, kept for late joiners."""
+
+FAULTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                        reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""The faults of a run: every one kept for late joiners."""
 
 STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                         reliability=ReliabilityPolicy.RELIABLE,

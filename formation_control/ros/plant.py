@@ -33,7 +33,8 @@ bodies each odometry comes with the through-water velocity on ``/vehicle_k/water
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
-state becomes non-finite is stopped with an error naming it. Counts and status:
+state diverges (non-finite or exploding) is stopped with an error naming it and the likely
+cause; once every vehicle is, the run ends (exit code 1). Counts and status:
 ``/diagnostics``, ``formation_control/plant``.
 
 Every scenario parameter is read-only here: the plant uses no gain, the vehicles hold them.
@@ -42,7 +43,7 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import links, lockstep
+from formation_control.core import links, lockstep, stability
 from formation_control.core.fleet import FleetPlant
 from formation_control.core.node_parameters import check_frames, PLANT, START_TOPIC
 from formation_control.core.onboard import needs_second_sensor
@@ -81,6 +82,7 @@ class PlantNode(Node):
         self.pacer = self.missing = self.wall_start = None
         self.t0_ns = 0
         self.started = self.finished = self.done = False
+        self.exit_code = 0
         self._create_topics()
         self.get_logger().info(f'plant: {sc.num_vehicles} x {sc.model}, {sc.formation} '
                                f'({sc.controller}), {self.mode}, {sc.duration:g} s')
@@ -214,6 +216,8 @@ class PlantNode(Node):
             return
         if self._hold(self.gate.gone(), True):
             self._integrate()
+            if self.finished:
+                return
             self.fleet.n += 1
             self._publish_step()
 
@@ -239,8 +243,14 @@ class PlantNode(Node):
     def _integrate(self, steps=None):
         for i in self.fleet.integrate(steps):
             self.get_logger().error(
-                f'vehicle {i + 1}: its state became non-finite after t = {self.fleet.time:.3f} '
-                f's (command {self.fleet.pending[:, i].tolist()}); vehicle {i + 1} is stopped')
+                f'vehicle {i + 1}: its state became non-finite or exploded after t = '
+                f'{self.fleet.time:.3f} s (command {self.fleet.pending[:, i].tolist()}); '
+                f'vehicle {i + 1} is stopped. Likely cause: {stability.likely_cause(self.sc)}')
+        if self.fleet.stopped.all() and not self.finished:
+            self.get_logger().error(f'every vehicle diverged by t = {self.fleet.time:.3f} s: '
+                                    f'the run stops')
+            self._finish()
+            self.done, self.exit_code = True, 1
 
     def _publish_diagnostics(self):
         stopped_mask = self.fleet.stopped

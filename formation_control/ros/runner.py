@@ -76,10 +76,11 @@ def run(make_node, args=None):
     Create the node (or list of nodes) with ``make_node(context)`` and spin them.
 
     The nodes share one events executor until one is done, SIGINT or SIGTERM arrives or the
-    context shuts down (exit code 0); a bad scenario exits 2 with the reason.
+    context shuts down (exit code 0, or the ``exit_code`` of a node that is done); a bad
+    scenario exits 2 with the reason.
     """
     stop = _StopFlag()
-    nodes = []
+    nodes, code = [], 0
     try:
         with one_participant_at_a_time():
             rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
@@ -98,6 +99,7 @@ def run(make_node, args=None):
         while (not stop.raised and context.ok()
                and not any(getattr(node, 'done', False) for node in nodes)):
             executor.spin_once(timeout_sec=0.1)
+        code = max(getattr(node, 'exit_code', 0) for node in nodes)
     except (ScenarioError, InvalidParameterTypeException, InvalidParameterValueException) as err:
         print(f'error: {err}', file=sys.stderr)
         return 2
@@ -107,4 +109,4 @@ def run(make_node, args=None):
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return code

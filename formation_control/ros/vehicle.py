@@ -27,12 +27,13 @@ this node converts messages and publishes. Malformed, stale or foreign messages 
 logged and counted; the counts are in its ``/diagnostics`` status
 ``formation_control/vehicle_k/links``.
 """
+import json
 import math
 import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import links, lockstep
+from formation_control.core import links, lockstep, scenario
 from formation_control.core.models import ROW_U, ROW_V
 from formation_control.core.neighbours import NeighbourTable
 from formation_control.core.node_parameters import check_frames, FRAMES, VEHICLE
@@ -42,9 +43,11 @@ from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 LINK_PARAMETERS = tuple(name for name in links.PARAMETERS if name != 'command_timeout')
 REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
@@ -66,6 +69,7 @@ class VehicleNode(Node):
     def __init__(self, vehicle_id, **kwargs):
         super().__init__(f'vehicle_{vehicle_id}', **kwargs)
         self.k = vehicle_id
+        self.done, self.exit_code = False, 0
         self._declare(vehicle_id)
         sc = self.sc = parameters.current(self)
         self.mode = parameters.choice(self, 'mode', parameters.MODES)
@@ -105,6 +109,7 @@ class VehicleNode(Node):
                         for j, hears in self.hears.items() if hears and j != vehicle_id}
         self._create_topics()
         self.add_on_set_parameters_callback(parameters.validator(self))
+        self.add_on_set_parameters_callback(self._check_cut_links)
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'lockstep':
             self.create_timer(min(0.05, self.known.liveness.timeout / 4), self._try_command,
@@ -135,15 +140,42 @@ class VehicleNode(Node):
         if self.second == 'water':
             self.create_subscription(TwistStamped, itf.topic(k, 'water_velocity'),
                                      self._on_water, **qos())
+        self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
         for j in self.neighbours:
             self.create_subscription(JointState, itf.topic(j, 'formation_state'),
                                      lambda data, j=j: self._on_state(j, data), raw=True,
                                      **qos())
         self.diag_pub = common.diagnostics_publisher(self)
 
-    def _apply_parameters(self, _params):
+    def _check_cut_links(self, params):
+        try:
+            links.check({p.name: tuple(p.value or ()) for p in params if p.name == 'cut_links'},
+                        self.sc.num_vehicles, self.k)
+        except ScenarioError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params):
+        for p in params:
+            if p.name == 'cut_links':
+                self.inbox.faults.cut = set(p.value or ())
+                self.get_logger().warn(f'links cut: {sorted(self.inbox.faults.cut)}')
         self.sc = parameters.current(self)
         self.onboard.retune(self.sc)
+
+    def _on_scenario(self, msg):
+        """Refuse to fly when the plant's latched scenario differs from this vehicle's."""
+        try:
+            theirs = scenario.resolve(json.loads(msg.data))
+        except (ValueError, TypeError, ScenarioError) as err:
+            return self.reject('malformed', f'an unreadable plant scenario ({err})')
+        diffs = scenario.differences(self.sc, theirs)
+        if diffs:
+            listed = '; '.join(f'{name} = {mine!r} here, {plant!r} at the plant'
+                               for name, mine, plant in diffs)
+            self.get_logger().error(f"refused: this vehicle's scenario differs from the "
+                                    f"plant's ({itf.SCENARIO_TOPIC}): {listed}")
+            self.done, self.exit_code = True, 2
 
     def _on_flow(self, msg):
         flow = complex(msg.vector.x, msg.vector.y)
