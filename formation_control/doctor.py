@@ -79,9 +79,9 @@ class Facts:
     env : dict
         ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_LOCALHOST_ONLY (absent: unset).
     scenario : dict or None
-        The plant's latched scenario (JSON of ``/formation/scenario``).
+        The plant's latched scenario (JSON of ``<namespace>/formation/scenario``).
     scenario_publishers : list of str
-        The nodes publishing ``/formation/scenario``.
+        The nodes publishing it.
     nodes : list of str
         Every node's fully qualified name, as often as it is on the domain.
     parameters : dict
@@ -89,9 +89,9 @@ class Facts:
     mode : str or None
         The plant's time mode (``lockstep`` / ``realtime``).
     endpoints : list of Endpoint
-        The publishers and subscriptions of the fleet's topics.
+        The publishers and subscriptions of the fleet's topics (absolute names).
     streams : dict
-        Topic -> :class:`Stream` heard on it (formation states and odometry).
+        Topic (absolute) -> :class:`Stream` heard on it (formation states and odometry).
     state_topics : dict
         Vehicle id -> its formation_state topic (resolved).
     clock_lags : dict

@@ -63,8 +63,9 @@ CLOCK_TOPIC = 'clock'
 SCENARIO_TOPIC = 'formation/scenario'
 METRICS_TOPIC = 'formation/metrics'
 MARKERS_TOPIC = 'formation/markers'
-SCENE_TOPIC = '/formation/scene'
-"""The Foxglove live view's SceneUpdate channel (not a ROS topic)."""
+SCENE_TOPIC = 'formation/scene'
+"""The Foxglove live view's SceneUpdate channel (not a ROS topic), named as the monitor resolves
+it (``/fleet_a/formation/scene``)."""
 STALL = 3.0
 """Lockstep: after this many wall seconds without progress, a node says what it waits for."""
 METRIC_DOC = {
@@ -130,7 +131,7 @@ LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
-"""``/formation/metrics``, ``/formation/markers`` and ``/diagnostics``."""
+"""``formation/metrics``, ``formation/markers`` and ``/diagnostics``."""
 
 
 def quaternion_zw(theta):
