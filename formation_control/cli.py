@@ -201,6 +201,8 @@ def cmd_params(args):
 
 def cmd_play(args):
     from formation_control.playback import Bag, BagError, CLOCK_TOPIC
+    from formation_control.swarm import namespace_prefix
+    args.namespace = namespace_prefix(args.namespace).rstrip('/') or '/'
     try:
         if not args.rate > 0:
             raise BagError(f'--rate {args.rate} is invalid: must be > 0')

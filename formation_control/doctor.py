@@ -40,6 +40,22 @@ CLOCKED = re.compile(r'formation_control/(plant|vehicle_\d+)(/links)?$')
 """The /diagnostics statuses stamped with their node's own clock: the plant's, the vehicles'."""
 
 
+def clocked_node(status_name, namespace):
+    """
+    Return who stamps a /diagnostics status with its own clock: ``plant``, ``vehicle_k``.
+
+    None for a status of another kind or of a fleet in another namespace (in a namespace, a
+    status name starts with it: ``fleet_a/formation_control/plant``).
+    """
+    prefix = namespace.strip('/')
+    if prefix:
+        if not status_name.startswith(prefix + '/'):
+            return None
+        status_name = status_name[len(prefix) + 1:]
+    match = CLOCKED.match(status_name)
+    return match[1] if match else None
+
+
 @dataclass(frozen=True)
 class Finding:
     """One thing the doctor found: its level, who it concerns (a node, a topic), the text."""

@@ -131,9 +131,9 @@ class Gatherer:
     def _clocked(facts, msg):
         lag = (time.time_ns() - itf.stamp_ns(msg.header.stamp)) * 1e-9
         for status in msg.status:
-            match = doctor.CLOCKED.match(status.name)
-            if match:
-                facts.clock_lags.setdefault(match[1], []).append(lag)
+            who = doctor.clocked_node(status.name, facts.namespace)
+            if who is not None:
+                facts.clock_lags.setdefault(who, []).append(lag)
 
     @staticmethod
     def _heard(stream, data):
