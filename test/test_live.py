@@ -103,8 +103,8 @@ def test_metrics_message_is_json_with_every_metric_by_name():
 
 
 @pytest.mark.parametrize('namespace, frame', [('/', 'map'), ('fleet_a', 'odom')])
-def test_installed_layout_is_the_generated_one_and_plots_real_metrics(namespace, frame,
-                                                                       tmp_path):
+def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
+        namespace, frame, tmp_path):
     """The layout names the absolute channels of the fleet's namespace, in its world frame."""
     prefix = '/' if namespace == '/' else f'/{namespace}/'
     if namespace == '/':

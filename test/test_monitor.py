@@ -318,8 +318,8 @@ def test_bag_holds_the_markers_of_the_sampled_poses(recorded):
     prefix = bagfile.fleet_prefix(bag)                   # a bag holds the resolved names
     assert prefix == '/'
     odom, arrays = {}, []
-    topics = [prefix + t for t in [itf.MARKERS_TOPIC] + [itf.topic(k, 'odom')
-                                                        for k in range(1, n + 1)]]
+    odom_topics = [itf.topic(k, 'odom') for k in range(1, n + 1)]
+    topics = [prefix + t for t in [itf.MARKERS_TOPIC] + odom_topics]
     for topic, msg in bagfile.messages(bag, topics):
         if topic == prefix + itf.MARKERS_TOPIC:
             arrays.append(msg)
