@@ -127,7 +127,7 @@ def cmd_swarm(args):
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
                                    monitor=not args.no_monitor, node_params=_split(args.param)[1],
                                    per_process=args.vehicles_per_process,
-                                   monitor_params=_live_view(args.foxglove),
+                                   monitor_params=_live_view(args.foxglove, args.namespace),
                                    namespace=args.namespace, fault_script=args.fault,
                                    restart_dead=args.restart_dead)
     except KeyboardInterrupt:
@@ -162,12 +162,15 @@ def _fault_lines(out):
     return lines
 
 
-def _live_view(port):
+def _live_view(port, namespace='/'):
     """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
     if port is None:
         return []
+    from formation_control.swarm import namespace_prefix
+    prefix = namespace_prefix(namespace)
+    layout = 'formation-control layout' + (f' --namespace {prefix[:-1]}' if prefix != '/' else '')
     print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app (layout: '
-          f'formation-control layout)', file=sys.stderr)
+          f'{layout})', file=sys.stderr)
     return [f'foxglove_port:={port}']
 
 
@@ -226,10 +229,13 @@ def cmd_params(args):
 
 def cmd_play(args):
     from formation_control.playback import Bag, BagError, CLOCK_TOPIC
+    from formation_control.swarm import namespace_prefix
+    args.namespace = namespace_prefix(args.namespace).rstrip('/') or '/'
     try:
         if not args.rate > 0:
             raise BagError(f'--rate {args.rate} is invalid: must be > 0')
-        bag = Bag(args.bag, args.topics, skip=(CLOCK_TOPIC,) if args.clock else ())
+        bag = Bag(args.bag, args.topics, skip=(CLOCK_TOPIC,) if args.clock else (),
+                  namespace=args.namespace)
     except BagError as err:
         print(f'error: {err}', file=sys.stderr)
         return 2
@@ -239,7 +245,8 @@ def cmd_play(args):
 
     def make(context):
         nodes.append(PlayerNode(bag, args.rate, args.clock, args.loop,
-                                args.wait_for_subscribers, context=context))
+                                args.wait_for_subscribers, namespace=args.namespace,
+                                context=context))
         return nodes[0]
     code = run(make, args.ros_args)
     error = nodes[0].error if nodes else None
@@ -259,7 +266,7 @@ def cmd_doctor(args):
 
 def cmd_layout(args):
     from formation_control.layout import layout_json
-    text = layout_json()
+    text = layout_json(args.namespace, args.world_frame)
     if args.out:
         Path(args.out).write_text(text)
         print(f'wrote {args.out}')
@@ -340,17 +347,23 @@ def build_parser():
     play.add_argument('bag', help='the bag directory (any rosbag2 bag: MCAP or sqlite3)')
     play.add_argument('--rate', type=float, default=1.0,
                       help='recorded seconds per wall second (default 1)')
+    play.add_argument('--namespace', default='/', metavar='NS',
+                      help="the fleet's namespace: relative --topics names and --clock's "
+                           '<NS>/clock resolve in it (default /)')
     play.add_argument('--clock', action='store_true',
-                      help='publish /clock with the recorded time being played (for nodes '
-                           "with use_sim_time); the bag's own /clock is not replayed")
-    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='replay these topics only')
+                      help='publish <NS>/clock with the recorded time being played (for nodes '
+                           "with use_sim_time); the bag's own <NS>/clock is not replayed")
+    play.add_argument('--topics', nargs='+', metavar='TOPIC',
+                      help='replay these topics only: absolute (/fleet_a/vehicle_1/odom) or '
+                           'relative to --namespace (vehicle_1/odom)')
     play.add_argument('--loop', action='store_true', help='start again at the end, until SIGINT')
     play.add_argument('--wait-for-subscribers', action='store_true',
                       help='hold the start until every replayed topic has a subscriber')
     play.set_defaults(func=cmd_play)
     doc = sub.add_parser('doctor', help='join the domain and report what keeps a fleet from '
                                         'working (exit 1 if anything)')
-    doc.add_argument('--namespace', default='/', help="the fleet's namespace (default /)")
+    doc.add_argument('--namespace', default='/', metavar='NS',
+                     help="the fleet's namespace: its plant, vehicles and topics (default /)")
     doc.add_argument('--listen', type=float, default=2.0,
                      help='seconds to listen to the formation states (default 2)')
     doc.add_argument('--discover', type=float, default=5.0,
@@ -358,6 +371,10 @@ def build_parser():
     doc.set_defaults(func=cmd_doctor)
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
                                         'foxglove/formation_control.json)')
+    lay.add_argument('--namespace', default='/', metavar='NS',
+                     help="the fleet's namespace: the topics are its absolute names (default /)")
+    lay.add_argument('--world-frame', default=node_parameters.WORLD_FRAME, metavar='FRAME',
+                     help="the 3D panel's frame: the monitor's world_frame (default map)")
     lay.add_argument('--out', help='write it to this file instead')
     lay.set_defaults(func=cmd_layout)
     return parser

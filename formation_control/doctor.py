@@ -36,6 +36,22 @@ CLOCKED = re.compile(r'formation_control/(plant|vehicle_\d+)(/links)?$')
 """The /diagnostics statuses stamped with their node's own clock: the plant's, the vehicles'."""
 
 
+def clocked_node(status_name, namespace):
+    """
+    Return who stamps a /diagnostics status with its own clock: ``plant``, ``vehicle_k``.
+
+    None for a status of another kind or of a fleet in another namespace (in a namespace, a
+    status name starts with it: ``fleet_a/formation_control/plant``).
+    """
+    prefix = namespace.strip('/')
+    if prefix:
+        if not status_name.startswith(prefix + '/'):
+            return None
+        status_name = status_name[len(prefix) + 1:]
+    match = CLOCKED.match(status_name)
+    return match[1] if match else None
+
+
 @dataclass(frozen=True)
 class Finding:
     """One thing the doctor found: its level, who it concerns (a node, a topic), the text."""
@@ -75,9 +91,9 @@ class Facts:
     env : dict
         ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_LOCALHOST_ONLY (absent: unset).
     scenario : dict or None
-        The plant's latched scenario (JSON of ``/formation/scenario``).
+        The plant's latched scenario (JSON of ``<namespace>/formation/scenario``).
     scenario_publishers : list of str
-        The nodes publishing ``/formation/scenario``.
+        The nodes publishing it.
     nodes : list of str
         Every node's fully qualified name, as often as it is on the domain.
     parameters : dict
@@ -85,9 +101,9 @@ class Facts:
     mode : str or None
         The plant's time mode (``lockstep`` / ``realtime``).
     endpoints : list of Endpoint
-        The publishers and subscriptions of the fleet's topics.
+        The publishers and subscriptions of the fleet's topics (absolute names).
     streams : dict
-        Topic -> :class:`Stream` heard on it (formation states and odometry).
+        Topic (absolute) -> :class:`Stream` heard on it (formation states and odometry).
     state_topics : dict
         Vehicle id -> its formation_state topic (resolved).
     clock_lags : dict

@@ -25,13 +25,26 @@ import struct
 
 from rosbags.rosbag2 import Reader, ReaderError
 
-CLOCK_TOPIC = '/clock'
+CLOCK_TOPIC = 'clock'
+"""The player's clock, relative: ``/clock``, or ``/fleet_a/clock`` in a fleet's namespace."""
 DEFAULT_DEPTH = 10
 """The replay history of a topic whose bag names no offered QoS (rosbag2's default)."""
 
 
 class BagError(ValueError):
     """A bag that cannot be replayed: missing, not a bag, truncated or corrupt."""
+
+
+def resolve_name(name, namespace='/'):
+    """
+    Return the absolute name a bag holds of a topic ``name`` given in ``namespace``.
+
+    A bag records resolved names: an absolute name stays as it is, a relative one is prefixed
+    with the namespace (``vehicle_1/odom`` in ``/fleet_a``: ``/fleet_a/vehicle_1/odom``).
+    """
+    if name.startswith('/'):
+        return name
+    return '/' + '/'.join(part for part in (*namespace.split('/'), name) if part)
 
 
 @dataclass(frozen=True)
@@ -87,6 +100,9 @@ class Bag:
     """
     A bag opened for replay; ``topics`` (iterable of names) selects topics, None: all.
 
+    ``topics`` and ``skip`` are absolute names or names relative to ``namespace``
+    (:func:`resolve_name`).
+
     Raises
     ------
     BagError
@@ -94,8 +110,10 @@ class Bag:
 
     """
 
-    def __init__(self, path, topics=None, skip=()):
+    def __init__(self, path, topics=None, skip=(), namespace='/'):
         self.path = Path(path)
+        topics = None if topics is None else {resolve_name(t, namespace) for t in topics}
+        skip = {resolve_name(t, namespace) for t in skip}
         if not (self.path / 'metadata.yaml').is_file():
             raise BagError(f'{path}: not a rosbag2 bag (a directory with metadata.yaml)')
         try:
@@ -110,7 +128,7 @@ class Bag:
         if missing:
             raise BagError(f'{path}: no topic {", ".join(missing)} in the bag (it has: '
                            f'{", ".join(sorted(names))})')
-        wanted = set(topics or names) - set(skip)
+        wanted = (topics or names) - skip
         self.connections = [c for c in conns if c.topic in wanted]
         self.topics = self._topics()
 

@@ -16,9 +16,10 @@
 The Foxglove live view's messages: a fleet as a ``foxglove.SceneUpdate``, its metrics as JSON.
 
 Pure functions of the monitor's arrays (no ROS): the same fleet the RViz markers show
-(:mod:`formation_control.ros.markers`), in the ``map`` frame. One entity per vehicle
-(``vehicle_k``: heading arrow, ground-velocity arrow, trail, label), ``centres`` (the circle
-centres c_k and the prescribed centre c0) and ``links`` (the live links of the graph).
+(:mod:`formation_control.ros.markers`), in the monitor's ``world_frame`` (default ``map``).
+One entity per vehicle (``vehicle_k``: heading arrow, ground-velocity arrow, trail, label),
+``centres`` (the circle centres c_k and the prescribed centre c0) and ``links`` (the live links
+of the graph).
 """
 import cmath
 import math
@@ -63,7 +64,7 @@ def _arrow(z, angle, length, color, width):
                           color=color)
 
 
-def vehicle_entity(ns, k, position, heading, ground_velocity, trail):
+def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=FRAME):
     """
     Return the SceneEntity ``vehicle_k``.
 
@@ -81,6 +82,8 @@ def vehicle_entity(ns, k, position, heading, ground_velocity, trail):
         Ground velocity (m/s); None: no arrow (no flow: it is the heading).
     trail : sequence of complex
         Recent positions (m), oldest first.
+    frame : str, optional
+        The world frame of the positions.
 
     """
     arrows = [_arrow(position, heading, HEADING_LENGTH, HEADING, 0.05)]
@@ -91,12 +94,12 @@ def vehicle_entity(ns, k, position, heading, ground_velocity, trail):
                            thickness=0.03, points=[_point(z) for z in trail], color=TRAIL)]
     label = TextPrimitive(pose=_pose(position + 0.25j), billboard=True, font_size=14.0,
                           scale_invariant=True, color=LABEL, text=str(k))
-    return SceneEntity(timestamp=stamp(ns), frame_id=FRAME, id=f'vehicle_{k}', arrows=arrows,
+    return SceneEntity(timestamp=stamp(ns), frame_id=frame, id=f'vehicle_{k}', arrows=arrows,
                        lines=lines, texts=[label],
                        metadata=[KeyValuePair(key='vehicle_id', value=str(k))])
 
 
-def centres_entity(ns, centres, target=None):
+def centres_entity(ns, centres, target=None, frame=FRAME):
     """Return the SceneEntity ``centres``: c_k as spheres, c0 (None: none) as a flat disc."""
     size = Vector3(x=0.1, y=0.1, z=0.1)
     spheres = [SpherePrimitive(pose=_pose(c), size=size, color=CENTRE) for c in centres]
@@ -105,20 +108,20 @@ def centres_entity(ns, centres, target=None):
         disc = Vector3(x=0.25, y=0.25, z=0.02)
         cylinders.append(CylinderPrimitive(pose=_pose(target), size=disc, bottom_scale=1.0,
                                            top_scale=1.0, color=TARGET))
-    return SceneEntity(timestamp=stamp(ns), frame_id=FRAME, id='centres', spheres=spheres,
+    return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='centres', spheres=spheres,
                        cylinders=cylinders)
 
 
-def links_entity(ns, positions, edges):
+def links_entity(ns, positions, edges, frame=FRAME):
     """Return the SceneEntity ``links``: one segment per live link (edges (L, 2), 0-based)."""
     points = [_point(positions[i]) for edge in edges for i in edge]
     line = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=_pose(0j), thickness=0.02,
                          points=points, color=LINK)
-    return SceneEntity(timestamp=stamp(ns), frame_id=FRAME, id='links', lines=[line])
+    return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='links', lines=[line])
 
 
 def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres=None,
-                target=None):
+                target=None, frame=FRAME):
     """
     Return the SceneUpdate of a fleet: every vehicle, its live links, the circle centres.
 
@@ -140,6 +143,8 @@ def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres
         Circular formations: c_k = r_k + i e^{i phase_k} / omega0 (m).
     target : complex, optional
         The prescribed centre c0 (m).
+    frame : str, optional
+        The world frame (the monitor's ``world_frame``).
 
     Returns
     -------
@@ -148,10 +153,10 @@ def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres
     """
     entities = [vehicle_entity(ns, i + 1, complex(positions[i]), float(headings[i]),
                                None if ground_velocity is None else complex(ground_velocity[i]),
-                               trails[i]) for i in range(len(positions))]
-    entities.append(links_entity(ns, positions, edges))
+                               trails[i], frame) for i in range(len(positions))]
+    entities.append(links_entity(ns, positions, edges, frame))
     if centres is not None:
-        entities.append(centres_entity(ns, centres, target))
+        entities.append(centres_entity(ns, centres, target, frame))
     return SceneUpdate(entities=entities)
 
 

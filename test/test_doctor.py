@@ -37,10 +37,15 @@ def _scenario(**values):
     return json.loads(sc.to_json())
 
 
+def _state(k, prefix='/'):
+    """Return vehicle k's formation_state topic as the graph names it (resolved)."""
+    return prefix + itf.topic(k, 'formation_state')
+
+
 def _healthy(n=3, **values):
     """Facts of a fleet that works: a plant, n vehicles each hearing every other."""
     sc = _scenario(**values)
-    topics = {k: itf.topic(k, 'formation_state') for k in range(1, n + 1)}
+    topics = {k: _state(k) for k in range(1, n + 1)}
     endpoints = []
     for k, topic in topics.items():
         endpoints.append(doctor.Endpoint(topic, f'/vehicle_{k}', 'pub', itf.STATE_QOS))
@@ -105,7 +110,7 @@ def test_missing_duplicate_and_foreign_vehicle_ids():
 
 def test_a_silent_vehicle_and_one_that_hears_nobody():
     facts = _healthy()
-    facts.streams[itf.topic(2, 'formation_state')].count = 0
+    facts.streams[_state(2)].count = 0
     facts.endpoints = [e for e in facts.endpoints if e.kind == 'sub' or e.node == '/vehicle_1']
     found = _problems(facts)
     assert ('error', '/vehicle_2', 'publishes no formation_state on /vehicle_2/formation_state'
@@ -114,7 +119,7 @@ def test_a_silent_vehicle_and_one_that_hears_nobody():
                                    'formation_state') in found
     assert [f[1] for f in found if 'hears no neighbour' in f[2]] == ['/vehicle_1']
     ring = _healthy(graph='ring')
-    ring.streams[itf.topic(3, 'formation_state')].hears = {'hears_1': False, 'hears_2': False}
+    ring.streams[_state(3)].hears = {'hears_1': False, 'hears_2': False}
     assert _problems(ring) == [('error', '/vehicle_3', 'hears no neighbour: every hears_j of '
                                                        'its formation_state is 0')]
 
@@ -144,6 +149,10 @@ def test_clock_skew_between_hosts_in_real_time():
     assert vehicle[:2] == ('warning', 'vehicle_2') and '0.410 s behind' in vehicle[2]
     facts.mode = 'lockstep'                          # stamps are the fleet's time then
     assert _problems(facts) == []
+    assert [doctor.clocked_node(name, '/fleet_a') for name in (
+        'fleet_a/formation_control/vehicle_2/links', 'fleet_a/formation_control/plant',
+        'formation_control/plant', 'fleet_b/formation_control/plant',
+        'fleet_a/formation_control/formation')] == ['vehicle_2', 'plant', None, None, None]
 
 
 def test_no_plant_on_the_domain_is_an_error_naming_the_domain():
@@ -154,19 +163,35 @@ def test_no_plant_on_the_domain_is_an_error_naming_the_domain():
 
 
 def test_doctor_finds_the_missing_and_the_misconfigured_vehicle_of_a_real_fleet(nodes):
-    """Lockstep fleet of 3, vehicle 3 never started, vehicle 2 with another kappa."""
+    """
+    Lockstep fleet of 3 in /fleet_a, vehicle 3 never started, vehicle 2 with another kappa.
+
+    A vehicle 3 of the fleet in / does not count: ``--namespace`` selects a fleet's nodes and
+    topics.
+    """
+    from formation_control.ros.plant import PlantNode
+    from formation_control.ros.vehicle import VehicleNode
+    from rosutil import node_args
     cfg = CONFIG / 'particle_circular.yaml'
-    nodes.plant(cfg, 'num_vehicles:=3')
-    nodes.vehicle(1, cfg, 'num_vehicles:=3')
-    nodes.vehicle(2, cfg, 'num_vehicles:=3', 'kappa:=2.5')
-    gatherer = Gatherer('/', nodes.context, nodes.executor)
+
+    def args(*params):
+        return node_args(cfg, 'num_vehicles:=3', *params) + ['-r', '__ns:=/fleet_a']
+    nodes.add(PlantNode(context=nodes.context, cli_args=args()))
+    nodes.add(VehicleNode(1, context=nodes.context, cli_args=args('vehicle_id:=1')))
+    nodes.add(VehicleNode(2, context=nodes.context, cli_args=args('vehicle_id:=2', 'kappa:=2.5')))
+    nodes.vehicle(3, cfg, 'num_vehicles:=3')                     # /vehicle_3: another fleet
+    gatherer = Gatherer('/fleet_a', nodes.context, nodes.executor)
     try:
         facts = gatherer.gather(listen=0.5, discover=10.0)
     finally:
         gatherer.close()
     assert facts.mode == 'lockstep' and facts.scenario['num_vehicles'] == 3
-    assert facts.streams[itf.topic(1, 'formation_state')].count > 0
+    assert facts.scenario_publishers == ['/fleet_a/plant']
+    assert facts.streams[_state(1, '/fleet_a/')].count > 0
+    assert facts.endpoints and all(e.topic.startswith('/fleet_a/') or e.topic == '/diagnostics'
+                                   for e in facts.endpoints)
+    assert '/fleet_a/clock' in {e.topic for e in facts.endpoints}
     found = _problems(facts)
     assert ('error', 'fleet', 'vehicles [3] of the 3 are missing (no node vehicle_k)') in found
-    assert ('error', '/vehicle_2', 'kappa = 2.5, the plant has 5.0') in found
-    assert not [f for f in found if f[1] == '/vehicle_1'], found
+    assert ('error', '/fleet_a/vehicle_2', 'kappa = 2.5, the plant has 5.0') in found
+    assert not [f for f in found if f[1] in ('/fleet_a/vehicle_1', '/vehicle_3')], found

@@ -25,9 +25,10 @@ from pathlib import Path
 import socket
 
 from diagnostic_msgs.msg import DiagnosticArray
-from formation_control import layout, scene
+from formation_control import cli, layout, scene
 from formation_control.core import scenario
 from formation_control.ros import interface as itf
+from formation_control.ros.monitor import MonitorNode
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
 from nav_msgs.msg import Odometry
@@ -101,18 +102,29 @@ def test_metrics_message_is_json_with_every_metric_by_name():
     assert set(schema['properties']) == {'timestamp', *itf.METRIC_DOC}
 
 
-def test_installed_layout_is_the_generated_one_and_plots_real_metrics():
-    assert (ROOT / 'foxglove' / 'formation_control.json').read_text() == layout.layout_json()
-    text = json.loads(layout.layout_json())
+@pytest.mark.parametrize('namespace, frame', [('/', 'map'), ('fleet_a', 'odom')])
+def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
+        namespace, frame, tmp_path):
+    """The layout names the absolute channels of the fleet's namespace, in its world frame."""
+    prefix = '/' if namespace == '/' else f'/{namespace}/'
+    if namespace == '/':
+        assert (ROOT / 'foxglove' / 'formation_control.json').read_text() == layout.layout_json()
+    out = tmp_path / 'layout.json'
+    assert cli.main(['layout', '--namespace', namespace, '--world-frame', frame,
+                     '--out', str(out)]) == 0
+    text = json.loads(out.read_text())
     panels = [item['content'] for item in text['content']['items'][1]['content']['items']]
     paths = [p['value'] for panel in panels if panel['panelType'] == 'Plot'
              for p in panel['config']['paths']]
-    assert paths == [f'{itf.METRICS_TOPIC}.{name}' for name in
+    assert paths == [f'{prefix}formation/metrics.{name}' for name in
                      ('order_parameter', 'lyapunov', 'centre_spread', 'speed_error')]
     assert all(path.split('.', 1)[1] in itf.METRIC_DOC for path in paths)
     assert panels[-1]['panelType'] == 'DiagnosticsSummary'
+    assert panels[-1]['config']['topicToRender'] == '/diagnostics'
     three_d = text['content']['items'][0]['content']
-    assert set(three_d['config']['topics']) == {itf.SCENE_TOPIC, itf.MARKERS_TOPIC}
+    assert set(three_d['config']['topics']) == {f'{prefix}formation/scene',
+                                                f'{prefix}formation/markers'}
+    assert three_d['config']['followTf'] == frame
 
 
 def _free_port():
@@ -125,28 +137,38 @@ POSES = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0), 3: (0.0, -1.5, -2.5)}
 
 
 def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
-    """A monitor with ``foxglove_port``: what a Foxglove client receives equals its topics."""
+    """
+    A monitor with ``foxglove_port``: what a Foxglove client receives equals its topics.
+
+    The monitor is in the namespace ``/fleet_a`` with the world frame ``odom``: the channels
+    are its resolved names, the scene is in its frame.
+    """
     sc = scenario.load(CONFIG / 'particle_circular.yaml', [], num_vehicles=3, c0=[1.0, -2.0],
                        informed=[1])
     port = _free_port()
-    nodes.monitor('period:=0.0', 'markers_period:=0.05', 'diagnostics_period:=0.1',
-                  f'foxglove_port:={port}')
-    ros_metrics = nodes.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
+    nodes.add(MonitorNode(context=nodes.context, cli_args=[
+        '--ros-args', '-r', '__ns:=/fleet_a', '-p', 'period:=0.0', '-p', 'markers_period:=0.05',
+        '-p', 'diagnostics_period:=0.1', '-p', 'world_frame:=odom', '-p',
+        f'foxglove_port:={port}']))
+    scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
+    ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
     with client(port) as fox:
-        topics = (itf.SCENE_TOPIC, itf.METRICS_TOPIC, itf.DIAGNOSTICS_TOPIC)
+        topics = (scene_topic, metrics_topic, itf.DIAGNOSTICS_TOPIC)
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
-        assert fox.channels[itf.SCENE_TOPIC]['schemaName'] == 'foxglove.SceneUpdate'
+        assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
         assert fox.channels[itf.DIAGNOSTICS_TOPIC]['schemaEncoding'] == 'ros2msg'
         fox.subscribe(topics)
         node = nodes.node
-        node.create_publisher(String, itf.SCENARIO_TOPIC, itf.LATCHED_QOS).publish(
+        node.create_publisher(String, '/fleet_a/formation/scenario', itf.LATCHED_QOS).publish(
             itf.scenario_msg(sc))
-        odom = {k: node.create_publisher(Odometry, itf.topic(k, 'odom'), itf.STATE_QOS)
+        odom = {k: node.create_publisher(Odometry, f'/fleet_a/vehicle_{k}/odom', itf.STATE_QOS)
                 for k in POSES}
         assert nodes.spin_until(lambda: all(p.get_subscription_count() for p in odom.values()))
         stamp = 4_200_000_000
+        frames = itf.Frames('odom')
         for k, (x, y, theta) in POSES.items():
-            odom[k].publish(itf.odom_msg(k, stamp, np.array([x, y, theta, 1.0, 1.0, 0.0]), 0j))
+            odom[k].publish(itf.odom_msg(k, stamp, np.array([x, y, theta, 1.0, 1.0, 0.0]), 0j,
+                                         frames))
         got = {}
 
         def heard_all():
@@ -156,12 +178,13 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
                 got.setdefault(frame[0]['topic'], []).append(frame[1:])
             return ros_metrics and all(got.get(t) for t in topics)
         assert nodes.spin_until(heard_all, timeout=20)
-    (log_time, live), = got[itf.METRICS_TOPIC]
+    (log_time, live), = got[metrics_topic]
     assert log_time == stamp == itf.stamp_ns(ros_metrics[0].header.stamp)
     assert live.pop('timestamp') == {'sec': 4, 'nsec': 200_000_000}
     assert live == dict(zip(ros_metrics[0].name, ros_metrics[0].position))
-    log_time, update = got[itf.SCENE_TOPIC][-1]
+    log_time, update = got[scene_topic][-1]
     assert log_time == stamp
+    assert {e.frame_id for e in update.entities} == {'odom'}
     by_id = {e.id: e for e in update.entities}
     for k, (x, y, theta) in POSES.items():
         heading = by_id[f'vehicle_{k}'].arrows[0]
@@ -173,7 +196,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
     assert _xy(by_id['centres'].cylinders[0].pose.position) == 1 - 2j
     names = {s.name for _, data in got[itf.DIAGNOSTICS_TOPIC]
              for s in deserialize_message(data, DiagnosticArray).status}
-    assert 'formation_control/formation' in names
+    assert 'fleet_a/formation_control/formation' in names         # /diagnostics: shared
 
 
 def test_foxglove_port_in_use_is_a_clear_error(nodes):

@@ -315,10 +315,13 @@ def test_monitor_drops_and_counts_bad_odometry(nodes):
 def test_bag_holds_the_markers_of_the_sampled_poses(recorded):
     """``swarm --bag`` records ``/formation/markers``: each shows the odometry of its stamp."""
     bag, n = recorded[0] / 'bag', recorded[2]['num_vehicles']
+    prefix = bagfile.fleet_prefix(bag)                   # a bag holds the resolved names
+    assert prefix == '/'
     odom, arrays = {}, []
-    topics = [itf.MARKERS_TOPIC] + [itf.topic(k, 'odom') for k in range(1, n + 1)]
+    odom_topics = [itf.topic(k, 'odom') for k in range(1, n + 1)]
+    topics = [prefix + t for t in [itf.MARKERS_TOPIC] + odom_topics]
     for topic, msg in bagfile.messages(bag, topics):
-        if topic == itf.MARKERS_TOPIC:
+        if topic == prefix + itf.MARKERS_TOPIC:
             arrays.append(msg)
         else:
             odom[(topic, itf.stamp_ns(msg.header.stamp))] = msg.pose.pose
@@ -327,7 +330,7 @@ def test_bag_holds_the_markers_of_the_sampled_poses(recorded):
         headings = [m for m in array.markers if m.ns == 'heading']
         assert [m.id for m in headings] == list(range(1, n + 1))
         for m in headings:
-            pose = odom[(itf.topic(m.id, 'odom'), itf.stamp_ns(m.header.stamp))]
+            pose = odom[(prefix + itf.topic(m.id, 'odom'), itf.stamp_ns(m.header.stamp))]
             assert (m.pose.position.x, m.pose.position.y) == (pose.position.x, pose.position.y)
             assert (m.pose.orientation.z, m.pose.orientation.w) == pytest.approx(
                 (pose.orientation.z, pose.orientation.w), abs=1e-12)
@@ -348,8 +351,10 @@ def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(rec
     box = nodes.collect(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
     fleet = [itf.topic(k, name) for k in range(1, n + 1)
              for name in ('odom', 'cmd', 'formation_state')]
-    # Deep readers: a moment's stall of this loaded machine loses no sample of the replay.
-    monitor = nodes.monitor(*[f'qos_overrides.{t}.subscription.depth:=1000' for t in fleet])
+    # Deep readers (overrides name the resolved topic): a moment's stall of this loaded
+    # machine loses no sample of the replay.
+    monitor = nodes.monitor(*[f'qos_overrides./{t}.subscription.depth:=1000' for t in fleet])
+    # The names relative to the fleet's namespace (/) select the bag's resolved ones.
     nodes.add(PlayerNode(Bag(bag, [itf.SCENARIO_TOPIC]), wait_for_subscribers=True,
                          context=nodes.context))
     assert nodes.spin_until(lambda: monitor.sc is not None)

@@ -21,7 +21,8 @@ The replay of the package's own recorded fleet into a fresh monitor is in test_m
 import shutil
 import subprocess
 
-from formation_control.playback import Bag, BagError, replay_qos, ReplayQos, Schedule
+from formation_control.playback import (Bag, BagError, CLOCK_TOPIC, replay_qos, ReplayQos,
+                                        Schedule)
 from formation_control.ros.player import PlayerNode
 import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -71,21 +72,27 @@ def other_bag(tmp_path):
         chatter = writer.add_connection('/chatter', 'std_msgs/msg/String', typestore=STORE,
                                         offered_qos_profiles=[_qos('BEST_EFFORT', 'VOLATILE',
                                                                    7)])
+        clock = writer.add_connection('/fleet_a/clock', 'rosgraph_msgs/msg/Clock',
+                                      typestore=STORE)
         for ns, text in CHATTER:
             writer.write(chatter, ns, STORE.serialize_cdr(STORE.types['std_msgs/msg/String'](
                 data=text), 'std_msgs/msg/String'))
+            writer.write(clock, ns, STORE.serialize_cdr(STORE.types['rosgraph_msgs/msg/Clock'](
+                clock=STORE.types['builtin_interfaces/msg/Time'](sec=0, nanosec=0)),
+                'rosgraph_msgs/msg/Clock'))
     return path
 
 
 def test_a_bag_of_another_package_replays_with_its_qos_and_clock(nodes, other_bag):
+    """In the namespace /fleet_a: the player's clock is /fleet_a/clock, the bag's is skipped."""
     best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
     got = nodes.collect(String, '/chatter', best_effort)
-    clocks = nodes.collect(Clock, '/clock', 10)
-    bag = Bag(other_bag)
+    clocks = nodes.collect(Clock, '/fleet_a/clock', 10)
+    bag = Bag(other_bag, skip=[CLOCK_TOPIC], namespace='/fleet_a')
     assert [(t.name, t.msgtype, t.qos) for t in bag.topics] == [
         ('/chatter', 'std_msgs/msg/String', ReplayQos(False, False, 7))]
     player = nodes.add(PlayerNode(bag, rate=5.0, clock=True, wait_for_subscribers=True,
-                                  context=nodes.context))
+                                  namespace='/fleet_a', context=nodes.context))
     assert nodes.spin_until(lambda: player.done, timeout=15)
     assert nodes.spin_until(lambda: len(got) == len(CHATTER), timeout=5)
     assert [m.data for m in got] == [text for _, text in CHATTER]
@@ -102,6 +109,11 @@ def test_a_truncated_or_corrupt_bag_is_a_clear_error(tmp_path, other_bag):
         Bag(tmp_path)
     with pytest.raises(BagError, match='no topic /nothing in the bag'):
         Bag(other_bag, ['/nothing'])
+    assert [t.name for t in Bag(other_bag, ['chatter']).topics] == ['/chatter']
+    assert [t.name for t in Bag(other_bag, ['clock'], namespace='fleet_a/').topics] == [
+        '/fleet_a/clock']
+    with pytest.raises(BagError, match='no topic /fleet_a/chatter in the bag'):
+        Bag(other_bag, ['chatter', '/fleet_a/clock'], namespace='/fleet_a')
     broken = tmp_path / 'broken'
     shutil.copytree(other_bag, broken)
     (db,) = broken.glob('*.db3')

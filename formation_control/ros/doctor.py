@@ -15,10 +15,12 @@
 """
 ``formation-control doctor``: the facts of a running fleet, gathered by one node.
 
-The node joins the domain in the fleet's namespace, reads the plant's latched scenario, the
-ROS graph (nodes, every endpoint's QoS), each vehicle's scenario parameters (its parameter
-services) and listens to the formation states for a while; :mod:`formation_control.doctor`
-checks what it gathered.
+The node joins the domain in the fleet's namespace and resolves the fleet's relative names
+there, as the fleet's nodes do (``formation/scenario`` in ``/fleet_a``:
+``/fleet_a/formation/scenario``): it reads the plant's latched scenario, the ROS graph (the
+nodes and every endpoint's QoS of the topics in the namespace, and ``/diagnostics``), each
+vehicle's scenario parameters (its parameter services) and listens to the formation states for
+a while; :mod:`formation_control.doctor` checks what it gathered.
 """
 import json
 import os
@@ -100,10 +102,11 @@ class Gatherer:
             self.node.destroy_client(client)
 
     def _endpoints(self):
+        """Return the endpoints of the fleet's topics: those in its namespace, /diagnostics."""
         ns = self.node.get_namespace().rstrip('/') + '/'
         out = []
         for topic, _ in self.node.get_topic_names_and_types():
-            if not (topic.startswith(ns) or topic in ('/clock', itf.DIAGNOSTICS_TOPIC)):
+            if not (topic.startswith(ns) or topic == itf.DIAGNOSTICS_TOPIC):
                 continue
             for kind, infos in (('pub', self.node.get_publishers_info_by_topic(topic)),
                                 ('sub', self.node.get_subscriptions_info_by_topic(topic))):
@@ -128,9 +131,9 @@ class Gatherer:
     def _clocked(facts, msg):
         lag = (time.time_ns() - itf.stamp_ns(msg.header.stamp)) * 1e-9
         for status in msg.status:
-            match = doctor.CLOCKED.match(status.name)
-            if match:
-                facts.clock_lags.setdefault(match[1], []).append(lag)
+            who = doctor.clocked_node(status.name, facts.namespace)
+            if who is not None:
+                facts.clock_lags.setdefault(who, []).append(lag)
 
     @staticmethod
     def _heard(stream, data):

@@ -75,8 +75,9 @@ METRICS_TOPIC = 'formation/metrics'
 FAULTS_TOPIC = 'formation/faults'
 """swarm: each scripted fault as it is applied (std_msgs/String, JSON; :data:`FAULTS_QOS`)."""
 MARKERS_TOPIC = 'formation/markers'
-SCENE_TOPIC = '/formation/scene'
-"""The Foxglove live view's SceneUpdate channel (not a ROS topic)."""
+SCENE_TOPIC = 'formation/scene'
+"""The Foxglove live view's SceneUpdate channel (not a ROS topic), named as the monitor resolves
+it (``/fleet_a/formation/scene``)."""
 STALL = 3.0
 """Lockstep: after this many wall seconds without progress, a node says what it waits for."""
 METRIC_DOC = {
@@ -147,7 +148,7 @@ FAULTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
 STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
-"""``/formation/metrics``, ``/formation/markers`` and ``/diagnostics``."""
+"""``formation/metrics``, ``formation/markers`` and ``/diagnostics``."""
 
 
 def quaternion_zw(theta):

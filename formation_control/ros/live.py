@@ -15,14 +15,17 @@
 """
 The monitor's Foxglove live view: a Foxglove WebSocket server (``foxglove-sdk``).
 
-Channels, named as the node resolves its topics (a namespace shows in them):
+Channels, named as the monitor resolves its topics (absolute: a fleet in ``/fleet_a`` has
+``/fleet_a/formation/metrics``):
 
-- ``<ns>/formation/scene``: ``foxglove.SceneUpdate`` (protobuf), :func:`scene.fleet_scene`;
+- ``<ns>/formation/scene``: ``foxglove.SceneUpdate`` (protobuf) in the monitor's
+  ``world_frame``, :func:`scene.fleet_scene`;
 - ``<ns>/formation/metrics``: JSON, ``timestamp`` and each metric of :data:`interface.METRIC_DOC`
   by name (plot ``/formation/metrics.order_parameter``);
 - ``/diagnostics``: ``diagnostic_msgs/msg/DiagnosticArray`` as CDR (schema encoding
   ``ros2msg``, what ``foxglove_bridge`` serves), for the Diagnostics panels.
 
+``formation-control layout --namespace NS --world-frame F`` prints the layout of these names.
 Each message is logged at the fleet time of the state it shows (ns).
 """
 from formation_control import scene
@@ -53,10 +56,13 @@ class LiveView:
         Address to listen on.
     port : int
         TCP port (1..65535).
+    frame : str, optional
+        The world frame of the scene (the monitor's ``world_frame``).
 
     """
 
-    def __init__(self, node, host, port):
+    def __init__(self, node, host, port, frame=scene.FRAME):
+        self.frame = frame
         self.context = foxglove.Context()
         try:
             self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
@@ -82,7 +88,7 @@ class LiveView:
 
     def log_scene(self, ns, *fleet):
         """Log the scene of a fleet at ``ns``: ``fleet`` as :func:`scene.fleet_scene` takes."""
-        self.scene.log(scene.fleet_scene(ns, *fleet), log_time=int(ns))
+        self.scene.log(scene.fleet_scene(ns, *fleet, frame=self.frame), log_time=int(ns))
 
     def log_metrics(self, ns, values):
         if self.metrics.has_sinks():

@@ -67,7 +67,7 @@ def _status(name, level, message, values):
 
 
 class MonitorNode(Node):
-    """Metrics, diagnostics and markers of the fleet that publishes ``/formation/scenario``."""
+    """Metrics, diagnostics and markers of the fleet that publishes ``formation/scenario``."""
 
     def __init__(self, **kwargs):
         super().__init__('formation_monitor', **kwargs)
@@ -86,7 +86,8 @@ class MonitorNode(Node):
         self.live = None
         if self.p['foxglove_port']:
             from formation_control.ros.live import LiveView
-            self.live = LiveView(self, self.p['foxglove_host'], self.p['foxglove_port'])
+            self.live = LiveView(self, self.p['foxglove_host'], self.p['foxglove_port'],
+                                 self.p['world_frame'])
             self.get_logger().info(f"Foxglove live view on ws://{self.p['foxglove_host']}:"
                                    f'{self.live.port}')
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,

@@ -17,8 +17,9 @@
 
 Every selected topic is published with the QoS its recorded publishers offered
 (:func:`playback.replay_qos`), each message as its recorded CDR bytes when its recorded time
-is due (:class:`playback.Schedule`); with ``clock``, ``/clock`` carries the recorded time
-being played (the bag's own ``/clock`` is then not replayed).
+is due (:class:`playback.Schedule`); with ``clock``, the node's ``clock`` (``/clock``, or
+``/fleet_a/clock`` in the namespace ``/fleet_a``) carries the recorded time being played (the
+bag's own is then not replayed: ``playback.Bag(..., skip=[CLOCK_TOPIC], namespace=...)``).
 """
 import time
 
