@@ -167,8 +167,9 @@ def _statuses(bag, name):
 
 def _faults_in(bag):
     with AnyReader([bag]) as reader:
+        faults = [c for c in reader.connections if c.topic == '/' + itf.FAULTS_TOPIC]
         return [json.loads(reader.deserialize(raw, c.msgtype).data) for c, _, raw
-                in reader.messages([c for c in reader.connections if c.topic == itf.FAULTS_TOPIC])]
+                in reader.messages(faults)]
 
 
 def test_swarm_survives_scripted_faults(ros, tmp_path):
