@@ -174,7 +174,8 @@ class VehicleNode(Node):
             listed = '; '.join(f'{name} = {mine!r} here, {plant!r} at the plant'
                                for name, mine, plant in diffs)
             self.get_logger().error(f"refused: this vehicle's scenario differs from the "
-                                    f"plant's ({itf.SCENARIO_TOPIC}): {listed}")
+                                    f"plant's ({self.resolve_topic_name(itf.SCENARIO_TOPIC)}): "
+                                    f'{listed}')
             self.done, self.exit_code = True, 2
 
     def _on_flow(self, msg):
