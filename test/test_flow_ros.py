@@ -75,7 +75,7 @@ def test_lockstep_particles_in_a_vortex_equal_the_offline_simulator(nodes, tmp_p
 
 
 def assert_recorded_estimates(fleet, offline):
-    """The plant's record holds each vehicle's estimate (its formation_state) at each step."""
+    """Check the plant's record holds each vehicle's estimate (its formation_state)."""
     assert fleet.flow_hat.shape == offline.flow_hat.shape
     heard = np.isfinite(fleet.flow_hat)
     assert heard[:-1].all()                            # the last states may come after the end

@@ -413,8 +413,9 @@ class StateWire:
     sensor_msgs/JointState in little-endian CDR: every vehicle sends one and hears one from
     each neighbour every step. ``encode`` writes the canonical layout (zero padding, empty
     velocity and effort) of the names :func:`state_names` gives for the graph neighbours
-    ``hears`` (and the flow estimate, ``estimates``), which ``decode`` reads in place; it returns None for any other bytes, which the
-    caller then deserializes and checks as a message.
+    ``hears`` (and the flow estimate, ``estimates``), which ``decode`` reads in place; it
+    returns None for any other bytes, which the caller then deserializes and checks as a
+    message.
     """
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
