@@ -113,7 +113,7 @@ class FleetPlant:
         return np.flatnonzero(bad)
 
     def estimate(self, i, n, value):
-        """Keep a vehicle's flow estimate (complex m/s) of step n; ``i`` is its index."""
+        """Keep the flow a vehicle estimates at step n (complex m/s); ``i`` is its index."""
         if self.recorder.keeps(n):
             blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
             self.estimates.setdefault(n, blank)[i] = value
