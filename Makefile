@@ -33,14 +33,17 @@ $(STAMP): setup.py package.xml $(CONSTRAINTS)
 	else echo 'ros2-tools not found: the tests that need the ros2 CLI will skip'; fi
 	touch $(STAMP)
 
-# Refresh the pins on purpose: the newest release of every dependency, installed into a
-# throw-away venv without constraints, frozen into constraints.txt; then `make setup` brings
+# Refresh the pins on purpose: the newest release of every dependency (and of what the
+# ros2-tools installer pulls from PyPI), installed into a throw-away venv without
+# constraints, frozen into constraints.txt; then `make setup` brings
 # .venv to them. Review `git diff constraints.txt`, run `make test`, commit both.
 upgrade:
 	set -e; tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
 	$(PYTHON) -m venv "$$tmp/venv"; \
 	"$$tmp/venv/bin/python" -m pip install --upgrade pip setuptools wheel; \
 	"$$tmp/venv/bin/python" -m pip install --upgrade --no-build-isolation -e '$(EXTRAS)'; \
+	if [ -n "$(ROS2_TOOLS)" ]; then ROS2_TOOLS_NO_PTH=1 "$(ROS2_TOOLS)/install.sh" \
+		"$$tmp/venv/bin/python"; fi; \
 	{ echo '# Exact versions of everything `make setup` installs: written by `make upgrade`'; \
 	  echo '# (pip freeze of a fresh venv with the newest releases), never by hand.'; \
 	  "$$tmp/venv/bin/python" -m pip freeze --all --exclude-editable; } > "$$tmp/constraints"; \

@@ -17,7 +17,8 @@ The flow in the ROS nodes: lockstep runs equal the offline simulator.
 
 Rigid bodies that estimate the flow from odometry and the plant's through-water velocity
 (``/vehicle_k/water_velocity``), and particles in a vortex, told its local flow with each odometry
-or estimating it; each vehicle's estimate is in its diagnostics; a vehicle refuses consensus.
+or estimating it; each vehicle's estimate is in its diagnostics and its formation_state, from which
+the plant records it; a vehicle refuses consensus.
 """
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core import simulator
@@ -36,7 +37,7 @@ def test_lockstep_rigid_fleet_estimating_the_flow_equals_the_offline_simulator(n
     fleet = nodes.lockstep_run(cfg, tmp_path / 'run.npz', *overrides)
     offline = offline_run(cfg, overrides)
     assert_equal_runs(fleet, offline)
-    assert fleet.flow_hat is None                    # the estimates are the vehicles' own
+    assert_recorded_estimates(fleet, offline)
     vehicles = {n.k: n for n in nodes.nodes if hasattr(n, 'onboard')}
     estimates = [complex(vehicles[k].onboard.flow[0]) for k in sorted(vehicles)]
     np.testing.assert_allclose(estimates, offline.flow_hat[-1], atol=1e-9)
@@ -67,6 +68,19 @@ def test_lockstep_particles_in_a_vortex_equal_the_offline_simulator(nodes, tmp_p
     assert_equal_runs(fleet, offline)
     assert np.ptp(abs(offline.flow_hat[-1])) > 0.01             # each vehicle its own flow
     assert isinstance(fleet, simulator.Run)
+    if source == 'estimated':
+        assert_recorded_estimates(fleet, offline)
+    else:
+        assert fleet.flow_hat is None                           # nothing to record
+
+
+def assert_recorded_estimates(fleet, offline):
+    """Check the plant's record holds each vehicle's estimate (its formation_state)."""
+    assert fleet.flow_hat.shape == offline.flow_hat.shape
+    heard = np.isfinite(fleet.flow_hat)
+    assert heard[:-1].all()                            # the last states may come after the end
+    np.testing.assert_allclose(fleet.flow_hat[heard], offline.flow_hat[heard], rtol=0,
+                               atol=1e-9)
 
 
 def test_a_vehicle_node_refuses_flow_consensus(nodes):

@@ -43,6 +43,8 @@ class FleetPlant:
         The latest command of each vehicle, held from the next period boundary (or step).
     stopped : (N,) bool
         Vehicles stopped by a non-finite state.
+    estimates : dict of int to (N,) complex
+        The flow estimates the vehicles sent for each recorded step (NaN: not heard).
 
     """
 
@@ -53,6 +55,7 @@ class FleetPlant:
         self.n = 0
         self.pending = np.zeros((2, sc.num_vehicles))
         self.stopped = np.zeros(sc.num_vehicles, bool)
+        self.estimates = {}
 
     @property
     def X(self):
@@ -109,8 +112,22 @@ class FleetPlant:
         after[:, self.stopped] = before[:, self.stopped]
         return np.flatnonzero(bad)
 
+    def estimate(self, i, n, value):
+        """Keep the flow a vehicle estimates at step n (complex m/s); ``i`` is its index."""
+        if self.recorder.keeps(n):
+            blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
+            self.estimates.setdefault(n, blank)[i] = value
+
     def run(self, meta):
-        """Return the recorded :class:`simulator.Run`, with ``meta`` (mode, wall time, ...)."""
+        """
+        Return the recorded :class:`simulator.Run`, with ``meta`` (mode, wall time, ...).
+
+        With the vehicles' flow estimates, its ``flow_hat`` holds them at the recorded steps.
+        """
         run = self.recorder.run()
         run.meta = meta
+        if self.estimates:
+            blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
+            run.flow_hat = np.array([self.estimates.get(int(round(t / self.sc.dt_control)),
+                                                        blank) for t in run.t])
         return run

@@ -233,9 +233,13 @@ class Recorder:
         self.steps = sc.periods
         self.t, self.X, self.U, self.flow_hat = [], [], [], []
 
+    def keeps(self, n):
+        """Return whether step n is a recorded step."""
+        return n % self.sc.record_every == 0 or n == self.steps
+
     def record(self, n, X, U, flow_hat=None):
         """Record the state X (6, N), inputs U (2, N) and flows used of step n if recorded."""
-        if n % self.sc.record_every == 0 or n == self.steps:
+        if self.keeps(n):
             self.t.append(n * self.sc.dt_control)
             self.X.append(X.copy())
             self.U.append(U.copy())

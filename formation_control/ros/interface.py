@@ -105,12 +105,20 @@ STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
 the state the sender computes its command for: its odometry of the stamp predicted to the middle
 of the command's hold (``hold_prediction``; in real time also over its measured delay). On a
 communication graph other than the complete one, ``hears_j`` follows for each graph
-neighbour j of the sender: 1 while it hears j, else 0 (:func:`state_names`)."""
+neighbour j of the sender: 1 while it hears j, else 0; with ``flow_source: estimated``,
+:data:`ESTIMATE_FIELDS` come last (:func:`state_names`)."""
+ESTIMATE_FIELDS = ('flow_hat_x', 'flow_hat_y')
+"""formation_state of an estimating vehicle: its flow estimate (m/s, world frame)."""
 
 
-def state_names(hears=()):
-    """Return the names of a formation_state whose sender's graph neighbours are ``hears``."""
-    return STATE_FIELDS + tuple(f'hears_{j}' for j in hears)
+def state_names(hears=(), estimates=False):
+    """
+    Return the names of a formation_state.
+
+    ``hears``: the sender's graph neighbours; ``estimates``: it estimates the flow.
+    """
+    return (STATE_FIELDS + tuple(f'hears_{j}' for j in hears)
+            + (ESTIMATE_FIELDS if estimates else ()))
 
 
 STATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
@@ -386,11 +394,16 @@ def state_msg(k, ns, X, view_row, hears=(), hearing=(), frames=DEFAULT_FRAMES):
     return msg
 
 
-def state_values(X, view_row, hearing=()):
-    """Return the values of one vehicle's formation_state (:func:`state_names` order)."""
+def state_values(X, view_row, hearing=(), flow_hat=None):
+    """
+    Return the values of one vehicle's formation_state (:func:`state_names` order).
+
+    ``flow_hat``: its flow estimate (complex m/s), for an estimating vehicle.
+    """
     r, phase, rate, speed = view_row
+    extra = () if flow_hat is None else (flow_hat.real, flow_hat.imag)
     return (r.real, r.imag, float(X[ROW_THETA]), float(X[ROW_OMEGA]), phase, rate, speed,
-            *(float(h) for h in hearing))
+            *(float(h) for h in hearing), *extra)
 
 
 class StateWire:
@@ -400,14 +413,15 @@ class StateWire:
     sensor_msgs/JointState in little-endian CDR: every vehicle sends one and hears one from
     each neighbour every step. ``encode`` writes the canonical layout (zero padding, empty
     velocity and effort) of the names :func:`state_names` gives for the graph neighbours
-    ``hears``, which ``decode`` reads in place; it returns None for any other bytes, which the
-    caller then deserializes and checks as a message.
+    ``hears`` (and the flow estimate, ``estimates``), which ``decode`` reads in place; it
+    returns None for any other bytes, which the caller then deserializes and checks as a
+    message.
     """
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
-    def __init__(self, k, hears=(), frames=DEFAULT_FRAMES):
-        self.names = state_names(hears)
+    def __init__(self, k, hears=(), frames=DEFAULT_FRAMES, estimates=False):
+        self.names = state_names(hears, estimates)
         body = bytearray()
 
         def put(raw, align=4):

@@ -147,7 +147,8 @@ class MonitorNode(Node):
         self.values = {}
         self.graph = sc.comm_graph
         self.hearing = np.ones((n, n), bool)
-        self.wires = {k: itf.StateWire(k, () if sc.all_to_all else self.graph.neighbours(k))
+        self.wires = {k: itf.StateWire(k, () if sc.all_to_all else self.graph.neighbours(k),
+                                       estimates=sc.flow_source == 'estimated')
                       for k in range(1, n + 1)}
         for k in range(1, n + 1):
             self.create_subscription(Odometry, itf.topic(k, 'odom'),
@@ -177,9 +178,10 @@ class MonitorNode(Node):
             if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
                 return self.reject('malformed', f'a malformed formation_state of vehicle {k}')
             got = itf.stamp_ns(msg.header.stamp), tuple(msg.position)
-        hears = wire.names[len(itf.STATE_FIELDS):]
+        first = len(itf.STATE_FIELDS)
+        hears = [name for name in wire.names[first:] if name.startswith('hears_')]
         if hears:
-            heard = np.array(got[1][len(itf.STATE_FIELDS):]) > 0.5
+            heard = np.array(got[1][first:first + len(hears)]) > 0.5
             self.hearing[k - 1, [int(name.split('_')[1]) - 1 for name in hears]] = heard
         self._heard('state', k)
 

@@ -54,6 +54,7 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
 REJECTS = ('non_finite', 'wrong_frame', 'stale', 'malformed')
@@ -105,6 +106,14 @@ class PlantNode(Node):
                                                   lambda data, k=k: self._on_cmd(k, data),
                                                   raw=True,
                                                   **itf.state_qos_kwargs()) for k in ids]
+        if sc.flow_source == 'estimated':
+            self.state_wires = [itf.StateWire(k, () if sc.all_to_all else
+                                              sc.comm_graph.neighbours(k), self.frames, True)
+                                for k in ids]
+            for k in ids:
+                self.create_subscription(JointState, itf.topic(k, 'formation_state'),
+                                         lambda data, k=k: self._on_state(k, data), raw=True,
+                                         **itf.state_qos_kwargs())
         self.flow_pubs = self.water_pubs = None
         second = needs_second_sensor(sc)
         if sc.flow_source == 'known':
@@ -179,6 +188,16 @@ class PlantNode(Node):
                                                                   self.frames))
             values = itf.odom_values(X[:, i], flow[i])
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
+
+    def _on_state(self, k, data):
+        """Keep the flow estimate an estimating vehicle sends, for the record (canonical bytes)."""
+        got = self.state_wires[k - 1].decode(data)
+        if got is None:
+            return self.reject('malformed', f'a formation_state of vehicle {k} in another '
+                               f'layout (its flow estimate is not recorded)')
+        ns, values = got
+        step = (ns - self.t0_ns) // round(self.sc.dt_control * 1e9)
+        self.fleet.estimate(k - 1, int(step), complex(*values[-2:]))
 
     def _on_cmd(self, k, data):
         """Take vehicle k's command bytes, read in place in the canonical layout."""

@@ -102,7 +102,8 @@ class VehicleNode(Node):
         self.pairing = Pairing()
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
                       for j in (*self.neighbours, vehicle_id)}
-        self.wires = {j: itf.StateWire(j, hears, self.frames)
+        self.estimates = sc.flow_source == 'estimated'
+        self.wires = {j: itf.StateWire(j, hears, self.frames, self.estimates)
                       for j, hears in self.hears.items()}
         self.heard_rows = np.array([j - 1 for j in self.hears[vehicle_id]], int)
         self.my_flag = {j: len(itf.STATE_FIELDS) + hears.index(vehicle_id)
@@ -247,7 +248,8 @@ class VehicleNode(Node):
         self.known.store(self.k, ns, row)
         hearing = self.known.hearing()[self.heard_rows]
         self.last_state = self.wires[self.k].encode(
-            ns, itf.state_values(self.onboard.X[:, 0], row, hearing))
+            ns, itf.state_values(self.onboard.X[:, 0], row, hearing,
+                                 self.onboard.flow[0] if self.estimates else None))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
