@@ -24,19 +24,17 @@ of the graph).
 import cmath
 import math
 
+from formation_control import palette
 from foxglove.messages import (ArrowPrimitive, Color, CylinderPrimitive, KeyValuePair,
                                LinePrimitive, LinePrimitiveLineType, Point3, Pose, Quaternion,
                                SceneEntity, SceneUpdate, SpherePrimitive, TextPrimitive,
                                Timestamp, Vector3)
 
 FRAME = 'map'
-HEADING = Color(r=0.1, g=0.3, b=0.9, a=1.0)
-VELOCITY = Color(r=0.9, g=0.1, b=0.1, a=1.0)
-TRAIL = Color(r=0.4, g=0.4, b=0.4, a=0.8)
-CENTRE = Color(r=0.1, g=0.7, b=0.2, a=1.0)
-TARGET = Color(r=1.0, g=0.6, b=0.0, a=0.8)
-LINK = Color(r=0.5, g=0.2, b=0.7, a=0.6)
-LABEL = Color(r=0.0, g=0.0, b=0.0, a=1.0)
+HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
+    Color(r=r, g=g, b=b, a=a) for r, g, b, a in (
+        palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
+        palette.LINK, palette.LABEL))
 HEADING_LENGTH = 0.6
 """Length of the heading arrows (m); the ground-velocity arrows are the velocity (m/s as m)."""
 

@@ -18,18 +18,17 @@ RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``).
 Each vehicle's heading arrow, its ground-velocity arrow in a flow, its trail, the circle
 centres c_k and the prescribed centre c0.
 """
+from formation_control import palette
 from formation_control.core.models import position, ROW_THETA
 from formation_control.ros import interface as itf
 from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-HEADING = ColorRGBA(r=0.1, g=0.3, b=0.9, a=1.0)
-VELOCITY = ColorRGBA(r=0.9, g=0.1, b=0.1, a=1.0)
-TRAIL = ColorRGBA(r=0.4, g=0.4, b=0.4, a=0.8)
-CENTRE = ColorRGBA(r=0.1, g=0.7, b=0.2, a=1.0)
-TARGET = ColorRGBA(r=1.0, g=0.6, b=0.0, a=0.8)
-LINK = ColorRGBA(r=0.5, g=0.2, b=0.7, a=0.6)
+HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK = (
+    ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in (
+        palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
+        palette.LINK))
 
 
 def _marker(ns, name, ident, kind, color):
