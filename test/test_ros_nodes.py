@@ -161,6 +161,30 @@ def test_vehicle_answers_its_neighbours_with_state_and_command(nodes):
     assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
 
 
+def test_realtime_vehicle_predicts_over_half_a_period_half_a_step_and_its_delay(nodes):
+    """
+    Real time: the state a vehicle commands for (its formation_state) is its odometry carried
+    dt_control/2 + dt_integration/2 + its measured delay ahead under the input it holds.
+    """
+    nodes.vehicle(1, PARTICLE, 'num_vehicles:=1', 'mode:=realtime')
+    odom = nodes.node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
+    states = nodes.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    assert nodes.spin_until(lambda: odom.get_subscription_count() > 0)
+    sc = scenario.load(PARTICLE)
+    X = np.array([0.5, 1.0, 0.3, 0.2, 1.0, 0.0])
+    base = sc.dt_control / 2 + sc.dt_integration / 2
+    leads = []
+    for step in range(4):
+        held = cmds[-1].wrench.torque.z if cmds else 0.0
+        odom.publish(itf.odom_msg(1, step * 20_000_000, X, 0j))
+        assert nodes.spin_until(lambda: len(states) > step and len(cmds) > step)
+        heading, yaw_rate = states[step].position[2:4]
+        leads.append((heading - 0.3) / 0.2 if step == 0 else (yaw_rate - 0.2) / held)
+    assert leads[0] == pytest.approx(base, abs=1e-12)           # no delay measured yet
+    assert all(base < lead < base + sc.dt_control for lead in leads[1:]), leads
+
+
 def _call(probe, srv_type, name, request, timeout=15.0):
     client = probe.node.create_client(srv_type, name)
     assert client.wait_for_service(timeout_sec=timeout)
