@@ -163,8 +163,9 @@ def test_vehicle_answers_its_neighbours_with_state_and_command(nodes):
 
 def test_realtime_vehicle_predicts_over_half_a_period_half_a_step_and_its_delay(nodes):
     """
-    Real time: the state a vehicle commands for (its formation_state) is its odometry carried
-    dt_control/2 + dt_integration/2 + its measured delay ahead under the input it holds.
+    Real time: a vehicle commands for its odometry carried ahead under the input it holds.
+
+    Ahead by dt_control/2 + dt_integration/2 + its measured delay (its formation_state).
     """
     nodes.vehicle(1, PARTICLE, 'num_vehicles:=1', 'mode:=realtime')
     odom = nodes.node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
