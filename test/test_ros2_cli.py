@@ -246,7 +246,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
          CONFIG / 'rigid_parallel.yaml', '-p', 'vehicle_id:=9'],
         ['launch', 'formation_control', 'vehicle.launch.py', 'scenario:=rigid_parralel'],
     )
-    hz, = cli.many((4.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
+    hz, = cli.many((8.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
     (_, nodes), odom, state, cmd, metric, info, *dumps = out           # batch loads the CPUs
     dumps, refusals, (run_rc, run_out), bad_launch = dumps[:3], dumps[3:7], dumps[7], dumps[8]
     fleet = {'/fleet_a/plant', '/fleet_a/formation_monitor',
