@@ -371,7 +371,7 @@ def rk4_step(X, U, dt, plant):
     return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def integrate(X, U, dt, steps, plant):
+def integrate(X, U, dt, steps, plant, plain=None):
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 
@@ -387,12 +387,16 @@ def integrate(X, U, dt, steps, plant):
         Number of steps, ``dt_control / dt_integration`` for one control period.
     plant : Plant
         The model and its physical parameters.
+    plain : bool or None, optional
+        Take :func:`rk4_step` (True) or the blocked path (False); None: by the number of
+        vehicles, as below.
 
     Returns
     -------
     ndarray, shape (6, N)
         The state ``steps * dt`` later, equal to ``steps`` calls of :func:`rk4_step` to
-        rounding.
+        rounding. ``X`` may also be (6, B, N), a batch of B fleets (shapes of ``U`` alike):
+        the vehicles are independent over a period, so it is integrated as B N vehicles.
 
     Notes
     -----
@@ -402,14 +406,15 @@ def integrate(X, U, dt, steps, plant):
     so that each block's work rows stay in cache.
 
     """
-    n = np.shape(X)[1]
-    if n < PLAIN_BELOW:
+    shape = np.shape(X)
+    n = int(np.prod(shape[1:]))
+    if n < PLAIN_BELOW if plain is None else plain:
         for _ in range(steps):
             X = rk4_step(X, U, dt, plant)
         return X
-    X = np.array(X, dtype=float)
-    U = np.broadcast_to(np.asarray(U, dtype=float), (2, n))
+    X = np.array(X, dtype=float).reshape(6, n)
+    U = np.broadcast_to(np.asarray(U, dtype=float), (2,) + shape[1:]).reshape(2, n)
     for start in range(0, n, BLOCK):
         cols = slice(start, start + BLOCK)
         _rk4_block(X[:, cols], U[:, cols], dt, steps, plant)
-    return X
+    return X.reshape(shape)

@@ -19,7 +19,7 @@ Each control period every vehicle's command is computed from the state at the st
 period, predicted to the middle of the hold (``hold_prediction``), and held while RK4 integrates
 the plant over ``dt_control / dt_integration`` steps.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import json
 
 from formation_control.core import metrics
@@ -133,7 +133,7 @@ class Stepper:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
-        self.U = np.zeros((2, self.X.shape[1]))
+        self.U = np.zeros((2,) + self.X.shape[1:])
 
     def hold(self, U):
         """
@@ -194,7 +194,73 @@ class Recorder:
         return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U))
 
 
-def simulate(sc, X0=None):
+class Outcome:
+    """
+    Record only what a study keeps of each run of a batch: convergence and the final state.
+
+    Every ``record_dt`` and at the last step (the samples of :class:`Recorder`) it evaluates
+    :func:`metrics.converged` on :func:`metrics.snapshot` of each fleet, which are computed
+    per fleet; the states are not kept.
+
+    Attributes
+    ----------
+    t : ndarray, shape (T,)
+        Sample times (s).
+    flags : ndarray of bool, shape (T, B)
+        The convergence test of each fleet at each sample.
+    X, U : ndarray, shapes (6, B, N), (2, B, N)
+        The state and held inputs at the last step.
+    final : metrics.Snapshot
+        The metrics at the last step, arrays of shape (B,).
+
+    """
+
+    def __init__(self, sc):
+        self.sc = sc
+        self.steps = sc.periods
+        self.ctrl = Controller(sc)
+        self.t, self.flags = [], []
+
+    def record(self, n, X, U):
+        """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
+        if n % self.sc.record_every == 0 or n == self.steps:
+            self.final = metrics.snapshot(self.ctrl, X, U)
+            self.t.append(n * self.sc.dt_control)
+            self.flags.append(metrics.converged(self.sc, self.final))
+            self.X, self.U = X.copy(), U.copy()
+
+    def run(self):
+        """Return itself, with ``t`` and ``flags`` as arrays."""
+        self.t, self.flags = np.array(self.t), np.array(self.flags)
+        return self
+
+    def convergence_times(self):
+        """Return each fleet's :func:`metrics.convergence_times` (s; NaN if not), (B,)."""
+        return metrics.convergence_times(self.t, self.flags)
+
+
+def initial_states(sc, seeds):
+    """
+    Return the initial states of a batch of fleets, one per seed.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    seeds : sequence of int
+        The seed of each fleet.
+
+    Returns
+    -------
+    ndarray, shape (6, B, N)
+        Fleet b is :func:`scenario.initial_state` of ``sc`` with seed ``seeds[b]``: a run's
+        start does not depend on the batch it is in.
+
+    """
+    return np.stack([initial_state(replace(sc, seed=int(s))) for s in seeds], axis=1)
+
+
+def simulate(sc, X0=None, recorder=None):
     """
     Run a scenario in the offline simulator.
 
@@ -204,16 +270,20 @@ def simulate(sc, X0=None):
         The scenario: ``duration`` seconds of control periods ``dt_control``, each integrated
         by RK4 with ``dt_integration`` steps and the commands held.
     X0 : array_like, shape (6, N), optional
-        Initial state; :func:`scenario.initial_state` by default.
+        Initial state; :func:`scenario.initial_state` by default. (6, B, N): a batch of B
+        independent fleets (:func:`initial_states`), each under its own means and sums
+        (:mod:`laws`), integrated together.
+    recorder : Recorder or Outcome, optional
+        What to keep; a :class:`Recorder` of ``sc`` by default.
 
     Returns
     -------
-    Run
-        Samples every ``record_dt`` and at the end.
+    Run or Outcome
+        Samples every ``record_dt`` and at the end (a Run's X is (T, 6, B, N) for a batch).
 
     """
     stepper = Stepper(sc, X0)
-    rec = Recorder(sc)
+    rec = Recorder(sc) if recorder is None else recorder
     for n in range(rec.steps + 1):
         rec.record(n, stepper.X, stepper.command())
         if n < rec.steps:
@@ -241,9 +311,10 @@ def summary(run):
     """
     sc = run.sc
     ctrl = Controller(sc)
-    snaps = [metrics.snapshot(ctrl, X, U) for X, U in zip(run.X, run.U)]
-    flags = [metrics.converged(sc, s) for s in snaps]
-    final = snaps[-1]
+    samples = metrics.snapshot(ctrl, np.ascontiguousarray(np.moveaxis(run.X, 0, 1)),
+                               np.ascontiguousarray(np.moveaxis(run.U, 0, 1)))
+    flags = metrics.converged(sc, samples)
+    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1])
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
            'converged': bool(flags[-1]),
            'convergence_time': metrics.convergence_time(run.t, flags),
