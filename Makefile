@@ -6,9 +6,10 @@ STAMP := $(VENV)/.installed
 # Exact versions of everything `make setup` installs (the ROS 2 wheels too), so that a new
 # release upstream cannot change a fresh install or CI. Refreshed on purpose by `make upgrade`.
 CONSTRAINTS := constraints.txt
-# What is installed: the package with its ROS wheels, the Foxglove live view and test/linter
-# tools (setup.py's extras).
-EXTRAS := .[ros,view,test]
+# What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
+# (sweeps on a cluster; its tests run with a LocalCluster) and test/linter tools (setup.py's
+# extras).
+EXTRAS := .[ros,view,cluster,test]
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
