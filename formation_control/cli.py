@@ -291,7 +291,7 @@ def build_parser():
     sweep.add_argument('--scheduler', metavar='tcp://HOST:PORT',
                        help='run the batches on this Dask distributed scheduler')
     sweep.add_argument('--batch-size', type=int, help='runs simulated together (default: '
-                       '2000 vehicles, at least four batches per worker)')
+                       '2000 vehicles, at least two batches per worker)')
     sweep.add_argument('--resume', action='store_true',
                        help='continue the sweep whose batches are in OUT.parts/')
     sweep.set_defaults(func=cmd_sweep)

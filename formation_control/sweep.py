@@ -48,7 +48,8 @@ SWEEPABLE = tuple(name for name in scenario.PARAMETER_NAMES if name not in FIXED
 """Parameters a sweep may vary: every scalar one, and the pairs flow and c0."""
 BATCH_VEHICLES = 2000
 """Vehicles simulated together by default (fleets per batch = this / N): past about a
-thousand vehicles numpy's per-call overhead is small against the arithmetic."""
+thousand vehicles numpy's per-call overhead is small against the arithmetic (docs/benchmarks.md,
+section 7)."""
 Z95 = 1.959963984540054
 
 
@@ -152,7 +153,7 @@ def plan(base, overrides, seeds, batch_size=None, workers=1):
         The seeds run at each grid point.
     batch_size : int, optional
         Runs per batch; by default ``BATCH_VEHICLES / N``, fewer so that every worker gets
-        about four batches.
+        at least two batches.
     workers : int
         Workers the batches are spread over.
 
@@ -180,7 +181,7 @@ def plan(base, overrides, seeds, batch_size=None, workers=1):
             raise SweepError(f'grid point {point_label(axes, values)}: {err}') from None
         points.append(params)
     if batch_size is None:
-        spread = math.ceil(len(seeds) * len(points) / (4 * max(1, workers)))
+        spread = math.ceil(len(seeds) * len(points) / (2 * max(1, workers)))
         batch_size = max(1, min(BATCH_VEHICLES // n, spread, len(seeds)))
     if batch_size < 1:
         raise SweepError(f'--batch-size = {batch_size} must be >= 1')
@@ -219,10 +220,14 @@ def run_batch(params, seeds):
 
 
 class Progress:
-    """A progress bar with the runs done, the elapsed time and an ETA, on stderr."""
+    """
+    A progress bar with the runs done, the elapsed time and an ETA, on stderr.
+
+    Redrawn in place on a terminal; elsewhere (a log) one line per tenth of the runs.
+    """
 
     def __init__(self, total, stream=None):
-        self.total, self.done = total, 0
+        self.total, self.done, self.shown = total, 0, -1
         self.stream = sys.stderr if stream is None else stream
         self.start = time.monotonic()
 
@@ -231,11 +236,14 @@ class Progress:
         self.done += runs
         elapsed = time.monotonic() - self.start
         frac = self.done / self.total
-        eta = elapsed * (1 - frac) / frac if frac > 0 else math.inf
-        bar = '#' * int(30 * frac)
-        end = '\n' if self.done >= self.total or not self.stream.isatty() else ''
-        self.stream.write(f'\r[{bar:30s}] {self.done}/{self.total} runs  {elapsed:.1f} s  '
-                          f'ETA {eta:.1f} s{end}')
+        tty = self.stream.isatty()
+        if not tty and int(10 * frac) == self.shown:
+            return
+        self.shown = int(10 * frac)
+        eta = elapsed * (1 - frac) / frac
+        end = '\n' if self.done >= self.total or not tty else ''
+        self.stream.write(f"\r[{'#' * int(30 * frac):30s}] {self.done}/{self.total} runs  "
+                          f'{elapsed:.1f} s  ETA {eta:.1f} s{end}')
         self.stream.flush()
 
 

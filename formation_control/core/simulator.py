@@ -161,11 +161,14 @@ class Stepper:
         Integrate one control period with the held inputs; return the new state (6, N).
 
         ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
-        (the real-time plant advances one step per tick).
+        (the real-time plant advances one step per tick). A batch of fleets (6, B, N) takes
+        the plain RK4 formulas, vehicle by vehicle: the blocked path of :func:`models.integrate`
+        chooses its series per block, so a run's result would depend on the fleets that share
+        its batch; this way it equals the run alone, bit for bit.
         """
         sc = self.sc
         self.X = integrate(self.X, self.U, sc.dt_integration, steps or sc.substeps,
-                           self.ctrl.plant)
+                           self.ctrl.plant, plain=True if self.X.ndim > 2 else None)
         return self.X
 
 
