@@ -71,6 +71,7 @@ bench: setup
 	$(PY) bench/fleet.py latency --sizes 16
 	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
+	$(PY) bench/sweep.py
 
 clean:
 	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png
