@@ -123,6 +123,10 @@ def cmd_sweep(args):
                                  progress=sweep.Progress(the_plan.runs))
     except sweep.SweepError as err:
         raise scenario.ScenarioError(str(err)) from None
+    except KeyboardInterrupt:
+        print(f'\ninterrupted: the batches done are in {sweep.parts_dir(args.out)}; the same '
+              f'command with --resume continues', file=sys.stderr)
+        return 130
     if failures:
         for i, reason in sorted(failures.items()):
             point, seeds = the_plan.batches[i]

@@ -93,7 +93,8 @@ def parse_grid(overrides):
             fixed[name] = value
             continue
         if name not in SWEEPABLE:
-            why = FIXED.get(name, 'it is a per-vehicle or per-edge list')
+            why = FIXED.get(name, 'it is a per-vehicle or per-edge list'
+                            if name in scenario.PARAMETERS else 'not a scenario parameter')
             raise SweepError(f"parameter '{name}' cannot be swept ({why}); sweepable: "
                              f"{', '.join(SWEEPABLE)}")
         axes[name] = value

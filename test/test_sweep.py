@@ -96,8 +96,8 @@ def test_results_do_not_depend_on_batch_size_or_workers(reference, tmp_path):
 
 
 def test_dask_local_cluster_equals_local_sweep(reference, tmp_path, capsys):
-    distributed = pytest.importorskip('distributed')   # the 'cluster' extra; make setup has it
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+    from distributed import LocalCluster                # the 'cluster' extra (make setup)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   protocol='tcp', dashboard_address=None) as cluster:
         out = tmp_path / 'dask.npz'
         code, text, err = run_cli(RIGID + ['--seeds', str(SEEDS), '--batch-size', '3', '--out',
@@ -179,6 +179,7 @@ def test_a_dead_worker_is_retried_once_then_reported(reference, tmp_path, monkey
     (['-p', 'seed:=[1, 2]'], "'seed' cannot be swept (the seeds are the runs: use --seeds); "
                              'sweepable: num_vehicles, model'),
     (['-p', 'init_x:=[[1, 2]]'], "'init_x' cannot be swept"),
+    (['-p', 'gain:=[1, 2]'], "'gain' cannot be swept (not a scenario parameter); sweepable: "),
     (['-p', 'K:=[1.0, -1.0]', '-p', 'kappa:=[5.0]'],
      "grid point K=-1.0, kappa=5.0: parameter 'K' = -1.0 is invalid: formation circular "
      'needs K > 0'),
