@@ -98,7 +98,7 @@ def test_results_do_not_depend_on_batch_size_or_workers(reference, tmp_path):
 def test_dask_local_cluster_equals_local_sweep(reference, tmp_path, capsys):
     from distributed import LocalCluster                # the 'cluster' extra (make setup)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  protocol='tcp', dashboard_address=None) as cluster:
+                      protocol='tcp', dashboard_address=None) as cluster:
         out = tmp_path / 'dask.npz'
         code, text, err = run_cli(RIGID + ['--seeds', str(SEEDS), '--batch-size', '3', '--out',
                                            str(out), '--scheduler', cluster.scheduler_address],
