@@ -129,9 +129,7 @@ def cmd_sweep(args):
         return 130
     if failures:
         for i, reason in sorted(failures.items()):
-            point, seeds = the_plan.batches[i]
-            print(f'error: batch {i} (grid point {point}, seeds {seeds[0]}-{seeds[-1]}) '
-                  f'failed twice: {reason}', file=sys.stderr)
+            print(f'error: batch {i} failed twice: {reason}', file=sys.stderr)
         print(f'the other batches are in {sweep.parts_dir(args.out)}: run the same command '
               f'with --resume to retry the failed ones', file=sys.stderr)
         return 1

@@ -260,9 +260,18 @@ def parts_dir(out):
     return out.with_name(out.name + '.parts')
 
 
+def stored_batches(out):
+    """Return the batches of the sweep whose parts are next to ``out`` (its manifest)."""
+    stored = json.loads((parts_dir(out) / 'manifest.json').read_text())
+    return [(point, seeds) for point, seeds in stored['batches']]
+
+
 def open_parts(out, the_plan, resume):
     """
-    Prepare the directory of parts; return the batches already done (resume) as a set.
+    Prepare the directory of parts; return the batches, and those already done (resume).
+
+    A resumed sweep keeps the batches it started with (another ``--workers`` or
+    ``--batch-size`` does not change them).
 
     Raises
     ------
@@ -277,13 +286,15 @@ def open_parts(out, the_plan, resume):
         raise SweepError(f'{where} holds the batches of an unfinished sweep: continue it with '
                          f'--resume, or remove the directory')
     if resume and manifest.exists():
-        if json.loads(manifest.read_text()) != wanted:
-            raise SweepError(f'--resume: {where} holds another sweep (scenario, grid, seeds or '
-                             f'batch size differ); run the same command, or remove it')
-        return {i for i, b in enumerate(the_plan.batches) if (where / part_name(b)).exists()}
+        stored = json.loads(manifest.read_text())
+        if any(stored[k] != wanted[k] for k in ('points', 'axes', 'seeds')):
+            raise SweepError(f'--resume: {where} holds another sweep (scenario, grid or seeds '
+                             f'differ); run the same command, or remove it')
+        batches = stored_batches(out)
+        return batches, {i for i, b in enumerate(batches) if (where / part_name(b)).exists()}
     where.mkdir(parents=True, exist_ok=True)
     manifest.write_text(json.dumps(wanted))
-    return set()
+    return the_plan.batches, set()
 
 
 def write_part(out, batch, point, rows):
@@ -420,23 +431,25 @@ def execute(the_plan, out, workers=1, scheduler=None, resume=False, task=run_bat
     Returns
     -------
     dict
-        Batch index -> reason, for the batches that failed twice (empty when all ran).
+        Batch index -> what failed twice and why ('grid point 1, seeds 0-249: ...'); empty
+        when all ran.
 
     """
-    finished = open_parts(out, the_plan, resume)
+    batches, finished = open_parts(out, the_plan, resume)
     if progress is not None and finished:
-        progress.advance(sum(len(the_plan.batches[i][1]) for i in finished))
-    jobs = [(i, (the_plan.points[p], seeds)) for i, (p, seeds) in enumerate(the_plan.batches)
+        progress.advance(sum(len(batches[i][1]) for i in finished))
+    jobs = [(i, (the_plan.points[p], seeds)) for i, (p, seeds) in enumerate(batches)
             if i not in finished]
     failures = {}
 
     def done(i, rows):
-        write_part(out, the_plan.batches[i], the_plan.batches[i][0], rows)
+        write_part(out, batches[i], batches[i][0], rows)
         if progress is not None:
-            progress.advance(len(the_plan.batches[i][1]))
+            progress.advance(len(batches[i][1]))
 
     def failed(i, reason):
-        failures[i] = reason
+        point, seeds = batches[i]
+        failures[i] = f'grid point {point}, seeds {seeds[0]}-{seeds[-1]}: {reason}'
     engine = _Dask(scheduler) if scheduler else _Local(workers)
     engine.run(task, jobs, done, failed)
     return failures
@@ -457,7 +470,7 @@ def merge(the_plan, out):
     """
     where = parts_dir(out)
     parts = []
-    for batch in the_plan.batches:
+    for batch in stored_batches(out):
         with np.load(where / part_name(batch)) as d:
             parts.append({k: d[k] for k in d.files})
     width = max(p['final_x'].shape[1] for p in parts)

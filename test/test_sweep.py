@@ -137,7 +137,8 @@ def test_failed_batches_are_reported_and_resume_completes(reference, tmp_path):
     out = tmp_path / 'resume.npz'
     the_plan = sweep.plan(rigid_base(), RIGID[1::2], range(SEEDS), batch_size=3)
     failures = sweep.execute(the_plan, out, workers=0, task=fail_point_one)
-    assert sorted(failures) == [2, 3] and 'injected failure' in failures[2]
+    assert sorted(failures) == [2, 3]
+    assert failures[2] == 'grid point 1, seeds 0-2: RuntimeError: injected failure'
     parts = sorted(p.name for p in sweep.parts_dir(out).glob('point*.npz'))
     assert parts == ['point0000_seed00000000.npz', 'point0000_seed00000003.npz']
     with pytest.raises(sweep.SweepError, match='--resume'):
@@ -151,9 +152,10 @@ def test_failed_batches_are_reported_and_resume_completes(reference, tmp_path):
     def counting(params, seeds):
         ran.append(list(seeds))
         return sweep.run_batch(params, seeds)
-    assert sweep.execute(the_plan, out, workers=0, resume=True, task=counting) == {}
-    assert ran == [[0, 1, 2], [3]]                     # only grid point K = 2 ran again
-    d = sweep.merge(the_plan, out)
+    again = sweep.plan(rigid_base(), RIGID[1::2], range(SEEDS), batch_size=2)
+    assert sweep.execute(again, out, workers=0, resume=True, task=counting) == {}
+    assert ran == [[0, 1, 2], [3]]                     # K = 2 again, in the stored batches
+    d = sweep.merge(again, out)
     np.testing.assert_array_equal(d['final_x'], reference['final_x'])
     assert not sweep.parts_dir(out).exists()
 
