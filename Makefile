@@ -6,9 +6,10 @@ STAMP := $(VENV)/.installed
 # Exact versions of everything `make setup` installs (the ROS 2 wheels too), so that a new
 # release upstream cannot change a fresh install or CI. Refreshed on purpose by `make upgrade`.
 CONSTRAINTS := constraints.txt
-# What is installed: the package with its ROS wheels, the Foxglove live view and test/linter
-# tools (setup.py's extras).
-EXTRAS := .[ros,view,test]
+# What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
+# (sweeps on a cluster; its tests run with a LocalCluster) and test/linter tools (setup.py's
+# extras).
+EXTRAS := .[ros,view,cluster,test]
 # The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
 # into the venv when present, so that the tests with `ros2` run; without it they skip, unless
 # a ros2 of a Jazzy installation is on PATH.
@@ -80,6 +81,7 @@ bench: setup
 	$(PY) bench/fleet.py latency --sizes 16
 	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
+	$(PY) bench/sweep.py
 
 clean:
 	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png

@@ -22,8 +22,9 @@ package_name = 'formation_control'
 # (what ROS' python3-* rosdep keys provide; rosbags is the pip-only key python3-rosbags-pip).
 # The ROS packages themselves come with a ROS installation (apt, colcon); without one they are
 # the ros-jazzy-* wheels of the 'ros' extra. 'view' is the Foxglove live view (the monitor's
-# foxglove_port; no rosdep key, pip only). 'test' adds the test and linter dependencies.
-# `make setup` installs '.[ros,view,test]' with the exact versions of constraints.txt.
+# foxglove_port; no rosdep key, pip only). 'cluster' is Dask distributed, for sweeps on a
+# cluster (formation-control sweep --scheduler). 'test' adds the test and linter dependencies.
+# `make setup` installs '.[ros,view,cluster,test]' with the exact versions of constraints.txt.
 ros_requires = [
     'ros-jazzy-rclpy[fastrtps]',         # rclpy, rcl_interfaces, builtin_interfaces, rosgraph_msgs
     'ros-jazzy-ament-index-python',      # ament_index_python
@@ -31,6 +32,7 @@ ros_requires = [
                                          # diagnostic_msgs, visualization_msgs
 ]
 view_requires = ['foxglove-sdk']
+cluster_requires = ['dask[distributed]']   # formation-control sweep --scheduler tcp://...
 test_requires = [
     'pytest',
     'websockets',                        # test/test_live.py: a Foxglove WebSocket client
@@ -63,7 +65,8 @@ setup(
         ('share/' + package_name + '/rviz', ['rviz/formation.rviz']),
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
-    extras_require={'ros': ros_requires, 'view': view_requires, 'test': test_requires},
+    extras_require={'ros': ros_requires, 'view': view_requires, 'cluster': cluster_requires,
+                    'test': test_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',

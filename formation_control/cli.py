@@ -18,9 +18,9 @@ Command line: ``formation-control`` sim, swarm, set, plot, report, play, doctor,
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
 process per vehicle + monitor); ``set`` changes run-time gains on every vehicle of a running
 fleet; ``plot`` and ``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2
-bag; ``play`` republishes a bag; ``doctor`` checks a running fleet; ``params`` prints the
-table of scenario parameters (docs/parameters.md); ``layout`` prints the Foxglove layout
-(foxglove/formation_control.json).
+bag; ``play`` republishes a bag; ``doctor`` checks a running fleet; ``sweep`` runs a grid of
+parameter values x seeds; ``params`` prints the table of scenario parameters
+(docs/parameters.md); ``layout`` prints the Foxglove layout (foxglove/formation_control.json).
 """
 import argparse
 import json
@@ -105,6 +105,47 @@ def cmd_sim(args):
     run = simulator.simulate(sc)
     _report(run, args.scenario, 'simulated offline', summary_path=args.summary)
     _write(args, run)
+    return 0
+
+
+def cmd_sweep(args):
+    import os
+    from formation_control import sweep
+    base = scenario.read_params(find_scenario(args.scenario))
+    if args.duration is not None:
+        base['duration'] = args.duration
+    workers = os.cpu_count() if args.workers is None else args.workers
+    if workers < 0:
+        raise sweep.SweepError(f'--workers = {workers} must be >= 0 (0: in this process)')
+    try:
+        the_plan = sweep.plan(base, args.param, range(args.first_seed,
+                                                      args.first_seed + args.seeds),
+                              args.batch_size, workers)
+        where = 'on ' + args.scheduler if args.scheduler else f'{workers} local worker(s)'
+        print(f'{args.scenario}: {len(the_plan.points)} grid point(s) x {len(the_plan.seeds)} '
+              f'seeds = {the_plan.runs} runs in {len(the_plan.batches)} batches, {where}',
+              file=sys.stderr)
+        failures = sweep.execute(the_plan, args.out, workers, args.scheduler, args.resume,
+                                 progress=sweep.Progress(the_plan.runs))
+    except sweep.SweepError as err:
+        raise scenario.ScenarioError(str(err)) from None
+    except KeyboardInterrupt:
+        print(f'\ninterrupted: the batches done are in {sweep.parts_dir(args.out)}; the same '
+              f'command with --resume continues', file=sys.stderr)
+        return 130
+    if failures:
+        for i, reason in sorted(failures.items()):
+            print(f'error: batch {i} failed twice: {reason}', file=sys.stderr)
+        print(f'the other batches are in {sweep.parts_dir(args.out)}: run the same command '
+              f'with --resume to retry the failed ones', file=sys.stderr)
+        return 1
+    data = sweep.merge(the_plan, args.out)
+    print(sweep.format_table(sweep.table(data)))
+    print(f'wrote {args.out}')
+    if args.plot:
+        sweep.plot(data, args.plot, f'{args.scenario}: {len(the_plan.seeds)} seeds per point, '
+                                    f'{base.get("duration", 60.0):g} s')
+        print(f'wrote {args.plot}')
     return 0
 
 
@@ -294,6 +335,28 @@ def build_parser():
     sim = sub.add_parser('sim', help='run a scenario in the offline simulator')
     _scenario_arguments(sim)
     sim.set_defaults(func=cmd_sim)
+    sweep = sub.add_parser('sweep', help='Monte-Carlo study: a grid of parameter values x '
+                           'seeds, in batches on local workers or a Dask cluster')
+    sweep.add_argument('scenario', help='scenario YAML (ROS 2 parameter file) or config name')
+    sweep.add_argument('--seeds', type=int, default=100, help='runs per grid point (seeds '
+                       'FIRST..FIRST+SEEDS-1; default 100)')
+    sweep.add_argument('--first-seed', type=int, default=0, metavar='FIRST')
+    sweep.add_argument('-p', '--param', action='append', default=[], metavar='NAME:=VALUE',
+                       help='a fixed value, or a grid axis: NAME:=[v1, v2, ...] (flow and c0: '
+                       'a list of pairs)')
+    sweep.add_argument('--duration', type=float, help='override duration (s)')
+    sweep.add_argument('--out', default='sweep.npz', help='the results, one row per run '
+                       '(default sweep.npz; batches go to OUT.parts/ as they complete)')
+    sweep.add_argument('--plot', help='write the figure to this .png')
+    sweep.add_argument('--workers', type=int, help='local worker processes (default: one per '
+                       'core; 0: in this process)')
+    sweep.add_argument('--scheduler', metavar='tcp://HOST:PORT',
+                       help='run the batches on this Dask distributed scheduler')
+    sweep.add_argument('--batch-size', type=int, help='runs simulated together (default: '
+                       '2000 vehicles, at least two batches per worker)')
+    sweep.add_argument('--resume', action='store_true',
+                       help='continue the sweep whose batches are in OUT.parts/')
+    sweep.set_defaults(func=cmd_sweep)
     swarm = sub.add_parser('swarm', help='run a scenario as ROS 2 processes, one per vehicle')
     _scenario_arguments(swarm)
     swarm.add_argument('--mode', choices=('lockstep', 'realtime'), default='lockstep')

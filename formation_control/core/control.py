@@ -214,7 +214,7 @@ def drag_moment_accel(X, plant):
 
     """
     if plant.model != 'rigid_cop':
-        return np.zeros(X.shape[1])
+        return np.zeros(X.shape[1:])
     return -plant.l1 * plant.h * np.hypot(X[ROW_U], X[ROW_V]) * X[ROW_V] / plant.I0
 
 
@@ -342,7 +342,7 @@ class Controller:
     def thrust(self, X):
         """Return the thrust of ``X`` (6, n), (7.1)/(8.10): (n,) N; 0 for particles."""
         if not self.rigid:
-            return np.zeros(X.shape[1])
+            return np.zeros(X.shape[1:])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
 
     def flow(self, flow):
@@ -421,8 +421,8 @@ class Controller:
         flow = self.flow(flow)
         if not self.rigid:
             return particle_view(X, flow)
-        held = np.zeros(X.shape[1]) if F_held is None else F_held
-        U_applied = np.vstack([self.thrust(X), held])
+        held = np.zeros(X.shape[1:]) if F_held is None else F_held
+        U_applied = np.stack([self.thrust(X), held])
         return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full)
 
     def formation_of(self, members=None):
@@ -510,7 +510,7 @@ class Controller:
 
         """
         sc = self.sc
-        U = np.zeros((2, X.shape[1]))
+        U = np.zeros((2,) + X.shape[1:])
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
             U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.flow(flow))
@@ -526,7 +526,8 @@ class Controller:
 
     def saturate(self, U):
         """Return the inputs U (2, n) with each row clipped to its :func:`command_limits`."""
-        return np.clip(U, -self.limits[:, None], self.limits[:, None])
+        limits = self.limits.reshape((2,) + (1,) * (np.ndim(U) - 1))
+        return np.clip(U, -limits, limits)
 
     def saturated(self, U):
         """Return (n,) bool: whether each vehicle's input U (2, n) sits on a limit."""

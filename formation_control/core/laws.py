@@ -22,6 +22,10 @@ with ``s'``. The laws return, for the vehicles ``idx`` only, the desired phase r
 sums are O(N) means, so the same call serves one vehicle that knows the views it has
 received (``idx=[k]``) and the whole fleet (``idx=None``).
 
+The arrays of a view may carry leading axes, a batch of independent fleets (B, N): every mean
+and neighbour sum is over the last axis, so each fleet's law is the single fleet's, computed
+with the same reductions.
+
 On a communication graph (a :class:`Coupling`), the means become the Laplacian sums of
 Sepulchre, Paley and Leonard, "Stabilization of planar collective motion with limited
 communication", IEEE TAC 53(3), 2008: each vehicle sums over its neighbours only, divided by
@@ -36,6 +40,16 @@ from dataclasses import dataclass
 
 from formation_control.core.geometry import inner
 import numpy as np
+
+
+def _mean(x):
+    """Return the mean over the fleet (the last axis), kept as an axis of length 1."""
+    return x.mean(axis=-1, keepdims=True)
+
+
+def _fleet(x):
+    """Return a per-fleet value: a float for one fleet, the array for a batch of fleets."""
+    return float(x) if np.ndim(x) == 0 else x
 
 
 @dataclass
@@ -102,13 +116,24 @@ class Coupling:
     n: int
 
     def total(self, per_arc, m):
-        """Return ``sum_j a_kj x_kj`` for each of the m vehicles, from the values on the arcs."""
-        return np.bincount(self.src, weights=per_arc, minlength=m)
+        """
+        Return ``sum_j a_kj x_kj`` for each of the m vehicles, from the values on the arcs.
+
+        ``per_arc`` is (2E,), or (..., 2E) for a batch of fleets (one sum per fleet).
+        """
+        if np.ndim(per_arc) == 1:
+            return np.bincount(self.src, weights=per_arc, minlength=m)
+        lead = np.shape(per_arc)[:-1]
+        fleets = int(np.prod(lead))
+        index = (np.arange(fleets)[:, None] * m + self.src).ravel()
+        sums = np.bincount(index, weights=np.ravel(per_arc), minlength=fleets * m)
+        return sums.reshape(lead + (m,))
 
     def laplacian(self, x):
-        """Return ``(L x)_k = sum_j a_kj (x_k - x_j)`` of the complex values x (M,)."""
-        d = x[self.src] - x[self.dst]
-        return self.total(d.real, x.size) + 1j * self.total(d.imag, x.size)
+        """Return ``(L x)_k = sum_j a_kj (x_k - x_j)`` of the complex values x (..., M)."""
+        d = x[..., self.src] - x[..., self.dst]
+        m = x.shape[-1]
+        return self.total(d.real, m) + 1j * self.total(d.imag, m)
 
 
 @dataclass(frozen=True)
@@ -165,20 +190,20 @@ class Parallel:
         if self.coupling is not None:
             return self._graph_terms(view, idx)
         e = view.e
-        p = e.mean()
-        pw = (e * view.rate).mean()
-        ek, wk = e[idx], view.rate[idx]
+        p = _mean(e)
+        pw = _mean(e * view.rate)
+        ek, wk = e[..., idx], view.rate[..., idx]
         q = inner(p, 1j * ek)
         phi_dot = -self.K * (inner(pw, ek) - wk * inner(p, ek))
-        return Terms(-self.K * q, phi_dot, q / e.size)
+        return Terms(-self.K * q, phi_dot, q / e.shape[-1])
 
     def _graph_terms(self, view, idx):
         """Return the terms on the graph: phi_k' = -(K/nu) sum_j a_kj cos(dphase)(w_j - w_k)."""
-        g, m = self.coupling, view.phase.size
-        d = view.phase[g.dst] - view.phase[g.src]
-        q = g.total(np.sin(d), m)[idx] / g.nu
-        dw = view.rate[g.dst] - view.rate[g.src]
-        phi_dot = -self.K * g.total(np.cos(d) * dw, m)[idx] / g.nu
+        g, m = self.coupling, view.phase.shape[-1]
+        d = view.phase[..., g.dst] - view.phase[..., g.src]
+        q = g.total(np.sin(d), m)[..., idx] / g.nu
+        dw = view.rate[..., g.dst] - view.rate[..., g.src]
+        phi_dot = -self.K * g.total(np.cos(d) * dw, m)[..., idx] / g.nu
         return Terms(-self.K * q, phi_dot, q / g.n)
 
     def potential(self, view):
@@ -192,16 +217,16 @@ class Parallel:
 
         Returns
         -------
-        float
+        float, or ndarray (one per fleet) for a batch
             ``V = (1 - |p|^2) / 2`` (1.11), in [0, 1/2]; 0 when all phases agree. On a graph
             ``<e, L e> / (2 N nu) = sum_arcs (1 - cos(phase_j - phase_k)) / (2 N nu)``.
 
         """
         g = self.coupling
         if g is not None:
-            d = view.phase[g.dst] - view.phase[g.src]
-            return float(np.sum(1.0 - np.cos(d))) / (2.0 * g.n * g.nu)
-        return 0.5 * (1.0 - abs(view.e.mean()) ** 2)
+            d = view.phase[..., g.dst] - view.phase[..., g.src]
+            return _fleet(np.sum(1.0 - np.cos(d), axis=-1) / (2.0 * g.n * g.nu))
+        return _fleet(0.5 * (1.0 - abs(_mean(view.e)[..., 0]) ** 2))
 
 
 @dataclass(frozen=True)
@@ -225,7 +250,7 @@ class Moments:
 
     def moments(self, phase):
         """Return ``p_m`` (complex) for m = 1..len(gains) of the phases (N,)."""
-        return np.array([np.exp(1j * m * phase).mean() / m
+        return np.array([np.exp(1j * m * phase).mean(axis=-1) / m
                          for m in range(1, len(self.gains) + 1)])
 
     def gradient(self, view, idx=slice(None), coupling=None):
@@ -250,23 +275,23 @@ class Moments:
 
         """
         ph, w = view.phase, view.rate
-        b = np.zeros(np.shape(ph[idx]))
+        b = np.zeros(np.shape(ph[..., idx]))
         b_dot = np.zeros_like(b)
         for m, gain in enumerate(self.gains, start=1):
             E = np.exp(1j * m * ph)
-            pm, pw = E.mean() / m, (w * E).mean()
-            Ek, wk = E[idx], w[idx]
+            pm, pw = _mean(E) / m, _mean(w * E)
+            Ek, wk = E[..., idx], w[..., idx]
             b = b + gain * inner(pm, 1j * Ek)
             b_dot = b_dot + gain * (inner(pw, Ek) - m * wk * inner(pm, Ek))
         return b, b_dot
 
     def potential(self, view, coupling=None):
         """Return ``U = sum_m K_m (N/2) (|p_m|^2 - d_m)`` (rad/s) of the view's phases."""
-        n = view.phase.size
+        n = view.phase.shape[-1]
         u = 0.0
         for m, (gain, pm) in enumerate(zip(self.gains, self.moments(view.phase)), start=1):
             u += gain * 0.5 * n * (abs(pm) ** 2 - (1.0 / m ** 2 if gain < 0 else 0.0))
-        return float(u)
+        return _fleet(u)
 
 
 @dataclass(frozen=True)
@@ -315,22 +340,23 @@ class Slots:
         psi, w = view.phase - self.beta, view.rate
         if coupling is None:
             x = np.exp(1j * psi)
-            p, pw = x.mean(), (w * x).mean()
-            xk, wk = x[idx], w[idx]
+            p, pw = _mean(x), _mean(w * x)
+            xk, wk = x[..., idx], w[..., idx]
             return -self.gain * inner(p, 1j * xk), -self.gain * (inner(pw, xk) - wk * inner(p, xk))
-        g, m = coupling, psi.size
-        d = psi[g.dst] - psi[g.src]
-        q = g.total(np.sin(d), m)[idx] / g.nu
-        q_dot = g.total(np.cos(d) * (w[g.dst] - w[g.src]), m)[idx] / g.nu
+        g, m = coupling, psi.shape[-1]
+        d = psi[..., g.dst] - psi[..., g.src]
+        q = g.total(np.sin(d), m)[..., idx] / g.nu
+        q_dot = g.total(np.cos(d) * (w[..., g.dst] - w[..., g.src]), m)[..., idx] / g.nu
         return -self.gain * q, -self.gain * q_dot
 
     def potential(self, view, coupling=None):
         """Return U (rad/s): ``K_s (N/2)(1 - |mean x|^2)``, on a graph ``K_s <x, L x>/(2 nu)``."""
         psi = view.phase - self.beta
         if coupling is None:
-            return float(self.gain * 0.5 * psi.size * (1.0 - abs(np.exp(1j * psi).mean()) ** 2))
-        d = psi[coupling.dst] - psi[coupling.src]
-        return float(self.gain * np.sum(1.0 - np.cos(d)) / (2.0 * coupling.nu))
+            p = _mean(np.exp(1j * psi))[..., 0]
+            return _fleet(self.gain * 0.5 * psi.shape[-1] * (1.0 - abs(p) ** 2))
+        d = psi[..., coupling.dst] - psi[..., coupling.src]
+        return _fleet(self.gain * np.sum(1.0 - np.cos(d), axis=-1) / (2.0 * coupling.nu))
 
 
 @dataclass(frozen=True)
@@ -396,7 +422,7 @@ class Circular:
         """Return a_k0 of the vehicles idx of n (0.0 when nobody is informed)."""
         if self.informed is None:
             return 0.0
-        return np.broadcast_to(self.informed, (n,))[idx]
+        return np.broadcast_to(self.informed, (n,))[..., idx]
 
     def terms(self, view, idx=slice(None)):
         """
@@ -424,21 +450,21 @@ class Circular:
         e = view.e
         c = view.r + 1j * e / self.omega0
         c_dot = e * (view.speed - view.rate / self.omega0)
-        ek, wk, ck = e[idx], view.rate[idx], c[idx]
-        a0 = self._a0(e.size, idx)
+        ek, wk, ck = e[..., idx], view.rate[..., idx], c[..., idx]
+        a0 = self._a0(e.shape[-1], idx)
         if self.coupling is None:
-            pc = ck - c.mean()                                       # P_k c
-            pc_dot = c_dot[idx] - c_dot.mean()
+            pc = ck - _mean(c)                                       # P_k c
+            pc_dot = c_dot[..., idx] - _mean(c_dot)
         else:
-            pc = self.coupling.laplacian(c)[idx] / self.coupling.nu   # C_k / nu
-            pc_dot = self.coupling.laplacian(c_dot)[idx] / self.coupling.nu
+            pc = self.coupling.laplacian(c)[..., idx] / self.coupling.nu   # C_k / nu
+            pc_dot = self.coupling.laplacian(c_dot)[..., idx] / self.coupling.nu
         dc0 = ck - self.c0
         g = inner(ek, pc) + a0 * inner(ek, dc0)
-        ck_dot_along = view.speed[idx] - wk / self.omega0            # <e_k, c_k'>
+        ck_dot_along = view.speed[..., idx] - wk / self.omega0            # <e_k, c_k'>
         g_dot = (wk * inner(1j * ek, pc) + inner(ek, pc_dot)
                  + a0 * (wk * inner(1j * ek, dc0) + ck_dot_along))
-        phi = self.omega0 * (view.speed[idx] + self.K * g)
-        phi_dot = self.omega0 * (view.speed_dot[idx] + self.K * g_dot)
+        phi = self.omega0 * (view.speed[..., idx] + self.K * g)
+        phi_dot = self.omega0 * (view.speed_dot[..., idx] + self.K * g_dot)
         sigma = g / self.omega0
         if self.pattern is not None:
             b, b_dot = self.pattern.gradient(view, idx, self.coupling)
@@ -457,21 +483,23 @@ class Circular:
 
         Returns
         -------
-        float
+        float, or ndarray (one per fleet) for a batch
             ``V = sum_k |c_k - mean(c)|^2 / 2 + sum_k a_k0 |c_k - c0|^2 / 2`` (m^2), (1.14),
             (7.18); 0 when every centre is the common one (and c0, if anyone is informed).
             A pattern adds ``U / (K omega0^2)`` (m^2).
 
         """
         c = self.centres(view)
-        prescribed = 0.5 * np.sum(self._a0(c.size) * abs(c - self.c0) ** 2)
+        prescribed = 0.5 * np.sum(self._a0(c.shape[-1]) * abs(c - self.c0) ** 2, axis=-1)
         if self.pattern is not None:
             prescribed += self.pattern.potential(view, self.coupling) / (
                 self.K * self.omega0 ** 2)
         g = self.coupling
         if g is not None:
-            return float(np.sum(abs(c[g.src] - c[g.dst]) ** 2)) / (4.0 * g.nu) + prescribed
-        return 0.5 * np.sum(abs(c - c.mean()) ** 2) + prescribed
+            spread = np.sum(abs(c[..., g.src] - c[..., g.dst]) ** 2, axis=-1) / (4.0 * g.nu)
+        else:
+            spread = 0.5 * np.sum(abs(c - _mean(c)) ** 2, axis=-1)
+        return _fleet(spread + prescribed)
 
 
 def first_order(formation, view, idx=slice(None)):
@@ -524,7 +552,7 @@ def backstepping(formation, view, kappa, idx=slice(None)):
 
     """
     t = formation.terms(view, idx)
-    return t.sigma - kappa * (view.rate[idx] - t.phi) + t.phi_dot
+    return t.sigma - kappa * (view.rate[..., idx] - t.phi) + t.phi_dot
 
 
 def proportional(formation, view, K_p, idx=slice(None)):
@@ -548,7 +576,7 @@ def proportional(formation, view, K_p, idx=slice(None)):
         ``-K_p z_k`` (rad/s^2) with ``z_k = rate_k - phi_k``, (5.5).
 
     """
-    return -K_p * (view.rate[idx] - formation.terms(view, idx).phi)
+    return -K_p * (view.rate[..., idx] - formation.terms(view, idx).phi)
 
 
 def composite_lyapunov(formation, view):
@@ -564,10 +592,10 @@ def composite_lyapunov(formation, view):
 
     Returns
     -------
-    float
+    float, or ndarray (one per fleet) for a batch
         ``V_c = V + sum_k z_k^2 / 2`` with ``z_k = rate_k - phi_k`` (2.10); it never increases
         under :func:`backstepping`.
 
     """
     z = view.rate - formation.terms(view).phi
-    return formation.potential(view) + 0.5 * np.sum(z ** 2)
+    return _fleet(formation.potential(view) + 0.5 * np.sum(z ** 2, axis=-1))

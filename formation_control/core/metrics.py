@@ -50,7 +50,12 @@ class Snapshot:
     min_separation: float = np.nan   # min_{j != k} |r_j - r_k| (m)
 
     def values(self):
-        """Return the named values for messages and reports, without those that do not apply."""
+        """
+        Return the named values for messages and reports, without those that do not apply.
+
+        Floats for one fleet; for a batch (:func:`snapshot` of (6, ..., N) states) arrays of
+        the batch's shape, without the values that apply to none of its fleets.
+        """
         out = {'order_parameter': self.order, 'potential': self.potential,
                'lyapunov': self.lyapunov, 'max_turn_rate': self.max_rate,
                'centre_spread': self.spread, 'radius': self.radius,
@@ -58,6 +63,9 @@ class Snapshot:
                'speed_error': self.speed_error, 'crab_angle': self.crab,
                'crab_angle_inertial': self.crab_inertial, 'min_separation': self.min_separation}
         out.update({f'phase_order_{m}': v for m, v in enumerate(self.phase_orders, start=1)})
+        if np.ndim(self.order):
+            return {k: np.broadcast_to(v, np.shape(self.order)) for k, v in out.items()
+                    if not np.all(np.isnan(v))}
         return {k: float(v) for k, v in out.items() if not np.isnan(v)}
 
 
@@ -70,15 +78,19 @@ def snapshot(ctrl, X, inputs, t=0.0):
     ctrl : control.Controller
         The controller of the scenario (its formation law and view).
     X : array_like, shape (6, N)
-        States of the whole fleet.
+        States of the whole fleet; or (6, ..., N), fleets of a batch or samples of a run.
     inputs : array_like, shape (2, N)
-        Inputs held at that instant (the held steering force enters the full law's view).
-    t : float, optional
-        The time (s): the metrics are those of the true flow at each vehicle then.
+        Inputs held at that instant (the held steering force enters the full law's view);
+        (2, ..., N) with a batch.
+    t : float or array_like, optional
+        The time (s): the metrics are those of the true flow at each vehicle then; for samples
+        of a run, their times broadcast against ``X.shape[1:]`` (e.g. shape (T, 1)).
 
     Returns
     -------
     Snapshot
+        Of floats; for a batch, of arrays of shape ``X.shape[1:-1]`` (one value per fleet),
+        computed with the same per-fleet reductions.
         |p| (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max |phase rate|, the smallest
         distance between two vehicles; circular: centre spread, mean radius and centre, with a
         pattern the moments |p_m| (:func:`phase_orders`); rigid bodies: mean |u - u0| and mean
@@ -90,30 +102,37 @@ def snapshot(ctrl, X, inputs, t=0.0):
     view = ctrl.view(X, inputs[1], flow)
     f = ctrl.formation
     extra = {'min_separation': min_separation(view.r)}
+    nan = np.full(np.shape(view.r)[:-1], np.nan)
     if isinstance(f, laws.Circular):
         c = f.centres(view)
-        extra.update(spread=float(np.max(abs(c - c.mean()))),
-                     radius=float(np.mean(abs(view.r - c.mean()))), centre=complex(c.mean()))
+        mean_c = c.mean(axis=-1, keepdims=True)
+        extra.update(spread=np.max(abs(c - mean_c), axis=-1),
+                     radius=np.mean(abs(view.r - mean_c), axis=-1), centre=mean_c[..., 0])
         if f.pattern is not None:
             extra['phase_orders'] = phase_orders(view.phase)
     else:
-        extra.update(spread=np.nan, radius=np.nan)
+        extra.update(spread=nan, radius=nan)
     if ctrl.rigid:
         beta, beta_hat = crab_angles(X, flow)
-        extra.update(speed_error=float(np.mean(abs(X[ROW_U] - ctrl.sc.u0))),
-                     crab=float(beta.mean()), crab_inertial=float(beta_hat.mean()))
-    return Snapshot(float(abs(view.e.mean())), float(f.potential(view)),
-                    float(laws.composite_lyapunov(f, view)),
-                    max_rate=float(np.max(abs(view.rate))), **extra)
+        extra.update(speed_error=np.mean(abs(X[ROW_U] - ctrl.sc.u0), axis=-1),
+                     crab=beta.mean(axis=-1), crab_inertial=beta_hat.mean(axis=-1))
+    extra.update(order=abs(view.e.mean(axis=-1)), potential=f.potential(view),
+                 lyapunov=laws.composite_lyapunov(f, view),
+                 max_rate=np.max(abs(view.rate), axis=-1))
+    if nan.ndim:
+        return Snapshot(**extra)
+    return Snapshot(**{k: complex(v) if k == 'centre' else v if k == 'phase_orders'
+                       else float(v) for k, v in extra.items()})
 
 
 def min_separation(r):
-    """Return the smallest distance between two of the positions r (N,) complex (m), or nan."""
-    if r.size < 2:
-        return np.nan
-    d = abs(r[:, None] - r[None, :])
-    d[np.diag_indices_from(d)] = np.inf
-    return float(d.min())
+    """Return the smallest distance between two of the positions r (..., N) complex (m), or nan."""
+    n = r.shape[-1]
+    if n < 2:
+        return np.full(r.shape[:-1], np.nan)[()]
+    d = abs(r[..., :, None] - r[..., None, :])
+    d[..., np.arange(n), np.arange(n)] = np.inf
+    return d.min(axis=(-2, -1))
 
 
 def phase_orders(phase):
@@ -122,18 +141,19 @@ def phase_orders(phase):
 
     Parameters
     ----------
-    phase : ndarray, shape (N,)
+    phase : ndarray, shape (N,) or (..., N)
         The steered phases (rad).
 
     Returns
     -------
-    tuple of float
+    tuple of float, or of arrays (one per fleet) for a batch
         ``|p_m| = |sum_j e^{i m phase_j}| / (m N)`` for m = 1..min(floor(N/2), PHASE_ORDERS):
         all 0 for the splay, ``|p_M| = 1/M`` and ``|p_m| = 0`` (m < M) for M clusters.
 
     """
-    top = max(1, min(phase.size // 2, PHASE_ORDERS))
-    return tuple(float(abs(np.exp(1j * m * phase).mean()) / m) for m in range(1, top + 1))
+    top = max(1, min(phase.shape[-1] // 2, PHASE_ORDERS))
+    orders = (abs(np.exp(1j * m * phase).mean(axis=-1)) / m for m in range(1, top + 1))
+    return tuple(laws._fleet(x) for x in orders)
 
 
 def converged(sc, snap):
@@ -149,16 +169,16 @@ def converged(sc, snap):
 
     Returns
     -------
-    bool
+    bool, or ndarray of bool for a batch's snapshot
         Parallel: ``|p| > ORDER_TOL`` and every ``|phase rate| < RATE_TOL`` (rad/s); circular:
         centre spread below SPREAD_TOL (m) and the mean radius within RADIUS_TOL of
         ``1/|omega0|``.
 
     """
     if sc.formation == 'parallel':
-        return snap.order > ORDER_TOL and snap.max_rate < RATE_TOL
+        return (snap.order > ORDER_TOL) & (snap.max_rate < RATE_TOL)
     radius_error = abs(snap.radius * abs(sc.omega0) - 1.0)
-    return snap.spread < SPREAD_TOL and radius_error < RADIUS_TOL
+    return (snap.spread < SPREAD_TOL) & (radius_error < RADIUS_TOL)
 
 
 def vehicles_converged(ctrl, view):
@@ -209,8 +229,31 @@ def convergence_time(t, flags):
     flags = np.asarray(flags, bool)
     if flags.size == 0 or not flags[-1]:
         return None
-    bad = np.flatnonzero(~flags)
-    return float(t[0] if bad.size == 0 else t[bad[-1] + 1])
+    return float(convergence_times(t, flags[:, None])[0])
+
+
+def convergence_times(t, flags):
+    """
+    Return :func:`convergence_time` of each run of a batch.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Sample times (s), T >= 1.
+    flags : array_like of bool, shape (T, B)
+        The convergence test of each of B runs at each sample.
+
+    Returns
+    -------
+    ndarray, shape (B,)
+        The first time from which each run's flags hold to the end (s); NaN where the last
+        sample does not hold.
+
+    """
+    t, flags = np.asarray(t, float), np.asarray(flags, bool)
+    last_bad = flags.shape[0] - 1 - np.argmax(~flags[::-1], axis=0)   # the last False
+    since = np.where(np.all(flags, axis=0), 0, last_bad + 1)
+    return np.where(flags[-1], t[np.minimum(since, t.size - 1)], np.nan)
 
 
 def crab_angles(X, flow):

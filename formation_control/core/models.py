@@ -55,6 +55,7 @@ MOVED_ROWS = dict(first_order=ROW_THETA + 1, second_order=ROW_OMEGA + 1,
 
 PLAIN_BELOW = 1000                               # fleets integrated with the plain formulas
 BLOCK = 16384                                    # vehicles integrated together (cache-sized)
+PLAIN_BLOCK = 4096                               # the same, with the plain formulas
 TURN_MAX = 0.05                                  # largest theta increment turned by series (rad)
 _SIN = (-1 / 6, 1 / 120, -1 / 5040)              # sin d = d + d d^2 (a0 + d^2 (a1 + ...))
 _COS = (-1 / 2, 1 / 24, -1 / 720, 1 / 40320)     # cos d = 1 + d^2 (b0 + d^2 (b1 + ...))
@@ -385,7 +386,7 @@ def rk4_step(X, U, dt, plant, t=0.0):
     return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def integrate(X, U, dt, steps, plant, t=0.0):
+def integrate(X, U, dt, steps, plant, t=0.0, plain=None):
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 
@@ -403,30 +404,40 @@ def integrate(X, U, dt, steps, plant, t=0.0):
         The model and its physical parameters.
     t : float, optional
         Time at the start of the period (s), where the flow varies in time.
+    plain : bool or None, optional
+        Take :func:`rk4_step` (True) or the blocked path (False); None: by the number of
+        vehicles, as below. A flow that is not uniform always takes :func:`rk4_step`.
 
     Returns
     -------
     ndarray, shape (6, N)
         The state ``steps * dt`` later, equal to ``steps`` calls of :func:`rk4_step` to
-        rounding.
+        rounding. ``X`` may also be (6, B, N), a batch of B fleets (shapes of ``U`` alike):
+        the vehicles are independent over a period, so it is integrated as B N vehicles.
 
     Notes
     -----
     Fleets of fewer than PLAIN_BELOW vehicles, where the cost is per numpy call, take
     :func:`rk4_step`. Larger ones take :func:`_rk4_block` (the same numbers to rounding,
     several times faster) on blocks of BLOCK vehicles, which are independent over the period,
-    so that each block's work rows stay in cache; a flow that is not uniform takes
-    :func:`rk4_step` at every size.
+    so that each block's work rows stay in cache. With ``plain``, more than PLAIN_BLOCK
+    vehicles take :func:`rk4_step` on blocks of PLAIN_BLOCK, for the same reason (each
+    vehicle's numbers are those of :func:`rk4_step` on the whole fleet, bit for bit).
 
     """
-    n = np.shape(X)[1]
-    if n < PLAIN_BELOW or not plant.flow.uniform:
+    shape = np.shape(X)
+    n = int(np.prod(shape[1:]))
+    plain = (n < PLAIN_BELOW if plain is None else plain) or not plant.flow.uniform
+    if plain and n <= PLAIN_BLOCK:
         for step in range(steps):
             X = rk4_step(X, U, dt, plant, t + step * dt)
         return X
-    X = np.array(X, dtype=float)
-    U = np.broadcast_to(np.asarray(U, dtype=float), (2, n))
-    for start in range(0, n, BLOCK):
-        cols = slice(start, start + BLOCK)
-        _rk4_block(X[:, cols], U[:, cols], dt, steps, plant)
-    return X
+    X = np.array(X, dtype=float).reshape(6, n)
+    U = np.broadcast_to(np.asarray(U, dtype=float), (2,) + shape[1:]).reshape(2, n)
+    for start in range(0, n, PLAIN_BLOCK if plain else BLOCK):
+        cols = slice(start, start + (PLAIN_BLOCK if plain else BLOCK))
+        if plain:
+            X[:, cols] = integrate(X[:, cols], U[:, cols], dt, steps, plant, t, plain=True)
+        else:
+            _rk4_block(X[:, cols], U[:, cols], dt, steps, plant)
+    return X.reshape(shape)

@@ -21,7 +21,7 @@ the plant over ``dt_control / dt_integration`` steps. Each vehicle commands with
 the local flow at its place (``flow_source: known``) or its estimate (``estimated``,
 :mod:`estimation`), from what it measures at the period's start.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import json
 
 from formation_control.core import metrics, stability
@@ -149,11 +149,11 @@ class Stepper:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
-        self.U = np.zeros((2, self.X.shape[1]))
+        self.U = np.zeros((2,) + self.X.shape[1:])
         self.steps = 0
         self.estimator = None
         if sc.flow_source == 'estimated':
-            self.estimator = FlowEstimator(sc, self.X.shape[1])
+            self.estimator = FlowEstimator(sc, self.X.shape[1:])
         self.flow_hat = self.local_flow()
 
     @property
@@ -212,10 +212,14 @@ class Stepper:
         Integrate one control period with the held inputs; return the new state (6, N).
 
         ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
-        (the real-time plant advances one step per tick).
+        (the real-time plant advances one step per tick). A batch of fleets (6, B, N) takes
+        the plain RK4 formulas, vehicle by vehicle: the blocked path of :func:`models.integrate`
+        chooses its series per block, so a run's result would depend on the fleets that share
+        its batch; this way it equals the run alone, bit for bit.
         """
         sc, steps = self.sc, steps or self.sc.substeps
-        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t)
+        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
+                           plain=True if self.X.ndim > 2 else None)
         self.steps += steps
         return self.X
 
@@ -253,7 +257,74 @@ class Recorder:
                    flow_hat=flow_hat)
 
 
-def simulate(sc, X0=None):
+class Outcome:
+    """
+    Record only what a study keeps of each run of a batch: convergence and the final state.
+
+    Every ``record_dt`` and at the last step (the samples of :class:`Recorder`) it evaluates
+    :func:`metrics.converged` on :func:`metrics.snapshot` of each fleet, which are computed
+    per fleet; the states are not kept.
+
+    Attributes
+    ----------
+    t : ndarray, shape (T,)
+        Sample times (s).
+    flags : ndarray of bool, shape (T, B)
+        The convergence test of each fleet at each sample.
+    X, U : ndarray, shapes (6, B, N), (2, B, N)
+        The state and held inputs at the last step.
+    final : metrics.Snapshot
+        The metrics at the last step, arrays of shape (B,).
+
+    """
+
+    def __init__(self, sc):
+        self.sc = sc
+        self.steps = sc.periods
+        self.ctrl = Controller(sc)
+        self.t, self.flags = [], []
+
+    def record(self, n, X, U, flow_hat=None):
+        """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
+        if n % self.sc.record_every == 0 or n == self.steps:
+            t = n * self.sc.dt_control
+            self.final = metrics.snapshot(self.ctrl, X, U, t)
+            self.t.append(t)
+            self.flags.append(metrics.converged(self.sc, self.final))
+            self.X, self.U = X.copy(), U.copy()
+
+    def run(self):
+        """Return itself, with ``t`` and ``flags`` as arrays."""
+        self.t, self.flags = np.array(self.t), np.array(self.flags)
+        return self
+
+    def convergence_times(self):
+        """Return each fleet's :func:`metrics.convergence_times` (s; NaN if not), (B,)."""
+        return metrics.convergence_times(self.t, self.flags)
+
+
+def initial_states(sc, seeds):
+    """
+    Return the initial states of a batch of fleets, one per seed.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    seeds : sequence of int
+        The seed of each fleet.
+
+    Returns
+    -------
+    ndarray, shape (6, B, N)
+        Fleet b is :func:`scenario.initial_state` of ``sc`` with seed ``seeds[b]``: a run's
+        start does not depend on the batch it is in.
+
+    """
+    return np.stack([initial_state(replace(sc, seed=int(s))) for s in seeds], axis=1)
+
+
+def simulate(sc, X0=None, recorder=None):
     """
     Run a scenario in the offline simulator.
 
@@ -263,12 +334,16 @@ def simulate(sc, X0=None):
         The scenario: ``duration`` seconds of control periods ``dt_control``, each integrated
         by RK4 with ``dt_integration`` steps and the commands held.
     X0 : array_like, shape (6, N), optional
-        Initial state; :func:`scenario.initial_state` by default.
+        Initial state; :func:`scenario.initial_state` by default. (6, B, N): a batch of B
+        independent fleets (:func:`initial_states`), each under its own means and sums
+        (:mod:`laws`), integrated together.
+    recorder : Recorder or Outcome, optional
+        What to keep; a :class:`Recorder` of ``sc`` by default.
 
     Returns
     -------
-    Run
-        Samples every ``record_dt`` and at the end.
+    Run or Outcome
+        Samples every ``record_dt`` and at the end (a Run's X is (T, 6, B, N) for a batch).
 
     Raises
     ------
@@ -278,7 +353,7 @@ def simulate(sc, X0=None):
 
     """
     stepper = Stepper(sc, X0)
-    rec = Recorder(sc)
+    rec = Recorder(sc) if recorder is None else recorder
     for n in range(rec.steps + 1):
         U = stepper.command()
         rec.record(n, stepper.X, U, stepper.flow_hat)
@@ -311,9 +386,10 @@ def summary(run):
     """
     sc = run.sc
     ctrl = Controller(sc)
-    snaps = [metrics.snapshot(ctrl, X, U, t) for t, X, U in zip(run.t, run.X, run.U)]
-    flags = [metrics.converged(sc, s) for s in snaps]
-    final = snaps[-1]
+    samples = metrics.snapshot(ctrl, np.ascontiguousarray(np.moveaxis(run.X, 0, 1)),
+                               np.ascontiguousarray(np.moveaxis(run.U, 0, 1)), run.t[:, None])
+    flags = metrics.converged(sc, samples)
+    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
            'converged': bool(flags[-1]),
            'convergence_time': metrics.convergence_time(run.t, flags),
