@@ -326,7 +326,14 @@ def test_bag_holds_the_markers_of_the_sampled_poses(recorded):
         else:
             odom[(topic, itf.stamp_ns(msg.header.stamp))] = msg.pose.pose
     assert len(arrays) >= 3
+    t, values = bagfile.metrics(bag)
+    sample = {int(round(ti * 1e9)): i for i, ti in enumerate(t)}
     for array in arrays:
+        text, = [m for m in array.markers if m.ns == 'metrics']
+        i = sample.get(itf.stamp_ns(text.header.stamp))
+        if i is not None:                    # the bag may lack the first metrics samples
+            assert f"|p| = {values['order_parameter'][i]:.4f}" in text.text.splitlines()
+            assert f"speed error (m/s) = {values['speed_error'][i]:.4f}" in text.text
         headings = [m for m in array.markers if m.ns == 'heading']
         assert [m.id for m in headings] == list(range(1, n + 1))
         for m in headings:

@@ -22,13 +22,14 @@ from formation_control import palette
 from formation_control.core.models import position, ROW_THETA
 from formation_control.ros import interface as itf
 from geometry_msgs.msg import Point
+import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK = (
+HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
     ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in (
         palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
-        palette.LINK))
+        palette.LINK, palette.LABEL))
 
 
 def _marker(ns, name, ident, kind, color):
@@ -96,6 +97,34 @@ def link_marker(ns, positions, edges):
     line.points = [_point(positions[i]) for edge in edges for i in edge]
     line.scale.x = 0.02
     return line
+
+
+METRICS_SHOWN = (('order_parameter', '|p|'), ('lyapunov', 'V_c'),
+                 ('centre_spread', 'centre spread (m)'), ('speed_error', 'speed error (m/s)'))
+"""The metrics the text marker lists, with their labels, where the formation has them."""
+
+
+def metrics_marker(ns, values, positions):
+    """
+    Return the metrics of the sample as a text marker above the fleet (RViz shows no topics).
+
+    Parameters
+    ----------
+    ns : int
+        Stamp (ns) of the metrics sample.
+    values : dict of str to float
+        The metrics by name (``formation/metrics``).
+    positions : array_like of complex, shape (N,)
+        Vehicle positions (m): the text stands 1 m above the highest, at their mean x.
+
+    """
+    text = _marker(ns, 'metrics', 0, Marker.TEXT_VIEW_FACING, LABEL)
+    r = np.asarray(positions)
+    text.pose.position = _point(complex(r.real.mean(), r.imag.max() + 1.0))
+    text.scale.z = 0.3
+    text.text = '\n'.join(f'{label} = {values[name]:.4f}' for name, label in METRICS_SHOWN
+                          if name in values and np.isfinite(values[name]))
+    return text
 
 
 def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):

@@ -317,6 +317,7 @@ class MonitorNode(Node):
         if rviz:
             msg = markers.fleet_markers(ns, X, ground, trails, centres, target)
             msg.markers.append(markers.link_marker(ns, position(X), edges))
+            msg.markers.append(markers.metrics_marker(ns, self.values, position(X)))
             for marker in msg.markers:
                 marker.header.frame_id = self.p['world_frame']
             self.markers_pub.publish(msg)
