@@ -377,8 +377,13 @@ def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(rec
     period = int(round(monitor.p['period'] * 1e9))
     assert sorted(replayed) == list(range(0, stamps[-1] + 1, period))
     assert set(stamps) <= set(replayed)
+    # The live graph counts the states heard within stale_timeout of wall time: a property of
+    # the links when they ran, which a replay on a busy machine need not repeat.
+    live = ('live_links', 'algebraic_connectivity')
     for i, ns in enumerate(stamps):
-        assert replayed[ns] == pytest.approx({k: v[i] for k, v in values.items()}, abs=1e-9)
+        same = {k: v for k, v in replayed[ns].items() if k not in live}
+        assert same == pytest.approx({k: v[i] for k, v in values.items() if k not in live},
+                                     abs=1e-9)
     run = bagfile.read_run(bag)
     _, rows = report.report(run)
     assert stamps[-1] * 1e-9 == pytest.approx(run.t[-1])                  # the final step
