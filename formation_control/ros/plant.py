@@ -107,6 +107,7 @@ class PlantNode(Node):
                                                   raw=True,
                                                   **itf.state_qos_kwargs()) for k in ids]
         if sc.flow_source == 'estimated':
+            self.period_ns = round(sc.dt_control * 1e9)
             self.state_wires = [itf.StateWire(k, () if sc.all_to_all else
                                               sc.comm_graph.neighbours(k), self.frames, True)
                                 for k in ids]
@@ -196,7 +197,7 @@ class PlantNode(Node):
             return self.reject('malformed', f'a formation_state of vehicle {k} in another '
                                f'layout (its flow estimate is not recorded)')
         ns, values = got
-        step = (ns - self.t0_ns) // round(self.sc.dt_control * 1e9)
+        step = (ns - self.t0_ns) // self.period_ns
         self.fleet.estimate(k - 1, int(step), complex(*values[-2:]))
 
     def _on_cmd(self, k, data):

@@ -27,6 +27,7 @@ import time
 from formation_control.core import scenario
 from formation_control.ros import interface as itf
 from formation_control.ros.parameters import EMPTY_TYPES
+from formation_control.swarm import namespace_prefix
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from std_msgs.msg import String
@@ -99,7 +100,7 @@ class FleetTuner:
 
     def __init__(self, node, executor, namespace='/'):
         self.node, self.executor = node, executor
-        self.prefix = '/' + ''.join(f'{p}/' for p in namespace.split('/') if p)
+        self.prefix = namespace_prefix(namespace)
         self.announced = []
         node.create_subscription(String, self.prefix + itf.SCENARIO_TOPIC,
                                  lambda msg: self.announced.append(msg.data), itf.LATCHED_QOS)
