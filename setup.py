@@ -64,7 +64,7 @@ setup(
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
         ('share/' + package_name + '/rviz', ['rviz/formation.rviz']),
     ],
-    install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags'],
+    install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags', 'cryptography'],
     extras_require={'ros': ros_requires, 'view': view_requires, 'cluster': cluster_requires,
                     'test': test_requires},
     zip_safe=True,

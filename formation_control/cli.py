@@ -27,6 +27,7 @@ import json
 from pathlib import Path
 import sys
 
+from formation_control import security
 from formation_control.core import node_parameters, report, scenario, simulator
 
 
@@ -170,7 +171,7 @@ def cmd_swarm(args):
                                    per_process=args.vehicles_per_process,
                                    monitor_params=_live_view(args.foxglove, args.namespace),
                                    namespace=args.namespace, fault_script=args.fault,
-                                   restart_dead=args.restart_dead)
+                                   restart_dead=args.restart_dead, secure=args.secure)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -305,6 +306,18 @@ def cmd_doctor(args):
     return exit_status(findings)
 
 
+def cmd_secure(args):
+    fleet = security.roster(args.vehicles, security.parse_hosts(args.host), args.base_port)
+    homes = security.write_fleet(args.directory, fleet, args.organisation, args.days,
+                                 args.root)
+    for member, home in zip(fleet, homes):
+        print(f'{member.name:<12} {member.address}:{member.port}  {home}')
+    print(f'CA: {Path(args.directory).resolve() / "ca"} (keep ca.key off the fleet). Copy each '
+          f'member directory to its host; there, `. MEMBER/env.sh` before `ros2 run`, or '
+          f'`formation-control swarm ... --secure {args.directory}` on one host.')
+    return 0
+
+
 def cmd_layout(args):
     from formation_control.layout import layout_json
     text = layout_json(args.namespace, args.world_frame)
@@ -383,7 +396,27 @@ def build_parser():
     swarm.add_argument('--restart-dead', type=float, metavar='DELAY',
                        help='start a vehicle or monitor process that died by itself again, '
                             'DELAY fleet seconds later (default: never)')
+    swarm.add_argument('--secure', metavar='DIR',
+                       help='run every process as its member of the TLS fleet made by '
+                            '`formation-control secure DIR` (docs/security.md)')
     swarm.set_defaults(func=cmd_swarm)
+    sec = sub.add_parser('secure', help='make a fleet only its members can join: a CA, a key '
+                                        'and certificate per member, Fast DDS TLS profiles '
+                                        '(docs/security.md)')
+    sec.add_argument('directory', help='write the fleet here (kept: its CA and member keys)')
+    sec.add_argument('--vehicles', type=int, required=True, metavar='N',
+                     help='members vehicle_1..vehicle_N (plus plant, monitor, swarm, operator)')
+    sec.add_argument('--host', action='append', default=[], metavar='NAME=ADDRESS',
+                     help='the IPv4 address member NAME is reached at (repeatable; default '
+                          '127.0.0.1)')
+    sec.add_argument('--base-port', type=int, default=7900, metavar='PORT',
+                     help='member i listens for TLS on TCP PORT + i (default 7900)')
+    sec.add_argument('--root', metavar='PATH',
+                     help="DIR's path on the hosts, which the profiles name (default: DIR)")
+    sec.add_argument('--days', type=int, default=365, help='certificate validity (days)')
+    sec.add_argument('--organisation', default='formation_control fleet',
+                     help="the certificates' organisation (O=)")
+    sec.set_defaults(func=cmd_secure)
     tune = sub.add_parser('set', help='set run-time parameters (gains) on every vehicle of a '
                                       'running fleet')
     tune.add_argument('assignments', nargs='+', metavar='NAME:=VALUE',
@@ -453,7 +486,7 @@ def main(argv=None):
         parser.error('--ros-args: only play takes them (swarm: -p NAME:=VALUE)')
     try:
         return args.func(args)
-    except scenario.ScenarioError as err:
+    except (scenario.ScenarioError, security.SecurityError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 2
 

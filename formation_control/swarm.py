@@ -28,6 +28,7 @@ import sys
 import tempfile
 import time
 
+from formation_control import security
 from formation_control.core import faults, simulator
 import yaml
 
@@ -126,9 +127,12 @@ class Swarm:
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None, monitor_params=(), restart_dead=None, namespace='/'):
+                 env=None, monitor_params=(), restart_dead=None, namespace='/', secure=None):
+        if secure is not None and per_process != 1:
+            raise security.SecurityError(f'--vehicles-per-process {per_process} with --secure: '
+                                         f'a member of a TLS fleet is one process, 1 only')
         self.sc, self.mode = sc, mode
-        self.place, self.env = place or (lambda name: []), env
+        self.place, self.env, self.secure = place or (lambda name: []), env, secure
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
@@ -183,10 +187,17 @@ class Swarm:
     def __exit__(self, *exc):
         stop(self.procs)
 
+    def _env(self, name):
+        if self.secure is None:
+            return self.env
+        return security.member_env(self.secure, name,
+                                   os.environ if self.env is None else self.env)
+
     def _start(self, i, mode='a'):
         with open(self.dir / self.logs[i], mode) as log:
             self.procs[i] = subprocess.Popen(self.place(self.names[i]) + self.commands[i],
-                                             stdout=log, stderr=subprocess.STDOUT, env=self.env,
+                                             stdout=log, stderr=subprocess.STDOUT,
+                                             env=self._env(self.names[i]),
                                              stdin=subprocess.DEVNULL)
         self.state[i] = 'running'
 
@@ -442,17 +453,27 @@ class Supervisor:
                 break
 
     def close(self, drain=1.0):
+        """
+        Stop recording, then destroy the nodes, executors and context: the DDS participant.
+
+        Left to the end of the process, a TLS participant is destroyed after OpenSSL's own
+        clean-up, and Fast DDS 2.14 crashes reconnecting to its peers (seen: SIGSEGV).
+        """
         if self.recorder is not None:
             self.spin(drain)
             self.recorder.close()
+            self.recording.shutdown()
             self.recorder.destroy_node()
+        self.executor.shutdown()
         self.node.destroy_node()
         self.context.try_shutdown()
+        self.context.destroy()
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
               monitor=True, node_params=(), per_process=1, place=None, env=None,
-              monitor_params=(), fault_script=(), restart_dead=None, namespace='/'):
+              monitor_params=(), fault_script=(), restart_dead=None, namespace='/',
+              secure=None):
     """
     Run a fleet as processes in ``namespace``; return (run, summary). Every process is stopped.
 
@@ -461,16 +482,24 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
     ``env`` replaces the environment of every process. ``fault_script`` lists the faults
     (:func:`faults.schedule`), ``restart_dead`` the fleet seconds after which a vehicle or
-    monitor process that died by itself is started again (None: never).
+    monitor process that died by itself is started again (None: never). ``secure`` is the
+    directory of a TLS fleet (:mod:`formation_control.security`): each process runs as its
+    member, and this process as member ``swarm`` (its environment is changed: call it before
+    this process has made a DDS participant).
     """
     timeout = timeout or 60.0 + 20.0 * sc.duration
     schedule = faults.schedule(fault_script, sc)
     if bag is not None and Path(bag).exists():
         raise FileExistsError(f'bag directory {bag} exists already')
+    swarm = Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
+                  per_process, place, env, monitor_params, restart_dead, namespace, secure)
+    if secure is not None:
+        os.environ.update(security.environment(secure, 'swarm'))
+        for name in security.UNSET:
+            os.environ.pop(name, None)
     supervisor = Supervisor(sc.num_vehicles, mode, bag, monitor, namespace)
     try:
-        with Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
-                   per_process, place, env, monitor_params, restart_dead, namespace) as swarm:
+        with swarm:
             wait_plant(swarm, timeout, supervisor, schedule)
     finally:
         supervisor.close()
