@@ -25,6 +25,7 @@ parameter values x seeds; ``params`` prints the table of scenario parameters
 import argparse
 import json
 from pathlib import Path
+import signal
 import sys
 
 from formation_control import security
@@ -150,8 +151,13 @@ def cmd_sweep(args):
     return 0
 
 
+def _interrupt(*_):
+    raise KeyboardInterrupt
+
+
 def cmd_swarm(args):
     from formation_control import swarm
+    signal.signal(signal.SIGTERM, _interrupt)        # as SIGINT: stop the fleet's processes
     if args.vehicles_per_process < 1:
         raise scenario.ScenarioError(f'--vehicles-per-process {args.vehicles_per_process} is '
                                      f'invalid: must be >= 1')

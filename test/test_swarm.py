@@ -22,6 +22,7 @@ run, Ctrl-C stops every process.
 import json
 from pathlib import Path
 import re
+import signal
 
 from formation_control.core import faults, simulator
 from formation_control.core.scenario import resolve
@@ -112,7 +113,8 @@ def _fleet_pids(domain_id):
     return pids
 
 
-def test_swarm_stops_every_process_on_ctrl_c(ros):
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
     from geometry_msgs.msg import WrenchStamped
 
     from formation_control.ros.interface import STATE_QOS
@@ -122,7 +124,7 @@ def test_swarm_stops_every_process_on_ctrl_c(ros):
     assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
     fleet = _fleet_pids(ros.domain_id)
     assert len(fleet) == 5
-    swarm.send_signal(2)
+    swarm.send_signal(sig)
     assert swarm.wait(timeout=30) == 0
     assert not [pid for pid in fleet if Path(f'/proc/{pid}').exists()]
 
