@@ -317,7 +317,8 @@ def cmd_secure(args):
     homes = security.write_fleet(args.directory, fleet, args.organisation, args.days,
                                  args.root)
     for member, home in zip(fleet, homes):
-        print(f'{member.name:<12} {member.address}:{member.port}  {home}')
+        at = member.address + (' (connects only)' if member.port is None else f':{member.port}')
+        print(f'{member.name:<12} {at:<27} {home}')
     print(f'CA: {Path(args.directory).resolve() / "ca"} (keep ca.key off the fleet). Copy each '
           f'member directory to its host; there, `. MEMBER/env.sh` before `ros2 run`, or '
           f'`formation-control swarm ... --secure {args.directory}` on one host.')
@@ -416,7 +417,8 @@ def build_parser():
                      help='the IPv4 address member NAME is reached at (repeatable; default '
                           '127.0.0.1)')
     sec.add_argument('--base-port', type=int, default=7900, metavar='PORT',
-                     help='member i listens for TLS on TCP PORT + i (default 7900)')
+                     help='the plant listens for TLS on TCP PORT, the monitor on PORT + 1, '
+                          'the swarm on PORT + 2, vehicle k on PORT + 2 + k (default 7900)')
     sec.add_argument('--root', metavar='PATH',
                      help="DIR's path on the hosts, which the profiles name (default: DIR)")
     sec.add_argument('--days', type=int, default=365, help='certificate validity (days)')

@@ -36,6 +36,10 @@ import yaml
 
 FIXED_MEMBERS = ('plant', 'monitor', 'swarm', 'operator')
 """Members besides the vehicles: the swarm's own node, an operator's ``ros2`` tools."""
+CLIENTS = ('operator',)
+"""Members that listen on no port and connect to every other member: short-lived ``ros2``
+commands come and go, and a listener's port is not always let in again at once
+(docs/security.md). Two clients cannot reach each other."""
 BASE_PORT = 7900
 DAYS = 365
 ROSTER = 'fleet.yaml'
@@ -51,11 +55,11 @@ class SecurityError(ValueError):
 
 @dataclass(frozen=True)
 class Member:
-    """One member of the fleet: its name, the address it is reached at, its TLS port."""
+    """One member of the fleet: its name, its address, its TLS port (None: it only connects)."""
 
     name: str
     address: str
-    port: int
+    port: int = None
 
 
 def members(num_vehicles):
@@ -67,7 +71,10 @@ def members(num_vehicles):
 
 def roster(num_vehicles, hosts=None, base_port=BASE_PORT, default_address='127.0.0.1'):
     """
-    Return the fleet's members, member ``i`` listening on ``base_port + i``.
+    Return the fleet's members: each listens on the next port from ``base_port`` on.
+
+    The plant, the monitor and the swarm's node take the first three, vehicle k
+    ``base_port + 2 + k``; the :data:`CLIENTS` listen on no port.
 
     Parameters
     ----------
@@ -76,7 +83,7 @@ def roster(num_vehicles, hosts=None, base_port=BASE_PORT, default_address='127.0
     hosts : dict, optional
         {member name: IPv4 address}; the others are at ``default_address``.
     base_port : int
-        The first TCP port; one per member follows it, all in 1024..65535.
+        The plant's TCP port; the others follow it, all in 1024..65535.
     default_address : str
         The address of the members ``hosts`` does not name.
 
@@ -87,17 +94,20 @@ def roster(num_vehicles, hosts=None, base_port=BASE_PORT, default_address='127.0
     if unknown:
         raise SecurityError(f'--host {unknown[0]}: no such member; the members are '
                             f'{", ".join(FIXED_MEMBERS)} and vehicle_1..vehicle_{num_vehicles}')
-    if not isinstance(base_port, int) or not 1024 <= base_port <= 65536 - len(names):
-        raise SecurityError(f'base_port {base_port!r} is invalid: an integer in '
-                            f'1024..{65536 - len(names)} (one port per member follows it)')
+    listeners = [name for name in names if name not in CLIENTS]
+    last = 65536 - len(listeners)
+    if not isinstance(base_port, int) or not 1024 <= base_port <= last:
+        raise SecurityError(f'base_port {base_port!r} is invalid: an integer in 1024..{last} '
+                            f'(one port per member but {", ".join(CLIENTS)} follows it)')
     out = []
-    for i, name in enumerate(names):
+    for name in names:
         address = hosts.get(name, default_address)
         try:
             ipaddress.IPv4Address(address)
         except ValueError:
             raise SecurityError(f'--host {name}={address}: not an IPv4 address') from None
-        out.append(Member(name, address, base_port + i))
+        port = base_port + listeners.index(name) if name in listeners else None
+        out.append(Member(name, address, port))
     return out
 
 
@@ -115,13 +125,13 @@ def parse_hosts(items):
 
 def profile_xml(member, fleet, key=None, cert=None, ca=None):
     """
-    Return the Fast DDS XML profile of ``member``: TCPv4 + TLS only, later members as peers.
+    Return the Fast DDS XML profile of ``member``: TCPv4 + TLS only, and its initial peers.
 
     Fast DDS 2.14 connects a pair of TCP participants from the one with the lower listening
-    port, the other waiting for it (``TCPTransportInterface::OpenOutputChannel``); each member
-    therefore lists the members after it in ``fleet`` (higher ports) and is found by those
-    before it. Listing each other, two members race to connect and may never match
-    (measured). A member not in ``fleet`` lists every member.
+    port, the other waiting for it (``TCPTransportInterface::OpenOutputChannel``); so a
+    listening member lists the listeners on higher ports and is found by those on lower ones.
+    Listing each other, two members race to connect and may never match (measured). A member
+    with no port, or one not in ``fleet``, lists every listener.
 
     ``key`` and ``cert`` are its PEM files (none: it presents no certificate), ``ca`` the CA
     it trusts (none: it verifies nothing; only the tests' intruders go without).
@@ -133,10 +143,13 @@ def profile_xml(member, fleet, key=None, cert=None, ca=None):
     trust = ('<verify_mode><verify>VERIFY_NONE</verify></verify_mode>' if ca is None else
              f'<verify_file>{escape(str(ca))}</verify_file>\n'
              '        <verify_mode><verify>VERIFY_PEER</verify></verify_mode>')
-    index = next((i for i, m in enumerate(fleet) if m.name == member.name), None)
+    member_of = member in fleet and member.port is not None
     peers = ''.join(f'\n          <locator><tcpv4><address>{m.address}</address>'
                     f'<physical_port>{m.port}</physical_port></tcpv4></locator>'
-                    for m in (fleet if index is None else fleet[index + 1:]))
+                    for m in fleet if m.port is not None
+                    and (not member_of or m.port > member.port))
+    listen = ('' if member.port is None else
+              f'\n      <listening_ports><port>{member.port}</port></listening_ports>')
     builtin = (f'\n      <builtin>\n        <initialPeersList>{peers}\n        </initialPeersList>'
                f'\n      </builtin>' if peers else '')
     return f"""<?xml version="1.0" encoding="UTF-8"?>
@@ -145,8 +158,7 @@ def profile_xml(member, fleet, key=None, cert=None, ca=None):
   <transport_descriptors>
     <transport_descriptor>
       <transport_id>fleet_tls</transport_id>
-      <type>TCPv4</type>
-      <listening_ports><port>{member.port}</port></listening_ports>
+      <type>TCPv4</type>{listen}
       <tls>
         {own}{trust}
         <options><option>DEFAULT_WORKAROUNDS</option><option>SINGLE_DH_USE</option>

@@ -42,9 +42,9 @@ def test_the_roster_gives_each_member_its_own_port_and_address():
     fleet = security.roster(3, {'plant': '10.0.0.1', 'vehicle_2': '10.0.0.3'}, base_port=8000)
     assert [(m.name, m.address, m.port) for m in fleet] == [
         ('plant', '10.0.0.1', 8000), ('monitor', '127.0.0.1', 8001),
-        ('swarm', '127.0.0.1', 8002), ('operator', '127.0.0.1', 8003),
-        ('vehicle_1', '127.0.0.1', 8004), ('vehicle_2', '10.0.0.3', 8005),
-        ('vehicle_3', '127.0.0.1', 8006)]
+        ('swarm', '127.0.0.1', 8002), ('operator', '127.0.0.1', None),
+        ('vehicle_1', '127.0.0.1', 8003), ('vehicle_2', '10.0.0.3', 8004),
+        ('vehicle_3', '127.0.0.1', 8005)]
 
 
 @pytest.mark.parametrize('args, message', [
@@ -52,8 +52,8 @@ def test_the_roster_gives_each_member_its_own_port_and_address():
     ((2, {'vehicle_3': '10.0.0.1'}), '--host vehicle_3: no such member; the members are plant, '
                                      'monitor, swarm, operator and vehicle_1..vehicle_2'),
     ((2, {'plant': '10.0.0'}), '--host plant=10.0.0: not an IPv4 address'),
-    ((2, None, 80), 'base_port 80 is invalid: an integer in 1024..65530'),
-    ((2, None, 65531), 'base_port 65531 is invalid'),
+    ((2, None, 80), 'base_port 80 is invalid: an integer in 1024..65531'),
+    ((2, None, 65532), 'base_port 65532 is invalid'),
 ])
 def test_a_bad_roster_is_refused_naming_the_setting(args, message):
     with pytest.raises(security.SecurityError, match=message.replace('.', r'\.')):
@@ -67,27 +67,40 @@ def test_a_host_assignment_needs_a_member_and_an_address(item):
         security.parse_hosts([item])
 
 
-def test_each_pair_of_members_is_connected_once_from_the_lower_port():
-    fleet = security.roster(2, base_port=8000)
+def test_each_pair_of_listeners_is_connected_once_from_the_lower_port():
+    fleet = security.roster(3, base_port=8000)
     lists = {m.name: peers(security.profile_xml(m, fleet)) for m in fleet}
-    assert lists['plant'] == [('127.0.0.1', p) for p in range(8001, 8006)]
-    assert lists['vehicle_2'] == []
-    pairs = {frozenset((m.name, other)) for m in fleet for other in
-             (n.name for n in fleet if ('127.0.0.1', n.port) in lists[m.name])}
-    assert len(pairs) == len(fleet) * (len(fleet) - 1) // 2
+    local = [('127.0.0.1', p) for p in range(8000, 8006)]
+    assert lists['plant'] == local[1:]
+    assert lists['vehicle_2'] == local[5:]
+    assert lists['vehicle_3'] == []
+    listeners = [m for m in fleet if m.port is not None]
+    pairs = {frozenset((m.name, n.name)) for m in listeners for n in listeners
+             if ('127.0.0.1', n.port) in lists[m.name]}
+    assert len(pairs) == len(listeners) * (len(listeners) - 1) // 2
+    for name in security.CLIENTS:
+        assert lists[name] == local
     stranger = security.Member('stranger', '127.0.0.1', 9000)
-    assert len(peers(security.profile_xml(stranger, fleet))) == len(fleet)
+    assert peers(security.profile_xml(stranger, fleet)) == local
+
+
+def test_a_client_member_listens_on_no_port():
+    fleet = security.roster(1)
+    root = ET.fromstring(security.profile_xml(fleet[3], fleet, 'k.pem', 'c.pem', 'ca.pem'))
+    assert fleet[3].name == 'operator'
+    assert root.find('.//f:listening_ports', NS) is None
 
 
 def test_a_profile_has_tls_over_tcp_as_its_only_transport():
     fleet = security.roster(1)
-    root = ET.fromstring(security.profile_xml(fleet[1], fleet, 'k.pem', 'c.pem', 'ca.pem'))
+    vehicle = fleet[-1]
+    root = ET.fromstring(security.profile_xml(vehicle, fleet, 'k.pem', 'c.pem', 'ca.pem'))
     rtps = root.find('f:participant/f:rtps', NS)
     assert rtps.find('f:useBuiltinTransports', NS).text == 'false'
     assert [t.text for t in rtps.iterfind('f:userTransports/f:transport_id', NS)] == ['fleet_tls']
     tcp = root.find('f:transport_descriptors/f:transport_descriptor', NS)
     assert tcp.find('f:type', NS).text == 'TCPv4'
-    assert tcp.find('f:listening_ports/f:port', NS).text == str(fleet[1].port)
+    assert tcp.find('f:listening_ports/f:port', NS).text == str(vehicle.port)
     tls = tcp.find('f:tls', NS)
     files = ('private_key_file', 'cert_chain_file', 'verify_file')
     assert [tls.find(f'f:{k}', NS).text for k in files] == ['k.pem', 'c.pem', 'ca.pem']
@@ -174,7 +187,7 @@ def test_writing_again_keeps_the_ca_and_the_keys_and_adds_members(tmp_path):
     assert (tmp_path / 'vehicle_3/key.pem').exists()
     assert peers((tmp_path / 'vehicle_3/fastdds.xml').read_text()) == []
     assert peers((tmp_path / 'plant/fastdds.xml').read_text())[-1] == (
-        '10.1.1.3', security.BASE_PORT + 6)
+        '10.1.1.3', security.BASE_PORT + 5)
     ca = x509.load_pem_x509_certificate((tmp_path / 'ca/ca.pem').read_bytes())
     x509.load_pem_x509_certificate((tmp_path / 'vehicle_3/cert.pem').read_bytes()) \
         .verify_directly_issued_by(ca)
@@ -237,7 +250,8 @@ def test_the_secure_command_writes_the_fleet_and_lists_its_members(tmp_path, cap
     assert main(['secure', str(tmp_path / 'f'), '--vehicles', '2', '--host',
                  'vehicle_2=10.0.0.2', '--base-port', '8100']) == 0
     out = capsys.readouterr().out
-    assert 'vehicle_2    10.0.0.2:8105' in out and 'keep ca.key off the fleet' in out
+    assert 'vehicle_2    10.0.0.2:8104' in out and 'keep ca.key off the fleet' in out
+    assert 'operator     127.0.0.1 (connects only)' in out
     assert sorted(p.name for p in (tmp_path / 'f').iterdir()) == sorted(
         ['ca', 'fleet.yaml', *security.members(2)])
     assert main(['secure', str(tmp_path / 'g'), '--vehicles', '2', '--host', 'boat=1']) == 2
