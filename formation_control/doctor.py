@@ -26,6 +26,7 @@ import math
 import re
 
 from formation_control.core.scenario import PLANT_ONLY, resolve, ScenarioError
+from formation_control.security import check_environment as check_security
 
 ERROR, WARNING, NOTE = 'error', 'warning', 'note'
 DISCOVERY_RANGES = ('OFF', 'LOCALHOST', 'SUBNET', 'SYSTEM_DEFAULT')
@@ -89,7 +90,8 @@ class Facts:
     namespace : str
         The fleet's namespace ('' or '/': none).
     env : dict
-        ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_LOCALHOST_ONLY (absent: unset).
+        ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE, ROS_LOCALHOST_ONLY, and the TLS fleet's
+        FASTRTPS_DEFAULT_PROFILES_FILE and OPENSSL_CONF (absent: unset).
     scenario : dict or None
         The plant's latched scenario (JSON of ``<namespace>/formation/scenario``).
     scenario_publishers : list of str
@@ -126,8 +128,9 @@ class Facts:
 
 
 def check_environment(env):
-    """Check ROS_DOMAIN_ID and the discovery range: unset, invalid or unsafe values."""
-    out = []
+    """Check ROS_DOMAIN_ID, the discovery range and a TLS profile: unset, invalid or unsafe."""
+    unsafe = check_security(env)
+    out = [Finding(ERROR, 'FASTRTPS_DEFAULT_PROFILES_FILE', unsafe)] if unsafe else []
     domain = env.get('ROS_DOMAIN_ID')
     if domain in (None, ''):
         out.append(Finding(WARNING, 'ROS_DOMAIN_ID', 'unset: domain 0, which every ROS 2 '

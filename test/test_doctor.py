@@ -21,7 +21,7 @@ gathering node on a real in-process fleet with a vehicle missing and one mis-con
 import copy
 import json
 
-from formation_control import doctor
+from formation_control import doctor, security
 from formation_control.core import scenario
 from formation_control.ros import interface as itf
 from formation_control.ros.doctor import Gatherer
@@ -138,6 +138,17 @@ def test_unexpected_domain_and_discovery_settings(env, expected):
     facts = _healthy()
     facts.env = env
     assert [p[:2] for p in _problems(facts)] == expected
+
+
+def test_a_tls_profile_that_would_admit_anyone_is_an_error(tmp_path):
+    security.write_fleet(tmp_path, security.roster(1))
+    facts = _healthy()
+    facts.env = dict(ENV, **security.environment(tmp_path, 'operator'))
+    assert _problems(facts) == []
+    facts.env.pop('OPENSSL_CONF')
+    (found,) = _problems(facts)
+    assert found[:2] == ('error', 'FASTRTPS_DEFAULT_PROFILES_FILE')
+    assert 'the listener admits peers with no certificate' in found[2]
 
 
 def test_clock_skew_between_hosts_in_real_time():
