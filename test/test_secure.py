@@ -40,13 +40,17 @@ HERE = Path(__file__).resolve().parent
 INTRUDER = 4
 
 
-@pytest.fixture
-def hosts():
+def made_hosts(n):
     try:
-        with Hosts(5) as made:
+        with Hosts(n) as made:
             yield made
     except HostsUnavailable as err:
         pytest.skip(str(err))
+
+
+@pytest.fixture
+def hosts():
+    yield from made_hosts(5)
 
 
 def fleet_of(hosts, n):
@@ -137,11 +141,7 @@ def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
 
 @pytest.fixture
 def one_host():
-    try:
-        with Hosts(1) as made:
-            yield made
-    except HostsUnavailable as err:
-        pytest.skip(str(err))
+    yield from made_hosts(1)
 
 
 def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path):
