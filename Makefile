@@ -79,6 +79,8 @@ bench: setup
 	$(PY) bench/fleet.py rtf --sizes 32 64 --graphs ring circulant:1,2 circulant:1,2,3,4 \
 		--per-process 8 --repeat 1 --duration 2
 	$(PY) bench/fleet.py latency --sizes 16
+	if [ "$$(id -u)" = 0 ]; then $(PY) bench/secure_fleet.py; \
+	else echo 'bench/secure_fleet.py skipped: it needs root (ip netns)'; fi
 	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
 	$(PY) bench/sweep.py

@@ -98,8 +98,8 @@ def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
     intruder with a certificate of another CA (trusting the fleet's CA), one without any and
     a plain participant on UDP hear nothing, and their commands never reach the plant.
     """
-    n = 6
-    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=10.0')
+    n = 4
+    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=8.0')
     fleet = fleet_of(hosts, n)
     security.write_fleet(tmp_path / 'fleet', fleet)
     other = security.roster(n, {'vehicle_1': hosts.address(INTRUDER)})

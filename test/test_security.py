@@ -101,6 +101,7 @@ def test_a_profile_has_tls_over_tcp_as_its_only_transport():
     tcp = root.find('f:transport_descriptors/f:transport_descriptor', NS)
     assert tcp.find('f:type', NS).text == 'TCPv4'
     assert tcp.find('f:listening_ports/f:port', NS).text == str(vehicle.port)
+    assert tcp.find('f:enable_tcp_nodelay', NS).text == 'true'
     tls = tcp.find('f:tls', NS)
     files = ('private_key_file', 'cert_chain_file', 'verify_file')
     assert [tls.find(f'f:{k}', NS).text for k in files] == ['k.pem', 'c.pem', 'ca.pem']
