@@ -27,6 +27,7 @@ import json
 from pathlib import Path
 import signal
 import sys
+import threading
 
 from formation_control import security
 from formation_control.core import node_parameters, report, scenario, simulator
@@ -151,13 +152,11 @@ def cmd_sweep(args):
     return 0
 
 
-def _interrupt(*_):
-    raise KeyboardInterrupt
-
-
 def cmd_swarm(args):
     from formation_control import swarm
-    signal.signal(signal.SIGTERM, _interrupt)        # as SIGINT: stop the fleet's processes
+    stop = threading.Event()                         # SIGINT, SIGTERM: stop the fleet
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
     if args.vehicles_per_process < 1:
         raise scenario.ScenarioError(f'--vehicles-per-process {args.vehicles_per_process} is '
                                      f'invalid: must be >= 1')
@@ -177,7 +176,8 @@ def cmd_swarm(args):
                                    per_process=args.vehicles_per_process,
                                    monitor_params=_live_view(args.foxglove, args.namespace),
                                    namespace=args.namespace, fault_script=args.fault,
-                                   restart_dead=args.restart_dead, secure=args.secure)
+                                   restart_dead=args.restart_dead, secure=args.secure,
+                                   stop=stop)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0

@@ -127,12 +127,14 @@ class Swarm:
 
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None, monitor_params=(), restart_dead=None, namespace='/', secure=None):
+                 env=None, monitor_params=(), restart_dead=None, namespace='/', secure=None,
+                 stop=None):
         if secure is not None and per_process != 1:
             raise security.SecurityError(f'--vehicles-per-process {per_process} with --secure: '
                                          f'a member of a TLS fleet is one process, 1 only')
         self.sc, self.mode = sc, mode
-        self.place, self.env, self.secure = place or (lambda name: []), env, secure
+        self.place = place or (lambda name: [])
+        self.stop = stop
         self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
@@ -167,6 +169,9 @@ class Swarm:
             self.logs.append('monitor.log')
             self.members.append(())
         self.names = [log[:-4] for log in self.logs]
+        base = os.environ if env is None else env
+        self.envs = {name: env if secure is None else security.member_env(secure, name, base)
+                     for name in self.names}
         self.process_of = {k: i for i, group in enumerate(self.members) for k in group}
         self.procs, self.state, self.cause = [], [], {}
         self.restart_dead, self.restarts = restart_dead, []
@@ -187,17 +192,11 @@ class Swarm:
     def __exit__(self, *exc):
         stop(self.procs)
 
-    def _env(self, name):
-        if self.secure is None:
-            return self.env
-        return security.member_env(self.secure, name,
-                                   os.environ if self.env is None else self.env)
-
     def _start(self, i, mode='a'):
         with open(self.dir / self.logs[i], mode) as log:
             self.procs[i] = subprocess.Popen(self.place(self.names[i]) + self.commands[i],
                                              stdout=log, stderr=subprocess.STDOUT,
-                                             env=self._env(self.names[i]),
+                                             env=self.envs[self.names[i]],
                                              stdin=subprocess.DEVNULL)
         self.state[i] = 'running'
 
@@ -213,7 +212,12 @@ class Swarm:
         Note each vehicle or monitor process that has exited, and restart those that are due.
 
         A death is logged with the fleet time and kept in :attr:`lost`; the others carry on.
+        Once the ``stop`` event is set (a signal handler's), raise KeyboardInterrupt here, in
+        the waiting loop: raised from a signal handler inside an executor's callback, it would
+        come out of rclpy as another error.
         """
+        if self.stop is not None and self.stop.is_set():
+            raise KeyboardInterrupt
         for i in range(1, len(self.procs)):
             code = self.procs[i].poll()
             if code is None or self.state[i] == 'dead':
@@ -473,7 +477,7 @@ class Supervisor:
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
               monitor=True, node_params=(), per_process=1, place=None, env=None,
               monitor_params=(), fault_script=(), restart_dead=None, namespace='/',
-              secure=None):
+              secure=None, stop=None):
     """
     Run a fleet as processes in ``namespace``; return (run, summary). Every process is stopped.
 
@@ -485,14 +489,15 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     monitor process that died by itself is started again (None: never). ``secure`` is the
     directory of a TLS fleet (:mod:`formation_control.security`): each process runs as its
     member, and this process as member ``swarm`` (its environment is changed: call it before
-    this process has made a DDS participant).
+    this process has made a DDS participant). ``stop`` (a threading.Event) set ends the run
+    as KeyboardInterrupt, every process stopped.
     """
     timeout = timeout or 60.0 + 20.0 * sc.duration
     schedule = faults.schedule(fault_script, sc)
     if bag is not None and Path(bag).exists():
         raise FileExistsError(f'bag directory {bag} exists already')
     swarm = Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
-                  per_process, place, env, monitor_params, restart_dead, namespace, secure)
+                  per_process, place, env, monitor_params, restart_dead, namespace, secure, stop)
     if secure is not None:
         os.environ.update(security.environment(secure, 'swarm'))
         for name in security.UNSET:

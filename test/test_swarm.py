@@ -125,7 +125,9 @@ def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
     fleet = _fleet_pids(ros.domain_id)
     assert len(fleet) == 5
     swarm.send_signal(sig)
-    assert swarm.wait(timeout=30) == 0
+    code = swarm.wait(timeout=30)
+    swarm.log.seek(0)
+    assert code == 0, swarm.log.read()[-3000:]
     assert not [pid for pid in fleet if Path(f'/proc/{pid}').exists()]
 
 
