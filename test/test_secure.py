@@ -35,6 +35,7 @@ import numpy as np
 import pytest
 from rosutil import domains
 from test_multihost import assert_equals_simulator, dropped_lines, EXACT, host_of, load, placer
+from test_ros2_cli import Cli, ROS2
 
 HERE = Path(__file__).resolve().parent
 INTRUDER = 4
@@ -171,3 +172,33 @@ def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path
         capture_output=True, text=True, timeout=60, env=env)
     assert refused.returncode == 2
     assert 'vehicle_4 is not a member of the fleet' in refused.stderr
+
+
+def test_a_launched_fleet_runs_each_node_as_its_member(one_host, colcon_install, tmp_path):
+    """
+    ``ros2 launch ... secure:=DIR`` with a bag: every node, the recorder too, is a member.
+
+    A plain participant on the same host hears nothing of it.
+    """
+    if ROS2 is None:
+        pytest.skip('the ros2 command line is not installed')
+    security.write_fleet(tmp_path / 'fleet', security.roster(3))
+    sc = load('particle_parallel', 'num_vehicles:=3', 'duration:=3.0')
+    with domains(1) as (did,):
+        env = Cli(colcon_install, did).env
+        plain = start(one_host, 0, [HERE / 'intruder.py', 3],
+                      dict(env, ROS_AUTOMATIC_DISCOVERY_RANGE='SUBNET'))
+        try:
+            done = subprocess.run(one_host.prefix(0) + [
+                ROS2, 'launch', 'formation_control', 'fleet.launch.py',
+                'scenario:=particle_parallel', 'num_vehicles:=3', 'duration:=3.0',
+                f'secure:={tmp_path / "fleet"}', f'record:={tmp_path / "bag"}',
+                f'record_path:={tmp_path / "run.npz"}'],
+                env=env, capture_output=True, text=True, timeout=180)
+        finally:
+            heard = report(plain)['received']
+    assert done.returncode == 0, done.stdout[-3000:]
+    assert sum(heard.values()) == 0, heard
+    run = simulator.load_run(tmp_path / 'run.npz')
+    assert_equals_simulator(run, sc)
+    np.testing.assert_allclose(bagfile.read_run(tmp_path / 'bag').X, run.X, rtol=0, atol=1e-12)

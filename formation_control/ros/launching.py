@@ -24,6 +24,7 @@ with ``record``, the bag ``recorder``, all in the ``namespace``.
 from pathlib import Path
 import tempfile
 
+from formation_control import security
 from formation_control.cli import find_scenario
 from formation_control.core import scenario
 from formation_control.swarm import namespace_prefix, write_params
@@ -46,6 +47,8 @@ FLEET_ARGUMENTS = {
                     'for the plant and the vehicles, after the scenario; empty = none'),
     'world_frame': ('map', 'world frame (REP-105)'),
     'base_frame': ('vehicle_{id}/base_link', "each vehicle's base frame; {id} = its id"),
+    'secure': ('', 'run each node as its member of the TLS fleet in this directory '
+               '(formation-control secure; docs/security.md); empty = the default transports'),
 }
 VEHICLE_ARGUMENTS = {
     'scenario': FLEET_ARGUMENTS['scenario'],
@@ -55,6 +58,7 @@ VEHICLE_ARGUMENTS = {
     'params_file': FLEET_ARGUMENTS['params_file'],
     'world_frame': FLEET_ARGUMENTS['world_frame'],
     'base_frame': FLEET_ARGUMENTS['base_frame'],
+    'secure': FLEET_ARGUMENTS['secure'],
 }
 
 
@@ -85,9 +89,12 @@ def _scenario(a, recorded=False):
     return sc, files
 
 
-def _node(executable, a, params, **kwargs):
+def _node(executable, a, params, member, **kwargs):
+    """Return the Node of ``executable``; with a ``secure`` fleet it runs as ``member``."""
+    env = security.environment(a['secure'], member) if a['secure'] else None
     return Node(package=PACKAGE, executable=executable, namespace=a['namespace'] or None,
-                parameters=params, output='screen', emulate_tty=True, **kwargs)
+                parameters=params, output='screen', emulate_tty=True, additional_env=env,
+                **kwargs)
 
 
 def _fleet(context):
@@ -98,36 +105,42 @@ def _fleet(context):
         raise scenario.ScenarioError(f"vehicles_per_process {a['vehicles_per_process']!r} is "
                                      f'invalid: an integer >= 1')
     per_process = int(a['vehicles_per_process'])
+    if a['secure'] and per_process != 1:
+        raise security.SecurityError(f'vehicles_per_process {per_process} with secure: a member '
+                                     f'of a TLS fleet is one process, 1 only')
     frames = {'world_frame': a['world_frame'], 'base_frame': a['base_frame']}
     common = {'mode': a['mode'], **frames}
     sim_time = {'use_sim_time': a['mode'] == 'lockstep'}
     clock = [('/clock', namespace_prefix(a['namespace'] or '/') + 'clock')]
     actions = [_node('plant', a, [*files, {**common, 'record_path': a['record_path'],
-                                           'wait_for_start': bool(record)}],
+                                           'wait_for_start': bool(record)}], 'plant',
                      on_exit=Shutdown(reason='the plant has finished the run'))]
     ids = list(range(1, sc.num_vehicles + 1))
     for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
         if per_process == 1:
-            actions.append(_node('vehicle', a, [*files, {**common, 'vehicle_id': group[0]}]))
+            actions.append(_node('vehicle', a, [*files, {**common, 'vehicle_id': group[0]}],
+                                 f'vehicle_{group[0]}'))
         else:
-            actions.append(_node('vehicles', a, [*files, {**common, 'vehicle_ids': group}]))
+            actions.append(_node('vehicles', a, [*files, {**common, 'vehicle_ids': group}],
+                                 None))
     if _true(a['monitor']):
         actions.append(_node('monitor', a, [{'world_frame': a['world_frame'], **sim_time}],
-                             remappings=clock))
+                             'monitor', remappings=clock))
     if record:
         actions.append(_node('recorder', a, [{'bag': record, 'num_vehicles': sc.num_vehicles,
                                               'monitor': _true(a['monitor']), **sim_time}],
-                             remappings=clock))
+                             'swarm', remappings=clock))
     return actions
 
 
 def _vehicle(context):
     a = _values(context, VEHICLE_ARGUMENTS)
     _, files = _scenario(a)
-    return [_node('vehicle', a, [*files, {'mode': a['mode'], 'vehicle_id': int(a['vehicle_id']),
+    k = int(a['vehicle_id'])
+    return [_node('vehicle', a, [*files, {'mode': a['mode'], 'vehicle_id': k,
                                           'world_frame': a['world_frame'],
                                           'base_frame': a['base_frame']}],
-                  on_exit=Shutdown(reason='the vehicle node exited'))]
+                  f'vehicle_{k}', on_exit=Shutdown(reason='the vehicle node exited'))]
 
 
 def fleet_actions():
