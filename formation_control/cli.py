@@ -349,6 +349,10 @@ def _scenario_arguments(parser):
     parser.add_argument('--plot', help='write a figure to this .png')
 
 
+def _namespace(parser, text):
+    parser.add_argument('--namespace', default='/', metavar='NS', help=text)
+
+
 def build_parser():
     parser = argparse.ArgumentParser(prog='formation-control', description=__doc__)
     sub = parser.add_subparsers(dest='command', required=True)
@@ -393,8 +397,7 @@ def build_parser():
                             'foxglove_port)')
     swarm.add_argument('--no-monitor', action='store_true',
                        help='do not start the monitor node (no metrics or diagnostics)')
-    swarm.add_argument('--namespace', default='/', metavar='NS',
-                       help='run the fleet in this ROS namespace (default /)')
+    _namespace(swarm, 'run the fleet in this ROS namespace (default /)')
     swarm.add_argument('--fault', action='append', default=[], metavar='FAULT',
                        help='a scripted fault in fleet time (repeatable): kill:K@T, '
                             'restart:K@T, stop:K@T (SIGSTOP: vehicle K freezes), cont:K@T '
@@ -429,7 +432,7 @@ def build_parser():
                                       'running fleet')
     tune.add_argument('assignments', nargs='+', metavar='NAME:=VALUE',
                       help='run-time scenario parameters (docs/parameters.md, "run time")')
-    tune.add_argument('--namespace', default='/', metavar='NS', help="the fleet's namespace")
+    _namespace(tune, "the fleet's namespace")
     tune.add_argument('--timeout', type=float, default=10.0,
                       help='seconds to wait for the fleet (default 10)')
     tune.set_defaults(func=cmd_set)
@@ -451,9 +454,8 @@ def build_parser():
     play.add_argument('bag', help='the bag directory (any rosbag2 bag: MCAP or sqlite3)')
     play.add_argument('--rate', type=float, default=1.0,
                       help='recorded seconds per wall second (default 1)')
-    play.add_argument('--namespace', default='/', metavar='NS',
-                      help="the fleet's namespace: relative --topics names and --clock's "
-                           '<NS>/clock resolve in it (default /)')
+    _namespace(play, "the fleet's namespace: relative --topics names and --clock's "
+               '<NS>/clock resolve in it (default /)')
     play.add_argument('--clock', action='store_true',
                       help='publish <NS>/clock with the recorded time being played (for nodes '
                            "with use_sim_time); the bag's own <NS>/clock is not replayed")
@@ -466,8 +468,7 @@ def build_parser():
     play.set_defaults(func=cmd_play)
     doc = sub.add_parser('doctor', help='join the domain and report what keeps a fleet from '
                                         'working (exit 1 if anything)')
-    doc.add_argument('--namespace', default='/', metavar='NS',
-                     help="the fleet's namespace: its plant, vehicles and topics (default /)")
+    _namespace(doc, "the fleet's namespace: its plant, vehicles and topics (default /)")
     doc.add_argument('--listen', type=float, default=2.0,
                      help='seconds to listen to the formation states (default 2)')
     doc.add_argument('--discover', type=float, default=5.0,
@@ -475,8 +476,7 @@ def build_parser():
     doc.set_defaults(func=cmd_doctor)
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
                                         'foxglove/formation_control.json)')
-    lay.add_argument('--namespace', default='/', metavar='NS',
-                     help="the fleet's namespace: the topics are its absolute names (default /)")
+    _namespace(lay, "the fleet's namespace: the topics are its absolute names (default /)")
     lay.add_argument('--world-frame', default=node_parameters.WORLD_FRAME, metavar='FRAME',
                      help="the 3D panel's frame: the monitor's world_frame (default map)")
     lay.add_argument('--out', help='write it to this file instead')
