@@ -13,11 +13,11 @@ EXTRAS := .[ros,view,cluster,test]
 # The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
 # into the venv when present, so that the tests with `ros2` run; without it they skip, unless
 # a ros2 of a Jazzy installation is on PATH.
-ROS2_TOOLS ?= $(firstword $(wildcard ../shared/ros2-tools /work/shared/ros2-tools))
+ROS2_TOOLS ?= $(firstword $(wildcard ../shared/ros2-tools))
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
-.PHONY: setup upgrade demo test lint copyright bench clean
+.PHONY: setup upgrade demo test test-fast lint copyright bench clean
 
 setup: $(STAMP)
 
@@ -57,6 +57,10 @@ demo: setup
 
 test: setup
 	$(PY) -m pytest -q
+
+# The unit tests alone (test/unit: pure, no DDS), in well under a minute.
+test-fast: setup
+	$(PY) -m pytest -q test/unit
 
 # The linters alone (flake8, pep257, copyright), as `colcon test` runs them.
 lint: setup

@@ -127,7 +127,7 @@ def latency(args):
 
 def _latency_run(n, args):
     """{latency name: (median of the vehicles' medians, median p99, worst p99)} of one run."""
-    from formation_control.bagfile import diagnostics
+    from formation_control.bags.reader import diagnostics
     bag = Path(tempfile.mkdtemp(prefix='fleet_bench_')) / 'bag'
     swarm(n, '--mode', 'realtime', '--duration', args.duration, '--bag', bag,
           '--real-time-factor', args.real_time_factor, *graph_params(args.graphs[0]),

@@ -34,7 +34,8 @@ import argparse
 from pathlib import Path
 import time
 
-from formation_control.core import scenario, simulator
+from formation_control.core import scenario
+from formation_control.sim import simulator
 import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'

@@ -37,7 +37,7 @@ import statistics
 import time
 
 from formation_control.core import scenario
-from formation_control.core.simulator import Stepper
+from formation_control.sim.simulator import Stepper
 import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'

@@ -37,8 +37,8 @@ import sys
 import tempfile
 import time
 
-from formation_control import sweep
-from formation_control.core import scenario, simulator
+from formation_control.core import scenario
+from formation_control.sim import simulator, sweep
 import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'

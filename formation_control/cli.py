@@ -29,32 +29,15 @@ import signal
 import sys
 import threading
 
-from formation_control import security
-from formation_control.core import node_parameters, report, scenario, simulator
-
-
-def find_scenario(name):
-    """Return the path of a scenario: a path, or the name of a file in the package's config/."""
-    path = Path(name)
-    if path.exists():
-        return path
-    stem = path.name if path.suffix else path.name + '.yaml'
-    source_tree = Path(__file__).resolve().parents[1] / 'config' / stem
-    if source_tree.exists():
-        return source_tree
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        candidate = Path(get_package_share_directory('formation_control')) / 'config' / stem
-    except (ImportError, LookupError, OSError):
-        candidate = None
-    if candidate is not None and candidate.exists():
-        return candidate
-    raise scenario.ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')
+from formation_control.core import scenario
+from formation_control.ops import security
+from formation_control.protocol import names, node_parameters
+from formation_control.sim import report, simulator
 
 
 def _split(overrides):
     """(scenario overrides, node overrides): link and frame parameters go to the nodes only."""
-    from formation_control.core.links import PARAMETERS
+    from formation_control.protocol.links import PARAMETERS
     names = set(PARAMETERS) | set(node_parameters.FRAMES)
     node = [o for o in overrides if o.split(':=', 1)[0].strip() in names]
     return [o for o in overrides if o not in node], node
@@ -66,7 +49,7 @@ def _load(args, node_params_allowed=False):
         raise scenario.ScenarioError(
             f"{', '.join(node)}: link and frame parameters apply to the ROS nodes only (use "
             f'swarm)')
-    sc = scenario.load(find_scenario(args.scenario), overrides,
+    sc = scenario.load(scenario.find(args.scenario), overrides,
                        duration=args.duration, seed=args.seed)
     for note in sc.warnings:
         print(f'warning: {note}', file=sys.stderr)
@@ -98,7 +81,7 @@ def _write(args, run):
         run.save(args.out)
         print(f'wrote {args.out}')
     if args.plot:
-        from formation_control.plotting import plot_run
+        from formation_control.sim.plotting import plot_run
         plot_run(run, args.plot)
         print(f'wrote {args.plot}')
 
@@ -113,8 +96,8 @@ def cmd_sim(args):
 
 def cmd_sweep(args):
     import os
-    from formation_control import sweep
-    base = scenario.read_params(find_scenario(args.scenario))
+    from formation_control.sim import sweep
+    base = scenario.read_params(scenario.find(args.scenario))
     if args.duration is not None:
         base['duration'] = args.duration
     workers = os.cpu_count() if args.workers is None else args.workers
@@ -214,8 +197,7 @@ def _live_view(port, namespace='/'):
     """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
     if port is None:
         return []
-    from formation_control.swarm import namespace_prefix
-    prefix = namespace_prefix(namespace)
+    prefix = names.namespace_prefix(namespace)
     layout = 'formation-control layout' + (f' --namespace {prefix[:-1]}' if prefix != '/' else '')
     print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app (layout: '
           f'{layout})', file=sys.stderr)
@@ -247,7 +229,7 @@ def cmd_set(args):
 def load_source(path):
     """Return the run of a simulator/plant ``.npz`` or of a rosbag2 bag directory."""
     if Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists():
-        from formation_control import bagfile           # only bags need rosbags
+        from formation_control.bags import reader as bagfile  # only bags need rosbags
         return bagfile.read_run(path)
     if Path(path).is_file():
         try:
@@ -259,7 +241,7 @@ def load_source(path):
 
 
 def cmd_plot(args):
-    from formation_control.plotting import plot_run
+    from formation_control.sim.plotting import plot_run
     plot_run(load_source(args.source), args.out)
     print(f'wrote {args.out}')
     return 0
@@ -276,9 +258,8 @@ def cmd_params(args):
 
 
 def cmd_play(args):
-    from formation_control.playback import Bag, BagError, CLOCK_TOPIC
-    from formation_control.swarm import namespace_prefix
-    args.namespace = namespace_prefix(args.namespace).rstrip('/') or '/'
+    from formation_control.bags.playback import Bag, BagError, CLOCK_TOPIC
+    args.namespace = names.namespace_prefix(args.namespace).rstrip('/') or '/'
     try:
         if not args.rate > 0:
             raise BagError(f'--rate {args.rate} is invalid: must be > 0')
@@ -305,7 +286,7 @@ def cmd_play(args):
 
 
 def cmd_doctor(args):
-    from formation_control.doctor import exit_status, format_report
+    from formation_control.ops.doctor import exit_status, format_report
     from formation_control.ros.doctor import run
     facts, findings = run(args.namespace, args.listen, args.discover)
     print(format_report(facts, findings), end='')
@@ -326,7 +307,7 @@ def cmd_secure(args):
 
 
 def cmd_layout(args):
-    from formation_control.layout import layout_json
+    from formation_control.view.layout import layout_json
     text = layout_json(args.namespace, args.world_frame)
     if args.out:
         Path(args.out).write_text(text)

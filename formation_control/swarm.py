@@ -28,43 +28,15 @@ import sys
 import tempfile
 import time
 
-from formation_control import security
-from formation_control.core import faults, simulator
-import yaml
+from formation_control.ops import security
+from formation_control.protocol import faults, names
+from formation_control.protocol.fleet_plan import write_params
+from formation_control.sim import simulator
 
 CLOCK_EVENTS = 8
 """Supervisor events handled before each slice of recording (clock samples, service answers)."""
 RECORD_SLICE = 0.005
 """Wall seconds of recording between two looks at the fleet time."""
-
-RECORDED_DEPTH = 500
-"""With a bag: the history of the odometry, state and command writers (samples; 10 s at
-50 Hz). DDS matches a writer to the recorder's reader on each side in its own time; a writer
-that matches after the first steps resends its transient-local history, which must still
-hold step 0."""
-
-
-def namespace_prefix(namespace):
-    """Return the topic prefix of a fleet's namespace: '/' or '/fleet_a/'."""
-    return '/' + ''.join(f'{part}/' for part in namespace.split('/') if part)
-
-
-def write_params(sc, path, recorded=False, namespace='/'):
-    """
-    Write the resolved scenario as a ROS 2 parameter file at ``path``; return the path.
-
-    Empty lists are left out: ROS types them. ``recorded``: the state writers keep
-    :data:`RECORDED_DEPTH` samples (``qos_overrides`` of the topics in ``namespace``), so the
-    bag misses no step.
-    """
-    values = {k: v for k, v in sc.to_dict().items() if v != []}
-    prefix = namespace_prefix(namespace)
-    if recorded:
-        values['qos_overrides'] = {
-            f'{prefix}vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
-            for k in range(1, sc.num_vehicles + 1) for name in ('odom', 'formation_state', 'cmd')}
-    Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': values}}))
-    return str(path)
 
 
 def executable(name):
@@ -139,9 +111,9 @@ class Swarm:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
         params = write_params(sc, self.dir / 'scenario.yaml', wait_for_start, namespace)
-        self.prefix = prefix = namespace_prefix(namespace)
-        names = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
-        common = ['--ros-args', *names, '--params-file', params, '-p', f'mode:={mode}']
+        self.prefix = prefix = names.namespace_prefix(namespace)
+        remap = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
+        common = ['--ros-args', *remap, '--params-file', params, '-p', f'mode:={mode}']
         for p in node_params:
             common += ['-p', p]
         self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
@@ -162,7 +134,7 @@ class Swarm:
             self.members.append(tuple(group))
         if monitor:
             world = [a for p in node_params if p.startswith('world_frame:=') for a in ('-p', p)]
-            self.commands.append([executable('monitor'), '--ros-args', *names,
+            self.commands.append([executable('monitor'), '--ros-args', *remap,
                                   '-r', f'/clock:={prefix}clock', *world, '-p',
                                   f'use_sim_time:={str(mode == "lockstep").lower()}',
                                   *(a for p in monitor_params for a in ('-p', p))])
@@ -355,9 +327,8 @@ class Supervisor:
 
         from formation_control.ros import interface as itf
         from formation_control.ros.bag import BagRecorder, fleet_topics
-        from formation_control.ros.plant import START_TOPIC
         self.String, self.Parameter, self.Empty = String, Parameter, Empty
-        self.prefix = prefix = namespace_prefix(namespace)
+        self.prefix = prefix = names.namespace_prefix(namespace)
         self.t, self.t0 = None, None
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
@@ -365,28 +336,28 @@ class Supervisor:
         self.node = Node('formation_swarm', context=self.context,
                          start_parameter_services=False)
         self.executor.add_node(self.node)
-        self.fault_pub = self.node.create_publisher(String, prefix + itf.FAULTS_TOPIC,
+        self.fault_pub = self.node.create_publisher(String, prefix + names.FAULTS_TOPIC,
                                                     itf.FAULTS_QOS)
         if mode == 'lockstep':
-            self.node.create_subscription(Clock, prefix + itf.CLOCK_TOPIC, self._on_clock,
+            self.node.create_subscription(Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
                                           itf.LATCHED_QOS)
         else:
             self.wire = itf.odom_wire(1)
-            self.node.create_subscription(Odometry, prefix + itf.topic(1, 'odom'), self._on_odom,
+            self.node.create_subscription(Odometry, prefix + names.topic(1, 'odom'), self._on_odom,
                                           itf.STATE_QOS, raw=True)
         self.params = {}
         self.recorder = None
         if bag is not None:
-            monitored = [prefix + t for t in (itf.METRICS_TOPIC, itf.MARKERS_TOPIC)]
+            monitored = [prefix + t for t in (names.METRICS_TOPIC, names.MARKERS_TOPIC)]
             topics = [t for t in fleet_topics(n, prefix) if monitor or t[0] not in monitored]
-            topics.append((prefix + itf.FAULTS_TOPIC, 'std_msgs/msg/String', itf.FAULTS_QOS))
+            topics.append((prefix + names.FAULTS_TOPIC, 'std_msgs/msg/String', itf.FAULTS_QOS))
             self.topics = [t for t, _, _ in topics
-                           if mode == 'lockstep' or t != prefix + itf.CLOCK_TOPIC]
+                           if mode == 'lockstep' or t != prefix + names.CLOCK_TOPIC]
             self.recorder = BagRecorder(str(bag), topics, context=self.context,
                                         cli_args=['--ros-args', '-r', f'/clock:={prefix}clock'],
                                         parameter_overrides=[
                                             Parameter('use_sim_time', value=mode == 'lockstep')])
-            self.start = self.node.create_publisher(Empty, prefix + START_TOPIC,
+            self.start = self.node.create_publisher(Empty, prefix + names.START_TOPIC,
                                                     itf.LATCHED_QOS)
             self.recording = EventsExecutor(context=self.context)
             self.recording.add_node(self.recorder)
@@ -487,7 +458,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     ``env`` replaces the environment of every process. ``fault_script`` lists the faults
     (:func:`faults.schedule`), ``restart_dead`` the fleet seconds after which a vehicle or
     monitor process that died by itself is started again (None: never). ``secure`` is the
-    directory of a TLS fleet (:mod:`formation_control.security`): each process runs as its
+    directory of a TLS fleet (:mod:`formation_control.ops.security`): each process runs as its
     member, and this process as member ``swarm`` (its environment is changed: call it before
     this process has made a DDS participant). ``stop`` (a threading.Event) set ends the run
     as KeyboardInterrupt, every process stopped.

@@ -31,6 +31,14 @@ def config_dir():
 
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+INTEGRATION = Path(__file__).resolve().parent / 'integration'
+
+
+def pytest_collection_modifyitems(items):
+    """Mark every test under test/integration ``slow`` (``make test-fast`` leaves them out)."""
+    for item in items:
+        if INTEGRATION in Path(item.fspath).parents:
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture

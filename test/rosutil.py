@@ -174,7 +174,7 @@ class Nodes(Probe):
 
         The plant writes its record to ``record``; every node takes the ``-p`` ``params``.
         """
-        from formation_control.core import simulator
+        from formation_control.sim import simulator
         plant = self.plant(cfg, *params, f'record_path:={record}')
         for k in range(1, plant.sc.num_vehicles + 1):
             self.vehicle(k, cfg, *params)

@@ -16,8 +16,9 @@
 from functools import lru_cache
 from pathlib import Path
 
-from formation_control.core import scenario, simulator
+from formation_control.core import scenario
 from formation_control.core.control import Controller
+from formation_control.sim import simulator
 import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'

@@ -23,11 +23,14 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from functools import cached_property
 import json
 import math
+from pathlib import Path
 import re
 
+from formation_control.core.errors import ScenarioError
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
+from formation_control.core.stability import step_warnings
 import numpy as np
 import yaml
 
@@ -54,10 +57,6 @@ _Loader.add_implicit_resolver(
     'tag:yaml.org,2002:float',
     re.compile(r'^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$'),
     list('-+0123456789.'))
-
-
-class ScenarioError(ValueError):
-    """A scenario parameter is missing, unknown or out of its allowed range."""
 
 
 @dataclass(frozen=True)
@@ -744,7 +743,6 @@ def resolve(params):
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
-    from formation_control.core.stability import step_warnings
     return replace(sc, warnings=tuple(_check_physics(sc)) + tuple(step_warnings(sc)))
 
 
@@ -862,3 +860,22 @@ def differences(mine, theirs):
     """
     return [(name, getattr(mine, name), getattr(theirs, name)) for name in PARAMETER_NAMES
             if name not in PLANT_ONLY and getattr(mine, name) != getattr(theirs, name)]
+
+
+def find(name):
+    """Return the path of a scenario: a path, or the name of a file in the package's config/."""
+    path = Path(name)
+    if path.exists():
+        return path
+    stem = path.name if path.suffix else path.name + '.yaml'
+    source_tree = Path(__file__).resolve().parents[2] / 'config' / stem
+    if source_tree.exists():
+        return source_tree
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        candidate = Path(get_package_share_directory('formation_control')) / 'config' / stem
+    except (ImportError, LookupError, OSError):
+        candidate = None
+    if candidate is not None and candidate.exists():
+        return candidate
+    raise ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')

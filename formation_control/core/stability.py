@@ -25,8 +25,8 @@ K_P (8.24), |K| of the first-order laws) and the thrust gain K_f (7.1). :func:`s
 warns about a step beyond half its limit, :func:`diverging` finds the vehicles whose state is
 no longer finite or has exploded, :func:`divergence` names the likely cause.
 """
+from formation_control.core.errors import ScenarioError
 from formation_control.core.models import RIGID_MODELS, ROW_OMEGA
-from formation_control.core.scenario import ScenarioError
 import numpy as np
 
 RK4_LIMIT = 2.785

@@ -21,12 +21,13 @@ its publishers offer.
 """
 from pathlib import Path
 
-from formation_control.core.node_parameters import START_TOPIC
+from formation_control.protocol import names
+from formation_control.protocol.names import START_TOPIC
 from formation_control.ros import interface as itf
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile
-from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability
-from rosbags.interfaces import QosTime
+from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
+                                QosTime)
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
 
@@ -34,19 +35,19 @@ from rosbags.typesys import get_typestore, Stores
 def fleet_topics(n, namespace='/'):
     """Return (topic, ROS type name, QoS) of every topic of a fleet of n in ``namespace``."""
     prefix = namespace.rstrip('/') + '/'
-    topics = [(prefix + itf.CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
-              (prefix + itf.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
-              (prefix + itf.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
-              (itf.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS),
-              (prefix + itf.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray',
+    topics = [(prefix + names.CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
+              (prefix + names.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
+              (prefix + names.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
+              (names.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS),
+              (prefix + names.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray',
                itf.STREAM_QOS)]
     for k in range(1, n + 1):
-        topics += [(prefix + itf.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
-                   (prefix + itf.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped',
+        topics += [(prefix + names.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
+                   (prefix + names.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped',
                     itf.LATCHED_QOS),
-                   (prefix + itf.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
+                   (prefix + names.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
                     itf.STATE_QOS),
-                   (prefix + itf.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped',
+                   (prefix + names.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped',
                     itf.STATE_QOS)]
     return topics
 
@@ -113,11 +114,12 @@ class FleetRecorder(BagRecorder):
     def __init__(self, path, n, prefix='/', monitor=True, **kwargs):
         from std_msgs.msg import Empty
 
-        left_out = () if monitor else [prefix + t for t in (itf.METRICS_TOPIC, itf.MARKERS_TOPIC)]
+        left_out = () if monitor else [prefix + t
+                                       for t in (names.METRICS_TOPIC, names.MARKERS_TOPIC)]
         topics = [t for t in fleet_topics(n, prefix) if t[0] not in left_out]
         super().__init__(path, topics, **kwargs)
         if not self.get_parameter('use_sim_time').value:
-            self.readers.pop(prefix + itf.CLOCK_TOPIC)
+            self.readers.pop(prefix + names.CLOCK_TOPIC)
         self.start = self.create_publisher(Empty, prefix + START_TOPIC, itf.LATCHED_QOS)
         self.start_msg = Empty()
         from formation_control.ros.common import wall_clock
@@ -137,8 +139,8 @@ class FleetRecorder(BagRecorder):
 def main(args=None):
     """Record a fleet: ``recorder --ros-args -p bag:=DIR -p num_vehicles:=N``."""
     from formation_control.core.scenario import ScenarioError
+    from formation_control.protocol import names
     from formation_control.ros.runner import run
-    from formation_control.swarm import namespace_prefix
 
     def make(context):
         probe = Node('formation_bag_recorder', context=context, start_parameter_services=False,
@@ -147,7 +149,7 @@ def main(args=None):
             bag = probe.declare_parameter('bag', '').value
             n = probe.declare_parameter('num_vehicles', 0).value
             monitor = probe.declare_parameter('monitor', True).value
-            prefix = namespace_prefix(probe.get_namespace())
+            prefix = names.namespace_prefix(probe.get_namespace())
         finally:
             probe.destroy_node()
         if not bag or n < 1:

@@ -17,6 +17,7 @@ import collections
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from formation_control.protocol import names
 from formation_control.ros import interface as itf
 import numpy as np
 from rclpy.clock import Clock, ClockType
@@ -72,7 +73,7 @@ def status(name, level, message, values, hardware_id=''):
 
 def diagnostics_publisher(node):
     """Create the node's publisher on ``/diagnostics``."""
-    return node.create_publisher(DiagnosticArray, itf.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+    return node.create_publisher(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
 
 
 def publish_diagnostics(node, publisher, statuses):

@@ -20,15 +20,16 @@ there, as the fleet's nodes do (``formation/scenario`` in ``/fleet_a``:
 ``/fleet_a/formation/scenario``): it reads the plant's latched scenario, the ROS graph (the
 nodes and every endpoint's QoS of the topics in the namespace, and ``/diagnostics``), each
 vehicle's scenario parameters (its parameter services) and listens to the formation states for
-a while; :mod:`formation_control.doctor` checks what it gathered.
+a while; :mod:`formation_control.ops.doctor` checks what it gathered.
 """
 import json
 import os
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from formation_control import doctor
 from formation_control.core.scenario import PARAMETER_NAMES
+from formation_control.ops import doctor
+from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from rcl_interfaces.srv import GetParameters
 import rclpy
@@ -107,7 +108,7 @@ class Gatherer:
         ns = self.node.get_namespace().rstrip('/') + '/'
         out = []
         for topic, _ in self.node.get_topic_names_and_types():
-            if not (topic.startswith(ns) or topic == itf.DIAGNOSTICS_TOPIC):
+            if not (topic.startswith(ns) or topic == names.DIAGNOSTICS_TOPIC):
                 continue
             for kind, infos in (('pub', self.node.get_publishers_info_by_topic(topic)),
                                 ('sub', self.node.get_subscriptions_info_by_topic(topic))):
@@ -123,14 +124,14 @@ class Gatherer:
                                           lambda data, s=stream: self._heard(s, data), raw=True,
                                           qos_profile=itf.STATE_QOS)
         self.node.create_subscription(DiagnosticArray, self.node.resolve_topic_name(
-            itf.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), itf.STREAM_QOS)
+            names.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), itf.STREAM_QOS)
         end = time.monotonic() + seconds                # a span: what arrives in it is counted
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.05)
 
     @staticmethod
     def _clocked(facts, msg):
-        lag = (time.time_ns() - itf.stamp_ns(msg.header.stamp)) * 1e-9
+        lag = (time.time_ns() - messages.stamp_ns(msg.header.stamp)) * 1e-9
         for status in msg.status:
             who = doctor.clocked_node(status.name, facts.namespace)
             if who is not None:
@@ -158,7 +159,7 @@ class Gatherer:
         node = self.node
         facts = doctor.Facts(namespace=node.get_namespace(),
                              env={k: os.environ[k] for k in ENVIRONMENT if k in os.environ})
-        topic = node.resolve_topic_name(itf.SCENARIO_TOPIC)
+        topic = node.resolve_topic_name(names.SCENARIO_TOPIC)
         box = []
         node.create_subscription(String, topic, box.append, itf.LATCHED_QOS)
         self.spin_until(lambda: box, discover)
@@ -171,12 +172,12 @@ class Gatherer:
         except (ValueError, KeyError, TypeError):
             facts.scenario = None
             return facts
-        facts.state_topics = {k: node.resolve_topic_name(itf.topic(k, 'formation_state'))
+        facts.state_topics = {k: node.resolve_topic_name(names.topic(k, 'formation_state'))
                               for k in range(1, n + 1)}
         self._listen(facts, listen)
         self._graph(facts, topic)
-        for names in doctor.vehicle_ids(facts).values():
-            for name in set(names):
+        for ids in doctor.vehicle_ids(facts).values():
+            for name in set(ids):
                 facts.parameters[name] = self._parameters(name, PARAMETER_NAMES, 2.0)
         for plant in set(facts.scenario_publishers):
             mode = self._parameters(plant, ['mode'], 2.0)

@@ -24,10 +24,10 @@ with ``record``, the bag ``recorder``, all in the ``namespace``.
 from pathlib import Path
 import tempfile
 
-from formation_control import security
-from formation_control.cli import find_scenario
 from formation_control.core import scenario
-from formation_control.swarm import namespace_prefix, write_params
+from formation_control.ops import security
+from formation_control.protocol import names
+from formation_control.protocol.fleet_plan import write_params
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -79,7 +79,7 @@ def _true(text):
 def _scenario(a, recorded=False):
     """Validate the scenario of the arguments ``a``; return it and its parameter file."""
     overrides = [f'{name}:={a[name]}' for name in ('num_vehicles', 'duration') if a.get(name)]
-    sc = scenario.load(find_scenario(a['scenario']), overrides)
+    sc = scenario.load(scenario.find(a['scenario']), overrides)
     folder = Path(tempfile.mkdtemp(prefix='formation_launch_'))
     files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
     if a['params_file']:
@@ -111,7 +111,7 @@ def _fleet(context):
     frames = {'world_frame': a['world_frame'], 'base_frame': a['base_frame']}
     common = {'mode': a['mode'], **frames}
     sim_time = {'use_sim_time': a['mode'] == 'lockstep'}
-    clock = [('/clock', namespace_prefix(a['namespace'] or '/') + 'clock')]
+    clock = [('/clock', names.namespace_prefix(a['namespace'] or '/') + 'clock')]
     actions = [_node('plant', a, [*files, {**common, 'record_path': a['record_path'],
                                            'wait_for_start': bool(record)}], 'plant',
                      on_exit=Shutdown(reason='the plant has finished the run'))]

@@ -28,9 +28,9 @@ Channels, named as the monitor resolves its topics (absolute: a fleet in ``/flee
 ``formation-control layout --namespace NS --world-frame F`` prints the layout of these names.
 Each message is logged at the fleet time of the state it shows (ns).
 """
-from formation_control import scene
 from formation_control.core.scenario import ScenarioError
-from formation_control.ros import interface as itf
+from formation_control.protocol import messages, names
+from formation_control.view import scene
 import foxglove
 from foxglove.channels import SceneUpdateChannel
 from rosbags.typesys import get_typestore, Stores
@@ -70,12 +70,12 @@ class LiveView:
         except RuntimeError as err:          # FoxgloveError: Failed to bind port: ...
             raise ScenarioError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
                                 f'{host}:{port} ({err})') from None
-        self.scene = SceneUpdateChannel(node.resolve_topic_name(itf.SCENE_TOPIC),
+        self.scene = SceneUpdateChannel(node.resolve_topic_name(names.SCENE_TOPIC),
                                         context=self.context)
-        self.metrics = foxglove.Channel(node.resolve_topic_name(itf.METRICS_TOPIC),
-                                        schema=scene.metrics_schema(itf.METRIC_DOC),
+        self.metrics = foxglove.Channel(node.resolve_topic_name(names.METRICS_TOPIC),
+                                        schema=scene.metrics_schema(messages.METRIC_DOC),
                                         context=self.context)
-        self.diagnostics = foxglove.Channel(node.resolve_topic_name(itf.DIAGNOSTICS_TOPIC),
+        self.diagnostics = foxglove.Channel(node.resolve_topic_name(names.DIAGNOSTICS_TOPIC),
                                             schema=ros2msg_schema(DIAGNOSTIC_ARRAY),
                                             message_encoding='cdr', context=self.context)
 

@@ -18,9 +18,10 @@ RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``).
 Each vehicle's heading arrow, its ground-velocity arrow in a flow, its trail, the circle
 centres c_k and the prescribed centre c0.
 """
-from formation_control import palette
 from formation_control.core.models import position, ROW_THETA
+from formation_control.protocol import messages
 from formation_control.ros import interface as itf
+from formation_control.view import palette
 from geometry_msgs.msg import Point
 import numpy as np
 from std_msgs.msg import ColorRGBA
@@ -34,7 +35,7 @@ HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
 
 def _marker(ns, name, ident, kind, color):
     m = Marker()
-    itf.set_stamp(m.header, ns)
+    messages.set_stamp(m.header, ns)
     m.header.frame_id = itf.WORLD_FRAME
     m.ns, m.id, m.type, m.action, m.color = name, ident, kind, Marker.ADD, color
     m.pose.orientation.w = 1.0
@@ -49,7 +50,7 @@ def vehicle_markers(ns, k, position, heading, ground_velocity, trail):
     """Return the heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
     arrow = _marker(ns, 'heading', k, Marker.ARROW, HEADING)
     arrow.pose.position = _point(position)
-    itf.yaw_quaternion(arrow.pose.orientation, heading)
+    messages.yaw_quaternion(arrow.pose.orientation, heading)
     arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.6, 0.12, 0.12
     out = [arrow]
     if ground_velocity is not None:

@@ -38,13 +38,14 @@ import json
 import sys
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import graphs, laws, metrics
+from formation_control.core import graphs, laws
 from formation_control.core.control import Controller
 from formation_control.core.models import ground_velocity, position, ROW_THETA, ROW_X, ROW_Y
-from formation_control.core.node_parameters import MONITOR
 from formation_control.core.scenario import resolve, RUNTIME, ScenarioError
-from formation_control.ros import common, markers, parameters
-from formation_control.ros import interface as itf
+from formation_control.protocol import messages, names
+from formation_control.protocol.node_parameters import MONITOR
+from formation_control.ros import common, interface as itf, markers, parameters
+from formation_control.sim import metrics
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -77,11 +78,11 @@ class MonitorNode(Node):
         self.sc = None
         self.reject = common.Rejections(self.get_logger(),
                                         ('malformed', 'non_finite', 'wrong_frame'))
-        self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
+        self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
                                  qos_profile_parameter_events)
         self.vehicle_nodes = {}
-        self.scenario_topic = self.resolve_topic_name(itf.SCENARIO_TOPIC)
+        self.scenario_topic = self.resolve_topic_name(names.SCENARIO_TOPIC)
         self.diag_pub = common.diagnostics_publisher(self)
         self.live = None
         if self.p['foxglove_port']:
@@ -147,19 +148,19 @@ class MonitorNode(Node):
         self.values = {}
         self.graph = sc.comm_graph
         self.hearing = np.ones((n, n), bool)
-        self.wires = {k: itf.StateWire(k, () if sc.all_to_all else self.graph.neighbours(k),
-                                       estimates=sc.flow_source == 'estimated')
+        self.wires = {k: messages.StateWire(k, () if sc.all_to_all else self.graph.neighbours(k),
+                                            estimates=sc.flow_source == 'estimated')
                       for k in range(1, n + 1)}
         for k in range(1, n + 1):
-            self.create_subscription(Odometry, itf.topic(k, 'odom'),
+            self.create_subscription(Odometry, names.topic(k, 'odom'),
                                      lambda m, k=k: self._on_odom(k, m), **itf.state_qos_kwargs())
-            self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
+            self.create_subscription(WrenchStamped, names.topic(k, 'cmd'),
                                      lambda m, k=k: self._on_cmd(k, m), **itf.state_qos_kwargs())
-            self.create_subscription(JointState, itf.topic(k, 'formation_state'),
+            self.create_subscription(JointState, names.topic(k, 'formation_state'),
                                      lambda data, k=k: self._on_state(k, data), raw=True,
                                      **itf.state_qos_kwargs())
-        self.metrics_pub = self.create_publisher(JointState, itf.METRICS_TOPIC, itf.STREAM_QOS)
-        self.markers_pub = self.create_publisher(MarkerArray, itf.MARKERS_TOPIC, itf.STREAM_QOS)
+        self.metrics_pub = self.create_publisher(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
+        self.markers_pub = self.create_publisher(MarkerArray, names.MARKERS_TOPIC, itf.STREAM_QOS)
         self.create_timer(self.p['markers_period'], self.publish_markers, clock=self.wall)
         self.get_logger().info(f'monitoring {n} x {sc.model}, {sc.formation}')
 
@@ -177,8 +178,8 @@ class MonitorNode(Node):
                 return self.reject('malformed', f'undecodable formation_state of vehicle {k}')
             if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
                 return self.reject('malformed', f'a malformed formation_state of vehicle {k}')
-            got = itf.stamp_ns(msg.header.stamp), tuple(msg.position)
-        first = len(itf.STATE_FIELDS)
+            got = messages.stamp_ns(msg.header.stamp), tuple(msg.position)
+        first = len(messages.STATE_FIELDS)
         hears = [name for name in wire.names[first:] if name.startswith('hears_')]
         if hears:
             heard = np.array(got[1][first:first + len(hears)]) > 0.5
@@ -191,7 +192,7 @@ class MonitorNode(Node):
         return fresh, graphs.live_edges(self.graph, self.hearing, fresh)
 
     def _on_cmd(self, k, msg):
-        u = np.array(itf.input_from_cmd(msg, self.sc.model))
+        u = np.array(messages.input_from_cmd(msg, self.sc.model))
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')
         self.U[:, k - 1] = u
@@ -204,10 +205,10 @@ class MonitorNode(Node):
                                f"{self.p['world_frame']!r})")
         pos = msg.pose.pose.position
         flow = complex(self.ctrl.plant.flow(self.t, pos.x, pos.y))
-        x = itf.state_from_odom(msg, flow, self.sc.model)
+        x = messages.state_from_odom(msg, flow, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
-        ns = itf.stamp_ns(msg.header.stamp)
+        ns = messages.stamp_ns(msg.header.stamp)
         self.X[:, k - 1] = x
         self.odom_ns[k - 1] = ns
         self._heard('odom', k)
@@ -288,7 +289,7 @@ class MonitorNode(Node):
                 self._vehicle_status(i, now) for i in range(self.sc.num_vehicles)]
         msg = common.publish_diagnostics(self, self.diag_pub, statuses)
         if self.live is not None:
-            self.live.log_diagnostics(itf.stamp_ns(msg.header.stamp), serialize_message(msg))
+            self.live.log_diagnostics(messages.stamp_ns(msg.header.stamp), serialize_message(msg))
 
     def _picture(self):
         """Return the last sample's state, stamp, trails, velocities, centres and c0."""

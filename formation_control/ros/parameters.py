@@ -21,11 +21,12 @@ time (:data:`scenario.RUNTIME`).
 """
 import copy
 
-from formation_control.core import links, scenario
-from formation_control.core.node_parameters import MODES  # noqa: F401 (re-exported)
+from formation_control.core import scenario
 from formation_control.core.scenario import Scenario, ScenarioError
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rcl_interfaces.msg import SetParametersResult
+from formation_control.protocol import links
+from formation_control.protocol.node_parameters import MODES  # noqa: F401 (re-exported)
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                SetParametersResult)
 from rclpy.parameter import Parameter
 
 FLOAT_BOUND = 1e9

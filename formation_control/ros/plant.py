@@ -43,10 +43,12 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import links, lockstep, stability
-from formation_control.core.fleet import FleetPlant
-from formation_control.core.node_parameters import check_frames, PLANT, START_TOPIC
-from formation_control.core.onboard import needs_second_sensor
+from formation_control.core import stability
+from formation_control.protocol import links, lockstep, messages, names
+from formation_control.protocol.fleet import FleetPlant
+from formation_control.protocol.names import START_TOPIC
+from formation_control.protocol.node_parameters import check_frames, PLANT
+from formation_control.protocol.onboard import needs_second_sensor
 from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
@@ -69,7 +71,7 @@ class PlantNode(Node):
         parameters.declare(self, runtime=False)
         parameters.reject_unknown(self, PLANT)
         check_frames(self.p)
-        self.frames = itf.Frames(self.p['world_frame'], self.p['base_frame'])
+        self.frames = names.Frames(self.p['world_frame'], self.p['base_frame'])
         self.sc = sc = parameters.current(self)
         for note in sc.warnings:
             self.get_logger().warn(note)
@@ -98,39 +100,40 @@ class PlantNode(Node):
 
     def _create_topics(self):
         sc, ids = self.sc, range(1, self.sc.num_vehicles + 1)
-        self.odom_pubs = [self.create_publisher(Odometry, itf.topic(k, 'odom'),
+        self.odom_pubs = [self.create_publisher(Odometry, names.topic(k, 'odom'),
                                                 **itf.state_qos_kwargs()) for k in ids]
         self.odom_wires = [itf.odom_wire(k, self.frames) for k in ids]
         self.cmd_wires = [itf.cmd_wire(k, self.frames) for k in ids]
-        self.cmd_subs = [self.create_subscription(WrenchStamped, itf.topic(k, 'cmd'),
+        self.cmd_subs = [self.create_subscription(WrenchStamped, names.topic(k, 'cmd'),
                                                   lambda data, k=k: self._on_cmd(k, data),
                                                   raw=True,
                                                   **itf.state_qos_kwargs()) for k in ids]
         if sc.flow_source == 'estimated':
             self.period_ns = round(sc.dt_control * 1e9)
-            self.state_wires = [itf.StateWire(k, () if sc.all_to_all else
-                                              sc.comm_graph.neighbours(k), self.frames, True)
+            self.state_wires = [messages.StateWire(k, () if sc.all_to_all else
+                                                   sc.comm_graph.neighbours(k), self.frames, True)
                                 for k in ids]
             for k in ids:
-                self.create_subscription(JointState, itf.topic(k, 'formation_state'),
+                self.create_subscription(JointState, names.topic(k, 'formation_state'),
                                          lambda data, k=k: self._on_state(k, data), raw=True,
                                          **itf.state_qos_kwargs())
         self.flow_pubs = self.water_pubs = None
         second = needs_second_sensor(sc)
         if sc.flow_source == 'known':
-            self.flow_pubs = [self.create_publisher(Vector3Stamped, itf.topic(k, 'flow'),
+            self.flow_pubs = [self.create_publisher(Vector3Stamped, names.topic(k, 'flow'),
                                                     itf.LATCHED_QOS) for k in ids]
             if second is None:
                 for k, pub in zip(ids, self.flow_pubs):
                     pub.publish(itf.flow_msg(k, 0, sc.flow_c, self.frames))
                 self.flow_pubs = None
         if second == 'water':
-            self.water_pubs = [self.create_publisher(TwistStamped, itf.topic(k, 'water_velocity'),
+            self.water_pubs = [self.create_publisher(TwistStamped,
+                                                     names.topic(k, 'water_velocity'),
                                                      **itf.state_qos_kwargs()) for k in ids]
         self.clock_pub = None
         if self.mode == 'lockstep':
-            self.clock_pub = self.create_publisher(Clock, itf.CLOCK_TOPIC, itf.LATCHED_QOS)
-        self.scenario_pub = self.create_publisher(String, itf.SCENARIO_TOPIC, itf.LATCHED_QOS)
+            self.clock_pub = self.create_publisher(Clock, names.CLOCK_TOPIC, itf.LATCHED_QOS)
+        self.scenario_pub = self.create_publisher(String, names.SCENARIO_TOPIC, itf.LATCHED_QOS)
         self.scenario_pub.publish(itf.scenario_msg(sc))
         self.diag_pub = common.diagnostics_publisher(self)
 
@@ -187,7 +190,7 @@ class PlantNode(Node):
             if self.water_pubs is not None:
                 self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, X[:, i],
                                                                   self.frames))
-            values = itf.odom_values(X[:, i], flow[i])
+            values = messages.odom_values(X[:, i], flow[i])
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
     def _on_state(self, k, data):
@@ -211,9 +214,9 @@ class PlantNode(Node):
             if msg.header.frame_id != self.frames.base(k):
                 return self.reject('wrong_frame', f"a command on vehicle {k}'s topic in frame "
                                    f'{msg.header.frame_id!r}')
-            got = itf.stamp_ns(msg.header.stamp), itf.input_from_cmd(msg, self.sc.model)
+            got = messages.stamp_ns(msg.header.stamp), messages.input_from_cmd(msg, self.sc.model)
         else:
-            got = got[0], itf.input_from_cmd_values(got[1], self.sc.model)
+            got = got[0], messages.input_from_cmd_values(got[1], self.sc.model)
         ns, u = got
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')

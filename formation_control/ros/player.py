@@ -23,7 +23,7 @@ bag's own is then not replayed: ``playback.Bag(..., skip=[CLOCK_TOPIC], namespac
 """
 import time
 
-from formation_control import playback
+from formation_control.bags import playback
 from formation_control.ros.bag import msg_class
 from rclpy.duration import Duration
 from rclpy.node import Node

@@ -22,7 +22,7 @@ import sys
 import tempfile
 
 from formation_control.core.scenario import ScenarioError
-from formation_control.security import check_environment
+from formation_control.ops.security import check_environment
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
@@ -79,7 +79,7 @@ def run(make_node, args=None):
     The nodes share one events executor until one is done, SIGINT or SIGTERM arrives or the
     context shuts down (exit code 0, or the ``exit_code`` of a node that is done); a bad
     scenario, or an environment that would open a TLS fleet to anyone
-    (:func:`~formation_control.security.check_environment`), exits 2 with the reason.
+    (:func:`~formation_control.ops.security.check_environment`), exits 2 with the reason.
     """
     unsafe = check_environment(os.environ)
     if unsafe:

@@ -25,9 +25,9 @@ import json
 import time
 
 from formation_control.core import scenario
+from formation_control.protocol import names
 from formation_control.ros import interface as itf
 from formation_control.ros.parameters import EMPTY_TYPES
-from formation_control.swarm import namespace_prefix
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from std_msgs.msg import String
@@ -100,9 +100,9 @@ class FleetTuner:
 
     def __init__(self, node, executor, namespace='/'):
         self.node, self.executor = node, executor
-        self.prefix = namespace_prefix(namespace)
+        self.prefix = names.namespace_prefix(namespace)
         self.announced = []
-        node.create_subscription(String, self.prefix + itf.SCENARIO_TOPIC,
+        node.create_subscription(String, self.prefix + names.SCENARIO_TOPIC,
                                  lambda msg: self.announced.append(msg.data), itf.LATCHED_QOS)
 
     def spin_until(self, predicate, timeout):
@@ -116,7 +116,7 @@ class FleetTuner:
         if not self.spin_until(lambda: self.announced, timeout):
             raise scenario.ScenarioError(
                 f'no fleet in namespace {self.prefix.rstrip("/") or "/"}: nothing on '
-                f'{self.prefix}{itf.SCENARIO_TOPIC} within {timeout:g} s (start one, or give '
+                f'{self.prefix}{names.SCENARIO_TOPIC} within {timeout:g} s (start one, or give '
                 f'--namespace)')
         return scenario.resolve(json.loads(self.announced[-1]))
 

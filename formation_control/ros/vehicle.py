@@ -33,12 +33,13 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core import links, lockstep, scenario
+from formation_control.core import scenario
 from formation_control.core.models import ROW_U, ROW_V
-from formation_control.core.neighbours import NeighbourTable
-from formation_control.core.node_parameters import check_frames, FRAMES, VEHICLE
-from formation_control.core.onboard import needs_second_sensor, Onboard, Pairing
 from formation_control.core.scenario import ScenarioError
+from formation_control.protocol import links, lockstep, messages, names
+from formation_control.protocol.neighbours import NeighbourTable
+from formation_control.protocol.node_parameters import check_frames, FRAMES, VEHICLE
+from formation_control.protocol.onboard import needs_second_sensor, Onboard, Pairing
 from formation_control.ros import common, interface as itf, parameters
 from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
@@ -83,7 +84,7 @@ class VehicleNode(Node):
         link = parameters.declare_links(self, LINK_PARAMETERS, sc.num_vehicles, vehicle_id)
         frames = parameters.declare_node(self, FRAMES)
         check_frames(frames, per_vehicle=False)
-        self.frames = itf.Frames(frames['world_frame'], frames['base_frame'])
+        self.frames = names.Frames(frames['world_frame'], frames['base_frame'])
         self.wall, self.now = common.wall_clock()
         self.born = self.now()
         self.neighbours = sc.comm_graph.neighbours(vehicle_id)
@@ -103,10 +104,10 @@ class VehicleNode(Node):
         self.hears = {j: () if sc.all_to_all else tuple(sc.comm_graph.neighbours(j))
                       for j in (*self.neighbours, vehicle_id)}
         self.estimates = sc.flow_source == 'estimated'
-        self.wires = {j: itf.StateWire(j, hears, self.frames, self.estimates)
+        self.wires = {j: messages.StateWire(j, hears, self.frames, self.estimates)
                       for j, hears in self.hears.items()}
         self.heard_rows = np.array([j - 1 for j in self.hears[vehicle_id]], int)
-        self.my_flag = {j: len(itf.STATE_FIELDS) + hears.index(vehicle_id)
+        self.my_flag = {j: len(messages.STATE_FIELDS) + hears.index(vehicle_id)
                         for j, hears in self.hears.items() if hears and j != vehicle_id}
         self._create_topics()
         self.add_on_set_parameters_callback(parameters.validator(self))
@@ -129,21 +130,21 @@ class VehicleNode(Node):
 
     def _create_topics(self):
         k, qos = self.k, itf.state_qos_kwargs
-        self.state_pub = self.create_publisher(JointState, itf.topic(k, 'formation_state'),
+        self.state_pub = self.create_publisher(JointState, names.topic(k, 'formation_state'),
                                                **qos())
-        self.cmd_pub = self.create_publisher(WrenchStamped, itf.topic(k, 'cmd'), **qos())
+        self.cmd_pub = self.create_publisher(WrenchStamped, names.topic(k, 'cmd'), **qos())
         self.odom_wire, self.cmd_wire = itf.odom_wire(k, self.frames), itf.cmd_wire(k, self.frames)
-        self.create_subscription(Odometry, itf.topic(k, 'odom'), self._on_odom, raw=True,
+        self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
         if self.sc.flow_source == 'known':
-            self.create_subscription(Vector3Stamped, itf.topic(k, 'flow'), self._on_flow,
+            self.create_subscription(Vector3Stamped, names.topic(k, 'flow'), self._on_flow,
                                      itf.LATCHED_QOS)
         if self.second == 'water':
-            self.create_subscription(TwistStamped, itf.topic(k, 'water_velocity'),
+            self.create_subscription(TwistStamped, names.topic(k, 'water_velocity'),
                                      self._on_water, **qos())
-        self.create_subscription(String, itf.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
+        self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
         for j in self.neighbours:
-            self.create_subscription(JointState, itf.topic(j, 'formation_state'),
+            self.create_subscription(JointState, names.topic(j, 'formation_state'),
                                      lambda data, j=j: self._on_state(j, data), raw=True,
                                      **qos())
         self.diag_pub = common.diagnostics_publisher(self)
@@ -175,7 +176,7 @@ class VehicleNode(Node):
             listed = '; '.join(f'{name} = {mine!r} here, {plant!r} at the plant'
                                for name, mine, plant in diffs)
             self.get_logger().error(f"refused: this vehicle's scenario differs from the "
-                                    f"plant's ({self.resolve_topic_name(itf.SCENARIO_TOPIC)}): "
+                                    f"plant's ({self.resolve_topic_name(names.SCENARIO_TOPIC)}): "
                                     f'{listed}')
             self.done, self.exit_code = True, 2
 
@@ -187,16 +188,16 @@ class VehicleNode(Node):
             return self.reject('wrong_frame', f'a flow in frame {msg.header.frame_id!r}')
         self.flow = flow
         if self.second == 'flow':
-            self._paired(self.pairing.add_other(itf.stamp_ns(msg.header.stamp), flow))
+            self._paired(self.pairing.add_other(messages.stamp_ns(msg.header.stamp), flow))
 
     def _on_water(self, msg):
         rel = (msg.twist.linear.x, msg.twist.linear.y)
         if not all(map(math.isfinite, rel)):
             return self.reject('non_finite', 'a non-finite water_velocity')
-        if msg.header.frame_id != itf.base_link(self.k):
+        if msg.header.frame_id != self.frames.base(self.k):
             return self.reject('wrong_frame', f'a water_velocity in frame '
                                f'{msg.header.frame_id!r}')
-        self._paired(self.pairing.add_other(itf.stamp_ns(msg.header.stamp), rel))
+        self._paired(self.pairing.add_other(messages.stamp_ns(msg.header.stamp), rel))
 
     def _paired(self, pair):
         if pair is not None:
@@ -216,7 +217,7 @@ class VehicleNode(Node):
             return self.reject('wrong_frame', f'an odometry in frames {msg.header.frame_id!r}'
                                f' -> {msg.child_frame_id!r} (expected {expected[0]!r} -> '
                                f'{expected[1]!r}: world_frame, base_frame)')
-        return itf.stamp_ns(msg.header.stamp), itf.odom_values_of(msg)
+        return messages.stamp_ns(msg.header.stamp), messages.odom_values_of(msg)
 
     def _on_odom(self, data):
         self.odom_in = time.perf_counter_ns()
@@ -232,7 +233,7 @@ class VehicleNode(Node):
     def _on_measurement(self, ns, values, other=None):
         """Take the odometry of stamp ns with the second sensor's value of the same stamp."""
         flow = other if self.second == 'flow' else self.flow
-        X = itf.state_from_odom_values(values, flow, self.sc.model)
+        X = messages.state_from_odom_values(values, flow, self.sc.model)
         if self.second == 'water':
             X[ROW_U], X[ROW_V] = other
         if not np.all(np.isfinite(X)):
@@ -243,13 +244,13 @@ class VehicleNode(Node):
                                f'the last one')
         if kind == lockstep.REPEATED:
             return self._answer_again()
-        row = self.onboard.observe(X, flow, itf.ground_velocity_of(values),
+        row = self.onboard.observe(X, flow, messages.ground_velocity_of(values),
                                    self.delay + self.tick_wait)
         self.known.store(self.k, ns, row)
         hearing = self.known.hearing()[self.heard_rows]
         self.last_state = self.wires[self.k].encode(
-            ns, itf.state_values(self.onboard.X[:, 0], row, hearing,
-                                 self.onboard.flow[0] if self.estimates else None))
+            ns, messages.state_values(self.onboard.X[:, 0], row, hearing,
+                                      self.onboard.flow[0] if self.estimates else None))
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
@@ -288,14 +289,14 @@ class VehicleNode(Node):
             kind = 'wrong_frame' if other is None else 'foreign_id'
             return self.reject(kind, f"a formation_state on vehicle {j}'s topic from "
                                f'{msg.header.frame_id!r}')
-        return itf.stamp_ns(msg.header.stamp), tuple(msg.position)
+        return messages.stamp_ns(msg.header.stamp), tuple(msg.position)
 
     def _deliver(self):
         for j, (ns, values) in self.inbox.due():
             self._accept(j, ns, values)
 
     def _accept(self, j, ns, values):
-        x, y, _, _, phase, rate, speed = values[:len(itf.STATE_FIELDS)]
+        x, y, _, _, phase, rate, speed = values[:len(messages.STATE_FIELDS)]
         flag = self.my_flag.get(j)
         hears_me = flag is None or values[flag] > 0.5
         if not self.known.hear(j, ns, (complex(x, y), phase, rate, speed), hears_me):
@@ -317,7 +318,7 @@ class VehicleNode(Node):
         if self.known.commanded_ns < 0:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.known.commanded()
-        self.last_cmd = self.cmd_wire.encode(ns, itf.cmd_values(u, self.sc.model))
+        self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
             own = time.perf_counter_ns() - self.odom_in
@@ -330,7 +331,7 @@ class VehicleNode(Node):
         if self.mode != 'lockstep':
             return
         if known.odom_ns < 0 and now - self.born > itf.STALL:
-            topic = self.resolve_topic_name(itf.topic(self.k, 'odom'))
+            topic = self.resolve_topic_name(names.topic(self.k, 'odom'))
             self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
                                    f'publishers matched)', throttle_duration_sec=5.0)
         elif known.odom_ns >= 0 and known.commanded_ns != known.odom_ns and \

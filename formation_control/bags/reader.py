@@ -1,0 +1,138 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Read a rosbag2 bag written by ``swarm --bag`` with the ``rosbags`` library.
+
+(Or by ``ros2 bag record`` of the same topics.) The run it holds, as the simulator's
+:class:`simulator.Run`, and the series of ``/formation/metrics`` and ``/diagnostics``.
+"""
+from collections import defaultdict
+import json
+
+from formation_control.core.flowfields import Flowfield
+from formation_control.core.models import ROW_OMEGA
+from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.protocol import names
+from formation_control.protocol.messages import input_from_cmd, stamp_ns, state_from_odom
+from formation_control.sim.simulator import Run
+import numpy as np
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
+
+
+def messages(path, topics):
+    """Yield (topic, message) for ``topics`` in a bag, in recorded order."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(path) as reader:
+        conns = [c for c in reader.connections if c.topic in topics]
+        if not conns:                                    # rosbags reads every topic then
+            return
+        for conn, _, data in reader.messages(connections=conns):
+            yield conn.topic, store.deserialize_cdr(data, conn.msgtype)
+
+
+def _stamp(msg):
+    return stamp_ns(msg.header.stamp)
+
+
+def fleet_prefix(path):
+    """Return the namespace of the fleet a bag holds, as a topic prefix ('/', '/fleet_a/')."""
+    with Reader(path) as reader:
+        for conn in reader.connections:
+            if conn.topic.endswith('/' + names.SCENARIO_TOPIC):
+                return conn.topic[:-len(names.SCENARIO_TOPIC)]
+    raise ScenarioError(f'{path}: the bag has no {names.SCENARIO_TOPIC} topic (the plant '
+                        f'publishes it; record that topic)')
+
+
+def _scenario(path, prefix):
+    for _, msg in messages(path, [prefix + names.SCENARIO_TOPIC]):
+        return resolve(json.loads(msg.data))
+    raise ScenarioError(f'{path}: the bag has no {names.SCENARIO_TOPIC} message (the plant '
+                        f'publishes it; record that topic)')
+
+
+def read_run(path):
+    """
+    Return the run a bag holds, sampled like the plant's record.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The bag directory; it must hold ``/formation/scenario``.
+
+    Returns
+    -------
+    simulator.Run
+        Every ``record_dt`` (and the last) of the steps at which every vehicle's odometry is
+        present, with each vehicle's latest command at that time.
+
+    Raises
+    ------
+    ScenarioError
+        No scenario, or no step with the odometry of every vehicle.
+
+    """
+    prefix = fleet_prefix(path)
+    sc = _scenario(path, prefix)
+    n = sc.num_vehicles
+    index = {prefix + names.topic(k, 'odom'): k - 1 for k in range(1, n + 1)}
+    cmd_index = {prefix + names.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
+    odom = defaultdict(dict)
+    cmds = [[] for _ in range(n)]
+    field = Flowfield(sc)
+    for topic, msg in messages(path, set(index) | set(cmd_index)):
+        if topic in index:
+            pos = msg.pose.pose.position
+            flow = complex(field(_stamp(msg) * 1e-9, pos.x, pos.y))    # lockstep stamps: t
+            odom[_stamp(msg)][index[topic]] = state_from_odom(msg, flow, sc.model)
+        else:
+            cmds[cmd_index[topic]].append((_stamp(msg), input_from_cmd(msg, sc.model)))
+    stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)
+    if stamps.size == 0:
+        raise ScenarioError(f'{path}: no step with the odometry of all {n} vehicles')
+    steps = np.rint((stamps - stamps[0]) * 1e-9 / sc.dt_control).astype(int)
+    keep = (steps % sc.record_every == 0) | (steps == steps[-1])
+    stamps, steps = stamps[keep], steps[keep]
+    X = np.array([np.column_stack([odom[s][k] for k in range(n)]) for s in stamps])
+    U = np.zeros((len(stamps), 2, n))
+    for k, seq in enumerate(cmds):
+        seq.sort(key=lambda item: item[0])
+        times = np.array([s for s, _ in seq], np.int64)
+        values = np.array([u for _, u in seq]).reshape(-1, 2)
+        at = np.searchsorted(times, stamps, side='right') - 1
+        U[at >= 0, :, k] = values[at[at >= 0]]
+    if sc.model == 'first_order':
+        X[:, ROW_OMEGA] = U[:, 1]
+    return Run(sc, steps * sc.dt_control, X, U, {'source': str(path)})
+
+
+def metrics(path):
+    """``formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array})."""
+    rows = [(_stamp(msg), dict(zip(msg.name, msg.position)))
+            for _, msg in messages(path, [fleet_prefix(path) + names.METRICS_TOPIC])]
+    fields = list(rows[0][1]) if rows else []
+    t = np.array([s for s, _ in rows], np.int64) * 1e-9
+    return t, {name: np.array([r.get(name, np.nan) for _, r in rows]) for name in fields}
+
+
+def diagnostics(path):
+    """``/diagnostics`` of a bag: a list of (stamp s, [(name, level, message, {key: value})])."""
+    out = []
+    for _, msg in messages(path, ['/diagnostics']):
+        out.append((_stamp(msg) * 1e-9,
+                    [(s.name, int(s.level), s.message, {v.key: v.value for v in s.values})
+                     for s in msg.status]))
+    return out

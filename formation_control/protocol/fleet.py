@@ -1,0 +1,133 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The plant's fleet: the sampled-data loop of the offline simulator driven command by command.
+
+The ``plant`` node holds each vehicle's latest command here, and :class:`FleetPlant` holds them
+over the integration steps (:class:`simulator.Stepper`), records every ``record_dt``
+(:class:`simulator.Recorder`) and stops a vehicle whose state turns non-finite: frozen at its
+last finite state, zero command, no more odometry; the others go on.
+:func:`stability.likely_cause` names why.
+"""
+from formation_control.core import stability
+from formation_control.sim.simulator import Recorder, Stepper
+import numpy as np
+
+
+class FleetPlant:
+    """
+    Held commands, integration and record of a scenario's fleet.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario (model, fleet size, periods, duration).
+
+    Attributes
+    ----------
+    n : int
+        Index of the control period under way (simulated time ``n * dt_control``).
+    pending : (2, N) float
+        The latest command of each vehicle, held from the next period boundary (or step).
+    stopped : (N,) bool
+        Vehicles stopped by a non-finite state.
+    estimates : dict of int to (N,) complex
+        The flow estimates the vehicles sent for each recorded step (NaN: not heard).
+
+    """
+
+    def __init__(self, sc):
+        self.sc = sc
+        self.stepper = Stepper(sc)
+        self.recorder = Recorder(sc)
+        self.n = 0
+        self.pending = np.zeros((2, sc.num_vehicles))
+        self.stopped = np.zeros(sc.num_vehicles, bool)
+        self.estimates = {}
+
+    @property
+    def X(self):
+        """(6, N) state of the fleet."""
+        return self.stepper.X
+
+    @property
+    def time(self):
+        """Return the simulated time of the period under way (s)."""
+        return self.n * self.sc.dt_control
+
+    def set_command(self, i, u):
+        """Hold ``u`` (2,) as vehicle index ``i``'s command from the next step on."""
+        self.pending[:, i] = u
+
+    def hold(self, off, boundary):
+        """
+        Hold the pending commands (zero for the vehicles ``off`` and the stopped ones).
+
+        At a period ``boundary`` the state and held command are recorded, and the run ends once
+        the last period is recorded.
+
+        Returns
+        -------
+        bool
+            False when the run is over (nothing more to integrate).
+
+        """
+        self.pending[:, np.asarray(off) | self.stopped] = 0.0
+        held = self.stepper.hold(self.pending)
+        if boundary:
+            self.recorder.record(self.n, self.stepper.X, held)
+            if self.n >= self.recorder.steps:
+                return False
+        return True
+
+    def integrate(self, steps=None):
+        """
+        Integrate one control period (or ``steps`` integration steps) with the held commands.
+
+        Returns
+        -------
+        (k,) int
+            Indices of the vehicles whose state diverged in this integration (non-finite or
+            exploding, :func:`stability.diverging`): they are stopped at their last state
+            before it.
+
+        """
+        before = self.stepper.X
+        with np.errstate(invalid='ignore', over='ignore'):  # a vehicle diverging
+            after = self.stepper.advance(steps)              # a new array
+        bad = stability.diverging(after) & ~self.stopped
+        self.stopped |= bad
+        after[:, self.stopped] = before[:, self.stopped]
+        return np.flatnonzero(bad)
+
+    def estimate(self, i, n, value):
+        """Keep the flow a vehicle estimates at step n (complex m/s); ``i`` is its index."""
+        if self.recorder.keeps(n):
+            blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
+            self.estimates.setdefault(n, blank)[i] = value
+
+    def run(self, meta):
+        """
+        Return the recorded :class:`simulator.Run`, with ``meta`` (mode, wall time, ...).
+
+        With the vehicles' flow estimates, its ``flow_hat`` holds them at the recorded steps.
+        """
+        run = self.recorder.run()
+        run.meta = meta
+        if self.estimates:
+            blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
+            run.flow_hat = np.array([self.estimates.get(int(round(t / self.sc.dt_control)),
+                                                        blank) for t in run.t])
+        return run

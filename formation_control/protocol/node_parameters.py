@@ -1,0 +1,170 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The parameters of the nodes themselves, beside the scenario's: one table per node.
+
+Each entry is ``name -> (default, scenario.Spec)``; the same table declares the node's ROS
+parameters (descriptor with unit and range, read-only) and writes the node section of
+``docs/parameters.md`` (:func:`markdown`). The offline simulator has none of these.
+"""
+import re
+
+from formation_control.core.scenario import ScenarioError, Spec
+from formation_control.protocol.links import PARAMETERS as LINKS
+from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
+
+MODES = ('lockstep', 'realtime')
+"""Time modes of the plant and the vehicles."""
+_FRAME = re.compile(r'[A-Za-z0-9_][A-Za-z0-9_/{}.-]*')
+
+FRAMES = {
+    'world_frame': (WORLD_FRAME, Spec('', 'frame of the poses, flows and markers (REP-105): '
+                                      'map, or e.g. odom from a navigation stack')),
+    'base_frame': (BASE_FRAME, Spec('', "each vehicle's body frame (odometry twist, commands, "
+                                    'formation states); {id} = the vehicle id',
+                                    rule='contains {id} on the plant')),
+}
+"""The frames every node of a fleet is given alike."""
+
+
+def check_frames(values, per_vehicle=True):
+    """
+    Refuse frame parameters that are not tf2 frame ids or that would be shared.
+
+    Parameters
+    ----------
+    values : dict
+        ``world_frame`` and ``base_frame`` (the :data:`FRAMES` entries).
+    per_vehicle : bool
+        The node handles several vehicles (the plant): ``base_frame`` must name each vehicle
+        with ``{id}``.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the parameter and what it must be.
+
+    """
+    for name in FRAMES:
+        value = values[name]
+        if not isinstance(value, str) or not _FRAME.fullmatch(value):
+            raise ScenarioError(f'parameter {name!r} = {value!r} is invalid: a frame id '
+                                f'(letters, digits, _ - . /; no leading /)')
+    if per_vehicle and '{id}' not in values['base_frame']:
+        raise ScenarioError(f"parameter 'base_frame' = {values['base_frame']!r} is invalid: "
+                            f'must contain {{id}}, one frame per vehicle')
+    if base_frame(values['base_frame'], 1) == values['world_frame']:
+        raise ScenarioError(f"parameter 'base_frame' = {values['base_frame']!r} is invalid: "
+                            f"must differ from world_frame {values['world_frame']!r}")
+
+
+_MODE = Spec('', 'time mode: lockstep (the plant owns /clock and waits for every command) or '
+             'realtime (wall-clock steps, the latest command held)', choices=MODES)
+
+PLANT = {
+    'mode': ('lockstep', _MODE),
+    'real_time_factor': (1.0, Spec('', 'realtime mode: simulated seconds per wall second',
+                                   low=0.01, high=1000.0)),
+    'record_path': ('', Spec('', 'write the run here as .npz (simulator layout) when it ends; '
+                             'empty = no record')),
+    'exit_when_done': (True, Spec('', 'exit once duration is simulated')),
+    'wait_for_start': (False, Spec('', 'hold step 0 until a std_msgs/Empty on '
+                                   '/formation/start (lets a recorder discover every topic '
+                                   'first)')),
+    'wait_for_fleet': (True, Spec('', 'realtime mode: hold t = 0 until every vehicle has a '
+                                  'writer on its command topic')),
+    'command_timeout': LINKS['command_timeout'],
+    **FRAMES,
+}
+"""``plant``."""
+
+VEHICLE = {
+    'vehicle_id': (0, Spec('', "this vehicle's id k (vehicle executable)",
+                           rule='1..num_vehicles')),
+    'vehicle_ids': ((), Spec('', 'the ids of the vehicle nodes of one process (vehicles '
+                             'executable)', rule='distinct ids in 1..num_vehicles')),
+    'mode': ('lockstep', _MODE),
+    **{name: LINKS[name] for name in LINKS if name != 'command_timeout'},
+    **FRAMES,
+}
+"""``vehicle`` and ``vehicles``; the link parameters are :data:`links.PARAMETERS`."""
+
+MONITOR = {
+    'period': (0.1, Spec('s', 'fleet time between metrics samples', low=0.0, high=3600.0)),
+    'stale_timeout': (2.0, Spec('s', 'wall seconds of silence before a stream is stale',
+                                low=0.01, high=3600.0)),
+    'converge_within': (60.0, Spec('s', 'fleet seconds after which a formation or vehicle that '
+                                   'has not converged is reported', low=0.0, high=1e6)),
+    'diagnostics_period': (1.0, Spec('s', 'wall seconds between /diagnostics', low=0.01,
+                                     high=60.0)),
+    'markers_period': (0.2, Spec('s', 'wall seconds between /formation/markers', low=0.01,
+                                 high=60.0)),
+    'trail_length': (300, Spec('', "points of each vehicle's trail marker", low=2,
+                               high=100_000)),
+    'foxglove_port': (0, Spec('', 'TCP port of the Foxglove live view (a Foxglove WebSocket '
+                              'server: scene, metrics, diagnostics); 0 = off', low=0,
+                              high=65535)),
+    'foxglove_host': ('127.0.0.1', Spec('', 'address the Foxglove live view listens on '
+                                        '(0.0.0.0: every interface)')),
+    'world_frame': FRAMES['world_frame'],
+}
+"""``monitor``."""
+
+NODES = {'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR}
+
+
+def _number(x):
+    return str(x) if isinstance(x, int) else f'{x:g}'
+
+
+def _range(spec):
+    parts = [' \\| '.join(spec.choices)] if spec.choices else []
+    if spec.low is not None:
+        parts.append(f'[{_number(spec.low)}, {_number(spec.high)}]' if spec.high is not None
+                     else f'>= {_number(spec.low)}')
+    if spec.rule:
+        parts.append(spec.rule)
+    return '; '.join(parts)
+
+
+def _shown(value):
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, str):
+        return f'`{value}`' if value else "''"
+    return str(list(value)) if isinstance(value, tuple) else str(value)
+
+
+def markdown():
+    """
+    Return the node section of docs/parameters.md: one table per node.
+
+    Returns
+    -------
+    str
+        Markdown, as ``formation-control params`` prints it after the scenario table.
+
+    """
+    out = ['', '# Node parameters', '',
+           'Set per node (`--ros-args -p name:=value`, or `swarm ... -p name:=value`), not in '
+           'the scenario;', 'all but `cut_links` are read-only once the node runs.', '']
+    for node, table in NODES.items():
+        out += [f'## `{node}`', '', '| name | default | unit | allowed | meaning |',
+                '|---|---|---|---|---|']
+        for name, (default, spec) in table.items():
+            out.append(f'| `{name}` | {_shown(default)} | {spec.unit} | {_range(spec)} | '
+                       f'{spec.text} |')
+        out.append('')
+    return '\n'.join(out)

@@ -1,0 +1,337 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Formation metrics of the thesis' analysis, and the convergence test.
+
+Order parameter |p|, circle centres, potentials, composite Lyapunov values, centre spread,
+radius, crab angles; the steady states the analysis predicts for rigid bodies.
+"""
+from dataclasses import dataclass
+
+from formation_control.core import laws
+from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
+import numpy as np
+
+ORDER_TOL = 0.999        # parallel: |p| above this
+RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
+SPREAD_TOL = 1e-2        # circular: max |c_k - mean(c)| below this (m)
+RADIUS_TOL = 1e-2        # circular: relative error of the mean radius
+PHASE_ORDERS = 8         # patterns: |p_m| reported for m = 1..min(floor(N/2), PHASE_ORDERS)
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """Formation quantities at one instant (SI units; nan where the scenario has no such value)."""
+
+    order: float           # |p| of the steered phase (1.10)
+    potential: float       # V of the formation (1.11), (1.14), (7.18)
+    lyapunov: float        # V_c = V + sum z^2 / 2 (2.10)
+    spread: float          # max_k |c_k - mean(c)| (m)
+    radius: float          # mean_k |r_k - mean(c)| (m)
+    max_rate: float        # max_k |phase rate| (rad/s)
+    centre: complex = complex(np.nan, np.nan)   # mean(c) (m)
+    speed_error: float = np.nan      # mean_k |u_k - u0| (m/s), rigid bodies (7.1)
+    crab: float = np.nan             # mean_k beta_k = atan2(v, u) (rad) (7.11)
+    crab_inertial: float = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
+    phase_orders: tuple = ()         # pattern: |p_m|, m = 1, 2, ... (Sepulchre et al. 2007)
+    min_separation: float = np.nan   # min_{j != k} |r_j - r_k| (m)
+
+    def values(self):
+        """
+        Return the named values for messages and reports, without those that do not apply.
+
+        Floats for one fleet; for a batch (:func:`snapshot` of (6, ..., N) states) arrays of
+        the batch's shape, without the values that apply to none of its fleets.
+        """
+        out = {'order_parameter': self.order, 'potential': self.potential,
+               'lyapunov': self.lyapunov, 'max_turn_rate': self.max_rate,
+               'centre_spread': self.spread, 'radius': self.radius,
+               'centre_x': self.centre.real, 'centre_y': self.centre.imag,
+               'speed_error': self.speed_error, 'crab_angle': self.crab,
+               'crab_angle_inertial': self.crab_inertial, 'min_separation': self.min_separation}
+        out.update({f'phase_order_{m}': v for m, v in enumerate(self.phase_orders, start=1)})
+        if np.ndim(self.order):
+            return {k: np.broadcast_to(v, np.shape(self.order)) for k, v in out.items()
+                    if not np.all(np.isnan(v))}
+        return {k: float(v) for k, v in out.items() if not np.isnan(v)}
+
+
+def snapshot(ctrl, X, inputs, t=0.0):
+    """
+    Return the formation metrics of the fleet at one instant.
+
+    Parameters
+    ----------
+    ctrl : control.Controller
+        The controller of the scenario (its formation law and view).
+    X : array_like, shape (6, N)
+        States of the whole fleet; or (6, ..., N), fleets of a batch or samples of a run.
+    inputs : array_like, shape (2, N)
+        Inputs held at that instant (the held steering force enters the full law's view);
+        (2, ..., N) with a batch.
+    t : float or array_like, optional
+        The time (s): the metrics are those of the true flow at each vehicle then; for samples
+        of a run, their times broadcast against ``X.shape[1:]`` (e.g. shape (T, 1)).
+
+    Returns
+    -------
+    Snapshot
+        Of floats; for a batch, of arrays of shape ``X.shape[1:-1]`` (one value per fleet),
+        computed with the same per-fleet reductions.
+        |p| (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max |phase rate|, the smallest
+        distance between two vehicles; circular: centre spread, mean radius and centre, with a
+        pattern the moments |p_m| (:func:`phase_orders`); rigid bodies: mean |u - u0| and mean
+        crab angles
+        (:func:`crab_angles`).
+
+    """
+    flow = ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+    view = ctrl.view(X, inputs[1], flow)
+    f = ctrl.formation
+    extra = {'min_separation': min_separation(view.r)}
+    nan = np.full(np.shape(view.r)[:-1], np.nan)
+    if isinstance(f, laws.Circular):
+        c = f.centres(view)
+        mean_c = c.mean(axis=-1, keepdims=True)
+        extra.update(spread=np.max(abs(c - mean_c), axis=-1),
+                     radius=np.mean(abs(view.r - mean_c), axis=-1), centre=mean_c[..., 0])
+        if f.pattern is not None:
+            extra['phase_orders'] = phase_orders(view.phase)
+    else:
+        extra.update(spread=nan, radius=nan)
+    if ctrl.rigid:
+        beta, beta_hat = crab_angles(X, flow)
+        extra.update(speed_error=np.mean(abs(X[ROW_U] - ctrl.sc.u0), axis=-1),
+                     crab=beta.mean(axis=-1), crab_inertial=beta_hat.mean(axis=-1))
+    extra.update(order=abs(view.e.mean(axis=-1)), potential=f.potential(view),
+                 lyapunov=laws.composite_lyapunov(f, view),
+                 max_rate=np.max(abs(view.rate), axis=-1))
+    if nan.ndim:
+        return Snapshot(**extra)
+    return Snapshot(**{k: complex(v) if k == 'centre' else v if k == 'phase_orders'
+                       else float(v) for k, v in extra.items()})
+
+
+def min_separation(r):
+    """Return the smallest distance between two of the positions r (..., N) complex (m), or nan."""
+    n = r.shape[-1]
+    if n < 2:
+        return np.full(r.shape[:-1], np.nan)[()]
+    d = abs(r[..., :, None] - r[..., None, :])
+    d[..., np.arange(n), np.arange(n)] = np.inf
+    return d.min(axis=(-2, -1))
+
+
+def phase_orders(phase):
+    """
+    Return the moduli of the phase moments of a symmetric pattern.
+
+    Parameters
+    ----------
+    phase : ndarray, shape (N,) or (..., N)
+        The steered phases (rad).
+
+    Returns
+    -------
+    tuple of float, or of arrays (one per fleet) for a batch
+        ``|p_m| = |sum_j e^{i m phase_j}| / (m N)`` for m = 1..min(floor(N/2), PHASE_ORDERS):
+        all 0 for the splay, ``|p_M| = 1/M`` and ``|p_m| = 0`` (m < M) for M clusters.
+
+    """
+    top = max(1, min(phase.shape[-1] // 2, PHASE_ORDERS))
+    orders = (abs(np.exp(1j * m * phase).mean(axis=-1)) / m for m in range(1, top + 1))
+    return tuple(laws._fleet(x) for x in orders)
+
+
+def converged(sc, snap):
+    """
+    Return whether the formation of the scenario is reached.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario (formation, omega0).
+    snap : Snapshot
+        The fleet's metrics.
+
+    Returns
+    -------
+    bool, or ndarray of bool for a batch's snapshot
+        Parallel: ``|p| > ORDER_TOL`` and every ``|phase rate| < RATE_TOL`` (rad/s); circular:
+        centre spread below SPREAD_TOL (m) and the mean radius within RADIUS_TOL of
+        ``1/|omega0|``.
+
+    """
+    if sc.formation == 'parallel':
+        return (snap.order > ORDER_TOL) & (snap.max_rate < RATE_TOL)
+    radius_error = abs(snap.radius * abs(sc.omega0) - 1.0)
+    return (snap.spread < SPREAD_TOL) & (radius_error < RADIUS_TOL)
+
+
+def vehicles_converged(ctrl, view):
+    """
+    Return whether each vehicle meets its own share of :func:`converged`.
+
+    Parameters
+    ----------
+    ctrl : control.Controller
+        The controller of the scenario.
+    view : laws.View
+        The fleet's view.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        Parallel: phase within ``acos(ORDER_TOL)`` of the mean phase and ``|rate| < RATE_TOL``;
+        circular: centre within SPREAD_TOL of the mean centre and radius within RADIUS_TOL.
+
+    """
+    f = ctrl.formation
+    if isinstance(f, laws.Circular):
+        c = f.centres(view)
+        radius_error = abs(abs(view.r - c.mean()) * abs(f.omega0) - 1.0)
+        return (abs(c - c.mean()) < SPREAD_TOL) & (radius_error < RADIUS_TOL)
+    p = view.e.mean()
+    aligned = np.cos(view.phase - np.angle(p)) > ORDER_TOL
+    return aligned & (abs(view.rate) < RATE_TOL)
+
+
+def convergence_time(t, flags):
+    """
+    Return the first time from which ``flags`` holds to the end.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Sample times (s).
+    flags : array_like of bool, shape (T,)
+        The convergence test at each sample.
+
+    Returns
+    -------
+    float or None
+        That time (s), or None when the last sample does not hold.
+
+    """
+    flags = np.asarray(flags, bool)
+    if flags.size == 0 or not flags[-1]:
+        return None
+    return float(convergence_times(t, flags[:, None])[0])
+
+
+def convergence_times(t, flags):
+    """
+    Return :func:`convergence_time` of each run of a batch.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Sample times (s), T >= 1.
+    flags : array_like of bool, shape (T, B)
+        The convergence test of each of B runs at each sample.
+
+    Returns
+    -------
+    ndarray, shape (B,)
+        The first time from which each run's flags hold to the end (s); NaN where the last
+        sample does not hold.
+
+    """
+    t, flags = np.asarray(t, float), np.asarray(flags, bool)
+    last_bad = flags.shape[0] - 1 - np.argmax(~flags[::-1], axis=0)   # the last False
+    since = np.where(np.all(flags, axis=0), 0, last_bad + 1)
+    return np.where(flags[-1], t[np.minimum(since, t.size - 1)], np.nan)
+
+
+def crab_angles(X, flow):
+    """
+    Return the crab angles of rigid bodies, relative to the flow and inertial.
+
+    Parameters
+    ----------
+    X : array_like, shape (6, ...)
+        States (rows of :mod:`models`).
+    flow : complex or array_like of complex, shape (N,)
+        The flow at each vehicle (m/s).
+
+    Returns
+    -------
+    beta, beta_hat : ndarray, shape ``X.shape[1:]``
+        ``beta = atan2(v, u)`` (7.11) and ``beta_hat = gamma - theta`` (8.1), the angle of the
+        ground velocity in the body frame (rad, in (-pi, pi]).
+
+    """
+    beta = np.arctan2(X[ROW_V], X[ROW_U])
+    beta_hat = np.angle(ground_velocity(X, flow) * np.exp(-1j * X[ROW_THETA]))
+    return beta, beta_hat
+
+
+def steady_turn(sc):
+    """
+    Return the steady turn of a rigid body on radius 1/|omega0|, (7.9)-(7.10) corrected.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A rigid-body scenario (u0, omega0, m0, h, l, l1, model, cancel_drag_moment).
+
+    Returns
+    -------
+    v0 : float
+        Sideslip ``-m0 u0 omega0 / h_eff`` (m/s): the body skids outward (errata: the thesis
+        prints +).
+    s0 : float
+        Speed ``u0 sqrt(1 + (m0 omega0 / h_eff)^2)`` (m/s) (errata: not the quartic root).
+    beta0 : float
+        Crab angle ``atan2(v0, u0)`` (rad).
+    yaw_rate : float
+        ``omega0 s0`` (rad/s).
+
+    Notes
+    -----
+    ``h_eff = h``, except for the centre-of-pressure model with its drag moment cancelled
+    (A.20): there the steady force ``F = -(l1/l) h s v`` adds to the drag,
+    ``h_eff = h (1 + l1/l)``.
+
+    """
+    h_eff = sc.h
+    if sc.model == 'rigid_cop' and sc.cancel_drag_moment:
+        h_eff = sc.h * (1.0 + sc.l1 / sc.l)
+    v0 = -sc.m0 * sc.u0 * sc.omega0 / h_eff
+    s0 = float(np.hypot(sc.u0, v0))
+    return v0, s0, float(np.arctan2(v0, sc.u0)), sc.omega0 * s0
+
+
+def parallel_flow_crab(sc, theta):
+    """
+    Return the steady inertial crab angle and ground speed of rigid parallel motion in flow.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A rigid-body scenario (u0, flow).
+    theta : array_like
+        Common heading (rad).
+
+    Returns
+    -------
+    beta_hat0, s_hat0 : ndarray, shape of ``theta``
+        ``atan2(<f, y_body>, u0 + <f, x_body>)`` (rad) and ``|u0 e^{i theta} + f|`` (m/s),
+        (8.17).
+
+    """
+    heading = np.exp(1j * np.asarray(theta))
+    f_body = sc.flow_c / heading
+    return np.arctan2(f_body.imag, sc.u0 + f_body.real), abs(sc.u0 * heading + sc.flow_c)

@@ -1,0 +1,194 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+What a run shows, whatever recorded it (offline simulator, the plant's ``.npz``, a bag).
+
+The series the figures draw, and the final values next to the steady state the thesis
+predicts.
+"""
+from formation_control.core.control import Controller
+from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
+                                           ROW_U, ROW_X, ROW_Y)
+from formation_control.sim import metrics
+from formation_control.sim.simulator import summary
+import numpy as np
+
+
+def series(run):
+    """
+    Return the per-sample data of the figures.
+
+    Parameters
+    ----------
+    run : simulator.Run
+        A recorded run of T samples of N vehicles.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``t`` (T,) s; ``x``, ``y`` (m), ``theta`` (rad), ``omega`` (rad/s), ``u`` (m/s), each
+        (T, N); ``ground`` (T, N) complex, the ground velocity (8.1) (m/s), and ``speed`` its
+        modulus; ``beta``, ``beta_hat`` (T, N), the crab angles (rad); ``lyapunov`` (T,) V_c
+        (2.10) and ``order`` (T,) |p| (1.10); with a symmetric pattern ``phase_orders``
+        (T, m) the moduli |p_m| (:func:`metrics.phase_orders`) and ``centre`` (T,) complex,
+        the mean circle centre (m).
+
+    """
+    ctrl = Controller(run.sc)
+    snaps = [metrics.snapshot(ctrl, X, inputs, t) for t, X, inputs in zip(run.t, run.X, run.U)]
+    X = run.X.transpose(1, 0, 2)
+    flow = np.array([ctrl.plant.flow(t, x, y) for t, x, y in zip(run.t, X[ROW_X], X[ROW_Y])])
+    beta, beta_hat = metrics.crab_angles(X, flow)
+    ground = ground_velocity(X, flow)
+    out = {'t': run.t, 'x': X[ROW_X], 'y': X[ROW_Y], 'theta': X[ROW_THETA],
+           'omega': X[ROW_OMEGA], 'u': X[ROW_U],
+           'ground': ground, 'speed': abs(ground), 'beta': beta, 'beta_hat': beta_hat,
+           'lyapunov': np.array([s.lyapunov for s in snaps]),
+           'order': np.array([s.order for s in snaps])}
+    if run.sc.pattern != 'none':
+        out['phase_orders'] = np.array([s.phase_orders for s in snaps])
+        out['centre'] = np.array([s.centre for s in snaps])
+    return out
+
+
+def pattern_groups(sc):
+    """Return the number of evenly spaced groups of the pattern: N (splay), M, or None."""
+    return {'splay': sc.num_vehicles, 'symmetric': sc.pattern_M}.get(sc.pattern)
+
+
+def pattern_text(sc):
+    """
+    Return the pattern the scenario predicts, in words.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A circular scenario (pattern, pattern_M, pattern_form, num_vehicles, omega0).
+
+    Returns
+    -------
+    str or None
+        E.g. ``splay: 12 vehicles 30 deg apart, chord 0.5176 m (moments)``; None without a
+        pattern.
+
+    """
+    groups = pattern_groups(sc)
+    if groups is None:
+        return None
+    form = 'slots' if sc.pattern_slots else 'moments'
+    if sc.pattern == 'splay':
+        chord = 2.0 * np.sin(np.pi / groups) / abs(sc.omega0)
+        return (f'splay: {groups} vehicles {360.0 / groups:.4g} deg apart, chord {chord:.4g} m '
+                f'({form})')
+    return (f'({groups}, {sc.num_vehicles}): {groups} clusters of {sc.num_vehicles // groups}, '
+            f'{360.0 / groups:.4g} deg apart ({form})')
+
+
+def predictions(sc, X):
+    """
+    Return the steady-state values the thesis' analysis predicts.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    X : array_like, shape (6, N)
+        The final state: it gives the common heading the crab angle (8.17) depends on.
+
+    Returns
+    -------
+    dict of str to (float, str)
+        Metric name (:meth:`metrics.Snapshot.values`) -> (predicted value, its source in the
+        thesis or the errata).
+
+    """
+    rigid = sc.model in RIGID_MODELS
+    still = sc.flow_c == 0
+    out = {'potential': (0.0, 'minimum of V'), 'lyapunov': (0.0, '(2.10) V_c -> 0')}
+    if sc.formation == 'parallel':
+        out['order_parameter'] = (1.0, '(1.11) V = (1 - |p|^2)/2 -> 0')
+        out['max_turn_rate'] = (0.0, 'synchronised straight motion')
+    else:
+        out['centre_spread'] = (0.0, '(1.14) common centre')
+        out['radius'] = (1.0 / abs(sc.omega0), 'radius 1/|omega0|')
+        if sc.informed:
+            out['centre_x'] = (sc.c0[0], '(7.17) centre -> c0')
+            out['centre_y'] = (sc.c0[1], '(7.17) centre -> c0')
+        if still:
+            rate = abs(sc.omega0) * (metrics.steady_turn(sc)[1] if rigid else 1.0)
+            out['max_turn_rate'] = (rate, '(7.9)-(7.10) yaw rate omega0 s0' if rigid
+                                    else 'turn rate omega0')
+    groups = pattern_groups(sc)
+    if groups is not None:
+        source = f'{sc.pattern} pattern, {groups} groups: |p_m| = 1/m if {groups} | m, else 0'
+        for m in range(1, len(metrics.phase_orders(np.zeros(sc.num_vehicles))) + 1):
+            out[f'phase_order_{m}'] = (1.0 / m if m % groups == 0 else 0.0, source)
+        chord = 2.0 * np.sin(np.pi / groups) / abs(sc.omega0)
+        out['min_separation'] = ((chord, 'splay: chord 2 sin(pi/N)/|omega0|')
+                                 if sc.pattern == 'splay'
+                                 else (0.0, 'the vehicles of a cluster coincide'))
+    if rigid:
+        out['speed_error'] = (0.0, '(7.1) u -> u0')
+        if sc.formation == 'circular' and still:
+            out['crab_angle'] = (metrics.steady_turn(sc)[2], '(7.9)-(7.10) corrected: beta0')
+        if sc.formation == 'parallel':
+            out['crab_angle'] = (0.0, 'straight motion: v -> 0')
+            crab = float(np.mean(metrics.parallel_flow_crab(sc, X[ROW_THETA])[0]))
+            out['crab_angle_inertial'] = (crab, '(8.17) at the final heading' if not still
+                                          else 'no flow: 0')
+    return out
+
+
+def report(run):
+    """
+    Return the report of a run.
+
+    Parameters
+    ----------
+    run : simulator.Run
+        A recorded run.
+
+    Returns
+    -------
+    summary : dict
+        :func:`simulator.summary`, with ``pattern`` (:func:`pattern_text`) when the scenario
+        has a symmetric pattern.
+    rows : list of (str, float, float or None, str)
+        For each final metric: its name, the measured value, the predicted one (None if the
+        analysis predicts none) and the source of the prediction.
+
+    """
+    out = summary(run)
+    if run.sc.pattern != 'none':
+        out = dict(out, pattern=pattern_text(run.sc))
+    final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1], run.t[-1]).values()
+    predicted = predictions(run.sc, run.X[-1])
+    rows = [(name, value, *predicted.get(name, (None, ''))) for name, value in final.items()]
+    return out, rows
+
+
+def format_report(title, out, rows):
+    """Return the text ``formation-control report`` prints of a report (:func:`report`)."""
+    time = out['convergence_time']
+    lines = [title,
+             f"  converged          {'yes' if out['converged'] else 'no'}"
+             + (f', from t = {time:.4g} s' if time is not None else ''),
+             f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
+    if out.get('pattern'):
+        lines.insert(2, f"  predicted pattern  {out['pattern']}")
+    for name, value, predicted, source in rows:
+        pred = '' if predicted is None else f'{predicted:12.6g}'
+        lines.append(f'  {name:20s} {value:12.6g} {pred:>12s}  {source}'.rstrip())
+    return '\n'.join(lines)

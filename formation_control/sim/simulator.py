@@ -1,0 +1,405 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Offline simulator: the sampled-data loop the ROS plant runs too.
+
+Each control period every vehicle's command is computed from the state at the start of the
+period, predicted to the middle of the hold (``hold_prediction``), and held while RK4 integrates
+the plant over ``dt_control / dt_integration`` steps. Each vehicle commands with the flow it has:
+the local flow at its place (``flow_source: known``) or its estimate (``estimated``,
+:mod:`estimation`), from what it measures at the period's start.
+"""
+from dataclasses import dataclass, field, replace
+import json
+
+from formation_control.core import stability
+from formation_control.core.control import Controller
+from formation_control.core.estimation import FlowEstimator, neighbour_mean
+from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
+                                           ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
+from formation_control.core.scenario import initial_state, resolve
+from formation_control.sim import metrics
+import numpy as np
+
+
+@dataclass
+class Run:
+    """
+    A recorded run.
+
+    Attributes
+    ----------
+    sc : scenario.Scenario
+        The scenario that ran.
+    t : ndarray, shape (T,)
+        Sample times (s) from the first step.
+    X : ndarray, shape (T, 6, N)
+        States at those times (rows of :mod:`models`).
+    U : ndarray, shape (T, 2, N)
+        Inputs held from those times on.
+    meta : dict
+        Where it came from (a bag's path, ...), saved as JSON.
+    flow_hat : ndarray of complex, shape (T, N), or None
+        The flow each vehicle commanded with (its known local flow or its estimate, m/s);
+        None where the record does not hold it (the plant node's: the estimates are the
+        vehicles').
+
+    """
+
+    sc: object
+    t: np.ndarray
+    X: np.ndarray
+    U: np.ndarray
+    meta: dict = field(default_factory=dict)
+    flow_hat: np.ndarray = None
+
+    def arrays(self):
+        """
+        Return the arrays of the ``.npz`` layout.
+
+        Returns
+        -------
+        dict of str to ndarray
+            t (T,); x, y, theta, omega, u, v (T, N); the held inputs, T and F (N) for rigid
+            bodies, ``command`` for particles (rad/s^2, or rad/s for first order);
+            ``flow_hat_x``, ``flow_hat_y`` (T, N) where recorded; ``params``, the scenario as
+            JSON, and ``meta``.
+
+        """
+        out = {'t': self.t, 'params': np.array(self.sc.to_json()),
+               'meta': np.array(json.dumps(self.meta))}
+        out.update({name: self.X[:, row] for row, name in enumerate(STATE_NAMES)})
+        if self.sc.model in RIGID_MODELS:
+            out['T'], out['F'] = self.U[:, 0], self.U[:, 1]
+        else:
+            out['command'] = self.U[:, 1]
+        if self.flow_hat is not None:
+            out['flow_hat_x'], out['flow_hat_y'] = self.flow_hat.real, self.flow_hat.imag
+        return out
+
+    def save(self, path):
+        """Write :meth:`arrays` to ``path`` (a compressed ``.npz``)."""
+        np.savez_compressed(path, **self.arrays())
+
+
+def load_run(path):
+    """
+    Read a run written by :meth:`Run.save` (the simulator or the plant node).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.npz`` file.
+
+    Returns
+    -------
+    Run
+        With its scenario validated again by :func:`scenario.resolve`.
+
+    """
+    with np.load(path) as d:
+        sc = resolve(json.loads(str(d['params'])))
+        X = np.stack([d[name] for name in STATE_NAMES], axis=1)
+        U = np.zeros((X.shape[0], 2, X.shape[2]))
+        if 'T' in d:
+            U[:, 0], U[:, 1] = d['T'], d['F']
+        else:
+            U[:, 1] = d['command']
+        meta = json.loads(str(d['meta'])) if 'meta' in d else {}
+        flow_hat = d['flow_hat_x'] + 1j * d['flow_hat_y'] if 'flow_hat_x' in d else None
+        return Run(sc, d['t'].copy(), X, U, meta, flow_hat)
+
+
+class Stepper:
+    """
+    The sampled-data loop, one control period at a time: ``command`` (or ``hold``), ``advance``.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    X0 : array_like, shape (6, N), optional
+        Initial state; :func:`scenario.initial_state` by default.
+
+    Attributes
+    ----------
+    X : ndarray, shape (6, N)
+        The fleet's current state.
+    U : ndarray, shape (2, N)
+        The inputs held over the current period.
+    flow_hat : complex or ndarray of complex, shape (N,)
+        The flow each vehicle commanded with at the last :meth:`command` (m/s).
+    steps : int
+        Integration steps taken: the state is at ``t = steps * dt_integration``.
+
+    """
+
+    def __init__(self, sc, X0=None):
+        self.sc = sc
+        self.ctrl = Controller(sc)
+        self.X = initial_state(sc) if X0 is None else np.array(X0, float)
+        self.U = np.zeros((2,) + self.X.shape[1:])
+        self.steps = 0
+        self.estimator = None
+        if sc.flow_source == 'estimated':
+            self.estimator = FlowEstimator(sc, self.X.shape[1:])
+        self.flow_hat = self.local_flow()
+
+    @property
+    def t(self):
+        """Return the time of the current state (s)."""
+        return self.steps * self.sc.dt_integration
+
+    def local_flow(self):
+        """Return the flow (N,) complex at each vehicle's place now (m/s)."""
+        return self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
+
+    def vehicles_flow(self):
+        """
+        Return the flow (N,) complex each vehicle uses now: known, or its updated estimate.
+
+        An estimating vehicle measures its ground velocity in the local flow and its own
+        velocity through it (:meth:`estimation.FlowEstimator.update`). A known uniform flow is
+        the complex number itself (the same for all, and cheapest).
+        """
+        field = self.ctrl.plant.flow
+        if self.estimator is None and field.uniform:
+            return field.value
+        flow = self.local_flow()
+        if self.estimator is None:
+            return flow
+        est = self.estimator
+        near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
+        return est.update(self.X, ground_velocity(self.X, flow), near).copy()
+
+    def hold(self, U):
+        """
+        Hold the inputs ``U`` (2, N) over the next period; return them as held.
+
+        The first-order turn rate is the state omega, so it is written into ``X`` too.
+        """
+        self.U = np.array(U, float)
+        if self.sc.model == 'first_order':
+            self.X[ROW_OMEGA] = self.U[1]
+        return self.U
+
+    def command(self):
+        """
+        Compute every vehicle's command, hold and return it (2, N).
+
+        It is computed for the state :meth:`control.Controller.predict` gives from the current
+        state, the inputs held so far and the flow each vehicle has, as each vehicle node
+        computes its own.
+        """
+        self.flow_hat = flow = self.vehicles_flow()
+        X = self.ctrl.predict(self.X, self.U, flow)
+        view = self.ctrl.view(X, self.U[1], flow)
+        return self.hold(self.ctrl.command(view, X, flow=flow))
+
+    def advance(self, steps=None):
+        """
+        Integrate one control period with the held inputs; return the new state (6, N).
+
+        ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
+        (the real-time plant advances one step per tick). A batch of fleets (6, B, N) takes
+        the plain RK4 formulas, vehicle by vehicle: the blocked path of :func:`models.integrate`
+        chooses its series per block, so a run's result would depend on the fleets that share
+        its batch; this way it equals the run alone, bit for bit.
+        """
+        sc, steps = self.sc, steps or self.sc.substeps
+        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
+                           plain=True if self.X.ndim > 2 else None)
+        self.steps += steps
+        return self.X
+
+
+class Recorder:
+    """
+    Keep the state and held inputs every ``record_dt``, and at the last step.
+
+    The simulator and the plant node record with it; step n is at ``n dt_control``, and a run
+    has ``sc.periods`` steps after step 0.
+    """
+
+    def __init__(self, sc):
+        self.sc = sc
+        self.steps = sc.periods
+        self.t, self.X, self.U, self.flow_hat = [], [], [], []
+
+    def keeps(self, n):
+        """Return whether step n is a recorded step."""
+        return n % self.sc.record_every == 0 or n == self.steps
+
+    def record(self, n, X, U, flow_hat=None):
+        """Record the state X (6, N), inputs U (2, N) and flows used of step n if recorded."""
+        if self.keeps(n):
+            self.t.append(n * self.sc.dt_control)
+            self.X.append(X.copy())
+            self.U.append(U.copy())
+            if flow_hat is not None:
+                self.flow_hat.append(np.broadcast_to(flow_hat, X.shape[1:]).copy())
+
+    def run(self):
+        """Return what was recorded as a :class:`Run`."""
+        flow_hat = np.array(self.flow_hat) if self.flow_hat else None
+        return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U),
+                   flow_hat=flow_hat)
+
+
+class Outcome:
+    """
+    Record only what a study keeps of each run of a batch: convergence and the final state.
+
+    Every ``record_dt`` and at the last step (the samples of :class:`Recorder`) it evaluates
+    :func:`metrics.converged` on :func:`metrics.snapshot` of each fleet, which are computed
+    per fleet; the states are not kept.
+
+    Attributes
+    ----------
+    t : ndarray, shape (T,)
+        Sample times (s).
+    flags : ndarray of bool, shape (T, B)
+        The convergence test of each fleet at each sample.
+    X, U : ndarray, shapes (6, B, N), (2, B, N)
+        The state and held inputs at the last step.
+    final : metrics.Snapshot
+        The metrics at the last step, arrays of shape (B,).
+
+    """
+
+    def __init__(self, sc):
+        self.sc = sc
+        self.steps = sc.periods
+        self.ctrl = Controller(sc)
+        self.t, self.flags = [], []
+
+    def record(self, n, X, U, flow_hat=None):
+        """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
+        if n % self.sc.record_every == 0 or n == self.steps:
+            t = n * self.sc.dt_control
+            self.final = metrics.snapshot(self.ctrl, X, U, t)
+            self.t.append(t)
+            self.flags.append(metrics.converged(self.sc, self.final))
+            self.X, self.U = X.copy(), U.copy()
+
+    def run(self):
+        """Return itself, with ``t`` and ``flags`` as arrays."""
+        self.t, self.flags = np.array(self.t), np.array(self.flags)
+        return self
+
+    def convergence_times(self):
+        """Return each fleet's :func:`metrics.convergence_times` (s; NaN if not), (B,)."""
+        return metrics.convergence_times(self.t, self.flags)
+
+
+def initial_states(sc, seeds):
+    """
+    Return the initial states of a batch of fleets, one per seed.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+    seeds : sequence of int
+        The seed of each fleet.
+
+    Returns
+    -------
+    ndarray, shape (6, B, N)
+        Fleet b is :func:`scenario.initial_state` of ``sc`` with seed ``seeds[b]``: a run's
+        start does not depend on the batch it is in.
+
+    """
+    return np.stack([initial_state(replace(sc, seed=int(s))) for s in seeds], axis=1)
+
+
+def simulate(sc, X0=None, recorder=None):
+    """
+    Run a scenario in the offline simulator.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario: ``duration`` seconds of control periods ``dt_control``, each integrated
+        by RK4 with ``dt_integration`` steps and the commands held.
+    X0 : array_like, shape (6, N), optional
+        Initial state; :func:`scenario.initial_state` by default. (6, B, N): a batch of B
+        independent fleets (:func:`initial_states`), each under its own means and sums
+        (:mod:`laws`), integrated together.
+    recorder : Recorder or Outcome, optional
+        What to keep; a :class:`Recorder` of ``sc`` by default.
+
+    Returns
+    -------
+    Run or Outcome
+        Samples every ``record_dt`` and at the end (a Run's X is (T, 6, B, N) for a batch).
+
+    Raises
+    ------
+    stability.DivergenceError
+        Once a vehicle's state diverges (:func:`stability.diverging`), naming the time, the
+        vehicle and the likely cause.
+
+    """
+    stepper = Stepper(sc, X0)
+    rec = Recorder(sc) if recorder is None else recorder
+    for n in range(rec.steps + 1):
+        U = stepper.command()
+        rec.record(n, stepper.X, U, stepper.flow_hat)
+        if n < rec.steps:
+            with np.errstate(over='ignore', invalid='ignore'):
+                stepper.advance()
+            bad = np.flatnonzero(stability.diverging(stepper.X))
+            if bad.size:
+                raise stability.divergence(sc, (n + 1) * sc.dt_control, bad[0], stepper.X)
+    return rec.run()
+
+
+def summary(run):
+    """
+    Return the convergence figures of a run.
+
+    Parameters
+    ----------
+    run : Run
+        A recorded run.
+
+    Returns
+    -------
+    dict
+        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end),
+        ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
+        ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
+        bodies: ``mean_u``, ``mean_v`` (m/s).
+
+    """
+    sc = run.sc
+    ctrl = Controller(sc)
+    samples = metrics.snapshot(ctrl, np.ascontiguousarray(np.moveaxis(run.X, 0, 1)),
+                               np.ascontiguousarray(np.moveaxis(run.U, 0, 1)), run.t[:, None])
+    flags = metrics.converged(sc, samples)
+    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
+    out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
+           'converged': bool(flags[-1]),
+           'convergence_time': metrics.convergence_time(run.t, flags),
+           'order_parameter': final.order, 'lyapunov': final.lyapunov,
+           'max_turn_rate': final.max_rate}
+    if sc.formation == 'circular':
+        out.update(centre_spread=final.spread, radius=final.radius,
+                   radius_target=1.0 / abs(sc.omega0))
+    if sc.model in RIGID_MODELS:
+        X = run.X[-1]
+        out.update(mean_u=float(X[ROW_U].mean()), mean_v=float(X[ROW_V].mean()))
+    return out

@@ -1,0 +1,78 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The Foxglove layout of a fleet, built with ``foxglove.layouts``.
+
+``foxglove/formation_control.json`` (installed to ``share/formation_control/foxglove/``) is
+what :func:`layout_json` returns for a fleet in ``/`` with the world frame ``map``
+(``formation-control layout`` prints it; a test checks the file is up to date). Left: a
+top-down 3D panel in the world frame with the live view's scene (``/formation/scene``) and the
+RViz markers of a bag (``/formation/markers``). Right: plots of |p|, V_c, the centre spread and
+the speed error, and the diagnostics. The topics are the absolute names a fleet's namespace
+gives (``formation-control layout --namespace /fleet_a``: ``/fleet_a/formation/metrics``).
+"""
+import json
+
+from formation_control.protocol import names
+from formation_control.protocol.node_parameters import WORLD_FRAME
+import foxglove.layouts as fl
+
+PLOTS = (('order_parameter', '|p| (order parameter)', 0.0, 1.0),
+         ('lyapunov', 'V_c (composite Lyapunov value)', 0.0, None),
+         ('centre_spread', 'centre spread (m), circular', 0.0, None),
+         ('speed_error', 'speed error (m/s), rigid bodies', 0.0, None))
+"""(metric, title, y min, y max) of each plot: metrics of :data:`interface.METRIC_DOC`."""
+
+
+def _plot(metrics, metric, title, low, high):
+    series = fl.PlotSeries(value=f'{metrics}.{metric}', label=metric,
+                           timestamp_method='receiveTime')
+    return fl.PlotPanel(title=title, config=fl.PlotConfig(
+        paths=[series], min_y_value=low, max_y_value=high, show_legend=False,
+        x_axis_val='timestamp'))
+
+
+def _scene_panel(prefix, frame):
+    camera = fl.ThreeDeeCameraState(perspective=False, distance=20.0, phi=0.0,
+                                    target=(0.0, 0.0, 0.0))
+    return fl.ThreeDeePanel(title=f'fleet ({frame})', config=fl.ThreeDeeConfig(
+        fixed_frame=frame, follow_tf=frame, follow_mode='follow-none', camera_state=camera,
+        topics={prefix + names.SCENE_TOPIC: fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+                prefix + names.MARKERS_TOPIC: fl.BaseRendererRosMarkerTopicSettings(
+                    visible=True)},
+        layers={'grid': fl.BaseRendererGridLayerSettings()}))
+
+
+def _column(items):
+    return fl.SplitContainer(direction='column', items=[
+        fl.SplitItem(proportion=1, content=item) for item in items])
+
+
+def layout(namespace='/', world_frame=WORLD_FRAME):
+    """Build the Foxglove layout of the fleet in ``namespace``: a ``foxglove.layouts.Layout``."""
+    prefix = names.namespace_prefix(namespace)
+    plots = [_plot(prefix + names.METRICS_TOPIC, *spec) for spec in PLOTS]
+    diagnostics = fl.DiagnosticsSummaryPanel(
+        title='diagnostics', config=fl.DiagnosticsSummaryConfig(
+            topic_to_render=names.DIAGNOSTICS_TOPIC, sort_by_level=True))
+    return fl.Layout(content=fl.SplitContainer(direction='row', items=[
+        fl.SplitItem(proportion=3, content=_scene_panel(prefix, world_frame)),
+        fl.SplitItem(proportion=2, content=_column(plots + [diagnostics]))]))
+
+
+def layout_json(namespace='/', world_frame=WORLD_FRAME):
+    """Return the layout as indented JSON (the defaults: ``foxglove/formation_control.json``)."""
+    return json.dumps(json.loads(layout(namespace, world_frame).to_json()), indent=2,
+                      sort_keys=True) + '\n'

@@ -1,0 +1,176 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The Foxglove live view's messages: a fleet as a ``foxglove.SceneUpdate``, its metrics as JSON.
+
+Pure functions of the monitor's arrays (no ROS): the same fleet the RViz markers show
+(:mod:`formation_control.ros.markers`), in the monitor's ``world_frame`` (default ``map``).
+One entity per vehicle (``vehicle_k``: heading arrow, ground-velocity arrow, trail, label),
+``centres`` (the circle centres c_k and the prescribed centre c0) and ``links`` (the live links
+of the graph).
+"""
+import cmath
+import math
+
+from formation_control.view import palette
+from foxglove.messages import (ArrowPrimitive, Color, CylinderPrimitive, KeyValuePair,
+                               LinePrimitive, LinePrimitiveLineType, Point3, Pose, Quaternion,
+                               SceneEntity, SceneUpdate, SpherePrimitive, TextPrimitive, Timestamp,
+                               Vector3)
+
+FRAME = 'map'
+HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
+    Color(r=r, g=g, b=b, a=a) for r, g, b, a in (
+        palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
+        palette.LINK, palette.LABEL))
+HEADING_LENGTH = 0.6
+"""Length of the heading arrows (m); the ground-velocity arrows are the velocity (m/s as m)."""
+
+
+def stamp(ns):
+    """Return the foxglove Timestamp of a time in ns."""
+    sec, nsec = divmod(int(ns), 1_000_000_000)
+    return Timestamp(sec, nsec)
+
+
+def _pose(z, angle=0.0):
+    return Pose(position=Vector3(x=float(z.real), y=float(z.imag), z=0.0),
+                orientation=Quaternion(x=0.0, y=0.0, z=math.sin(0.5 * angle),
+                                       w=math.cos(0.5 * angle)))
+
+
+def _point(z):
+    return Point3(x=float(z.real), y=float(z.imag), z=0.0)
+
+
+def _arrow(z, angle, length, color, width):
+    head = min(0.15, 0.3 * length)
+    return ArrowPrimitive(pose=_pose(z, angle), shaft_length=length - head,
+                          shaft_diameter=width, head_length=head, head_diameter=2.5 * width,
+                          color=color)
+
+
+def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=FRAME):
+    """
+    Return the SceneEntity ``vehicle_k``.
+
+    Parameters
+    ----------
+    ns : int
+        Stamp (ns).
+    k : int
+        Vehicle id.
+    position : complex
+        r_k (m, map).
+    heading : float
+        theta_k (rad).
+    ground_velocity : complex or None
+        Ground velocity (m/s); None: no arrow (no flow: it is the heading).
+    trail : sequence of complex
+        Recent positions (m), oldest first.
+    frame : str, optional
+        The world frame of the positions.
+
+    """
+    arrows = [_arrow(position, heading, HEADING_LENGTH, HEADING, 0.05)]
+    if ground_velocity is not None and abs(ground_velocity) > 0:
+        arrows.append(_arrow(position, cmath.phase(ground_velocity), abs(ground_velocity),
+                             VELOCITY, 0.03))
+    lines = [LinePrimitive(type=LinePrimitiveLineType.LineStrip, pose=_pose(0j),
+                           thickness=0.03, points=[_point(z) for z in trail], color=TRAIL)]
+    label = TextPrimitive(pose=_pose(position + 0.25j), billboard=True, font_size=14.0,
+                          scale_invariant=True, color=LABEL, text=str(k))
+    return SceneEntity(timestamp=stamp(ns), frame_id=frame, id=f'vehicle_{k}', arrows=arrows,
+                       lines=lines, texts=[label],
+                       metadata=[KeyValuePair(key='vehicle_id', value=str(k))])
+
+
+def centres_entity(ns, centres, target=None, frame=FRAME):
+    """Return the SceneEntity ``centres``: c_k as spheres, c0 (None: none) as a flat disc."""
+    size = Vector3(x=0.1, y=0.1, z=0.1)
+    spheres = [SpherePrimitive(pose=_pose(c), size=size, color=CENTRE) for c in centres]
+    cylinders = []
+    if target is not None:
+        disc = Vector3(x=0.25, y=0.25, z=0.02)
+        cylinders.append(CylinderPrimitive(pose=_pose(target), size=disc, bottom_scale=1.0,
+                                           top_scale=1.0, color=TARGET))
+    return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='centres', spheres=spheres,
+                       cylinders=cylinders)
+
+
+def links_entity(ns, positions, edges, frame=FRAME):
+    """Return the SceneEntity ``links``: one segment per live link (edges (L, 2), 0-based)."""
+    points = [_point(positions[i]) for edge in edges for i in edge]
+    line = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=_pose(0j), thickness=0.02,
+                         points=points, color=LINK)
+    return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='links', lines=[line])
+
+
+def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres=None,
+                target=None, frame=FRAME):
+    """
+    Return the SceneUpdate of a fleet: every vehicle, its live links, the circle centres.
+
+    Parameters
+    ----------
+    ns : int
+        Stamp (ns) of the state shown.
+    positions : array_like of complex, shape (N,)
+        r_k (m).
+    headings : array_like, shape (N,)
+        theta_k (rad).
+    ground_velocity : array_like of complex, shape (N,), or None
+        Ground velocities (m/s); None: no velocity arrows (no flow).
+    trails : sequence of N sequences of complex
+        Each vehicle's recent positions (m).
+    edges : array_like of int, shape (L, 2)
+        Live links, 0-based.
+    centres : array_like of complex, shape (N,), optional
+        Circular formations: c_k = r_k + i e^{i phase_k} / omega0 (m).
+    target : complex, optional
+        The prescribed centre c0 (m).
+    frame : str, optional
+        The world frame (the monitor's ``world_frame``).
+
+    Returns
+    -------
+    foxglove.messages.SceneUpdate
+
+    """
+    entities = [vehicle_entity(ns, i + 1, complex(positions[i]), float(headings[i]),
+                               None if ground_velocity is None else complex(ground_velocity[i]),
+                               trails[i], frame) for i in range(len(positions))]
+    entities.append(links_entity(ns, positions, edges, frame))
+    if centres is not None:
+        entities.append(centres_entity(ns, centres, target, frame))
+    return SceneUpdate(entities=entities)
+
+
+def metrics_schema(doc):
+    """Return the JSON schema of the metrics messages; ``doc``: {metric name: description}."""
+    properties = {'timestamp': {'type': 'object', 'title': 'time',
+                                'properties': {'sec': {'type': 'integer'},
+                                               'nsec': {'type': 'integer'}}}}
+    properties.update({name: {'type': ['number', 'null'], 'description': text}
+                       for name, text in doc.items()})
+    return {'type': 'object', 'title': 'formation_control.Metrics', 'properties': properties}
+
+
+def metrics_message(ns, values):
+    """Return a metrics sample as JSON: ``timestamp`` (sec, nsec) and each metric by name."""
+    sec, nsec = divmod(int(ns), 1_000_000_000)
+    out = {'timestamp': {'sec': sec, 'nsec': nsec}}
+    out.update({name: float(v) if math.isfinite(v) else None for name, v in values.items()})
+    return out

@@ -1,0 +1,62 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``colcon build`` (colcon from PyPI) produces the layout ``ros2 run`` and the ament index need.
+
+lib/formation_control/<exe>, share/formation_control/{package.xml, config/, launch/, rviz/}, the
+index marker.
+"""
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def install(colcon_install):
+    return colcon_install
+
+
+def test_installed_layout(install):
+    for exe in ('plant', 'vehicle', 'vehicles', 'monitor', 'recorder', 'formation-control'):
+        assert os.access(install / 'lib' / 'formation_control' / exe, os.X_OK), exe
+    share = install / 'share' / 'formation_control'
+    assert (share / 'package.xml').is_file()
+    shipped = sorted(p.name for p in (ROOT / 'config').glob('*.yaml'))
+    assert sorted(p.name for p in (share / 'config').glob('*.yaml')) == shipped
+    assert sorted(p.name for p in (share / 'launch').iterdir()) == ['fleet.launch.py',
+                                                                    'vehicle.launch.py']
+    assert (share / 'rviz' / 'formation.rviz').is_file()
+    assert (install / 'share' / 'ament_index' / 'resource_index' / 'packages'
+            / 'formation_control').is_file()
+
+
+def test_installed_console_script_finds_configs_through_the_ament_index(install, tmp_path):
+    site = next((install / 'lib').glob('python3*/site-packages'))
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(install), PYTHONPATH=str(site))
+    result = subprocess.run([str(install / 'lib' / 'formation_control' / 'formation-control'),
+                             'sim', 'rigid_parallel', '--duration', '1'], cwd=tmp_path, env=env,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert 'rigid_parallel: 5 vehicles' in result.stdout
+    probe = subprocess.run([sys.executable, '-c', 'import formation_control; '
+                            'print(formation_control.__file__)'], env=env, capture_output=True,
+                           cwd=tmp_path,
+                           text=True, timeout=60)
+    assert probe.stdout.startswith(str(site))

@@ -1,0 +1,210 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The Foxglove live view: the scene and metrics messages, the layout, the monitor's server.
+
+The server is read by a headless client of the Foxglove WebSocket protocol
+(:mod:`foxglove_client`), which decodes what it receives as the Foxglove app does.
+"""
+import cmath
+import json
+import math
+from pathlib import Path
+import socket
+
+from diagnostic_msgs.msg import DiagnosticArray
+from formation_control import cli
+from formation_control.core import scenario
+from formation_control.protocol import messages, names
+from formation_control.ros import interface as itf
+from formation_control.ros.monitor import MonitorNode
+from formation_control.view import layout, scene
+from foxglove.messages import SceneUpdate
+from foxglove_client import client, protobuf_class
+from nav_msgs.msg import Odometry
+import numpy as np
+import pytest
+from rclpy.serialization import deserialize_message
+from rosutil import CONFIG
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _decode(update):
+    schema = SceneUpdate.get_schema()
+    return protobuf_class(schema.name, schema.data).FromString(update.encode())
+
+
+def _xy(v):
+    return complex(v.x, v.y)
+
+
+def _yaw(q):
+    return 2 * math.atan2(q.z, q.w)
+
+
+def test_scene_shows_each_vehicle_its_velocity_trail_links_and_centres():
+    r = np.array([1 + 2j, -1 - 0.5j, 0.5j])
+    theta = np.array([0.3, 2.0, -1.0])
+    v = np.array([0.5 + 0.5j, -1.0 + 0j, 0j])
+    trails = [[0j, 1 + 2j], [-1 - 0.5j], [1j, 0.5j]]
+    centres = np.array([0.1 + 0j, 0.2j, -0.3 + 0j])
+    got = _decode(scene.fleet_scene(12_500_000_001, r, theta, v, trails, [[0, 1], [1, 2]],
+                                    centres, 1 - 2j))
+    by_id = {e.id: e for e in got.entities}
+    assert set(by_id) == {'vehicle_1', 'vehicle_2', 'vehicle_3', 'links', 'centres'}
+    for e in got.entities:
+        assert e.frame_id == 'map'
+        assert (e.timestamp.seconds, e.timestamp.nanos) == (12, 500_000_001)
+    for i in range(3):
+        e = by_id[f'vehicle_{i + 1}']
+        heading = e.arrows[0]
+        assert _xy(heading.pose.position) == pytest.approx(r[i])
+        assert _yaw(heading.pose.orientation) == pytest.approx(theta[i])
+        assert heading.shaft_length + heading.head_length == pytest.approx(scene.HEADING_LENGTH)
+        assert [_xy(p) for p in e.lines[0].points] == pytest.approx(trails[i])
+        assert e.texts[0].text == str(i + 1)
+        if v[i] == 0:
+            assert len(e.arrows) == 1
+            continue
+        velocity = e.arrows[1]                              # the tip is at r + v
+        tip = _xy(velocity.pose.position) + cmath.exp(1j * _yaw(velocity.pose.orientation)) * (
+            velocity.shaft_length + velocity.head_length)
+        assert tip == pytest.approx(r[i] + v[i])
+    link = by_id['links'].lines[0]
+    assert link.type == 2                                   # LINE_LIST: one segment per link
+    assert [_xy(p) for p in link.points] == pytest.approx([r[0], r[1], r[1], r[2]])
+    assert [_xy(s.pose.position) for s in by_id['centres'].spheres] == pytest.approx(centres)
+    (target,) = by_id['centres'].cylinders
+    assert _xy(target.pose.position) == 1 - 2j
+    without = _decode(scene.fleet_scene(0, r, theta, None, trails, []))
+    assert all(len(e.arrows) == 1 for e in without.entities if e.id.startswith('vehicle'))
+    assert 'centres' not in {e.id for e in without.entities}
+
+
+def test_metrics_message_is_json_with_every_metric_by_name():
+    msg = scene.metrics_message(3_000_000_007, {'order_parameter': 0.5, 'radius': math.nan})
+    assert json.loads(json.dumps(msg, allow_nan=False)) == {
+        'timestamp': {'sec': 3, 'nsec': 7}, 'order_parameter': 0.5, 'radius': None}
+    schema = scene.metrics_schema(messages.METRIC_DOC)
+    assert set(schema['properties']) == {'timestamp', *messages.METRIC_DOC}
+
+
+@pytest.mark.parametrize('namespace, frame', [('/', 'map'), ('fleet_a', 'odom')])
+def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
+        namespace, frame, tmp_path):
+    """The layout names the absolute channels of the fleet's namespace, in its world frame."""
+    prefix = '/' if namespace == '/' else f'/{namespace}/'
+    if namespace == '/':
+        assert (ROOT / 'foxglove' / 'formation_control.json').read_text() == layout.layout_json()
+    out = tmp_path / 'layout.json'
+    assert cli.main(['layout', '--namespace', namespace, '--world-frame', frame,
+                     '--out', str(out)]) == 0
+    text = json.loads(out.read_text())
+    panels = [item['content'] for item in text['content']['items'][1]['content']['items']]
+    paths = [p['value'] for panel in panels if panel['panelType'] == 'Plot'
+             for p in panel['config']['paths']]
+    assert paths == [f'{prefix}formation/metrics.{name}' for name in
+                     ('order_parameter', 'lyapunov', 'centre_spread', 'speed_error')]
+    assert all(path.split('.', 1)[1] in messages.METRIC_DOC for path in paths)
+    assert panels[-1]['panelType'] == 'DiagnosticsSummary'
+    assert panels[-1]['config']['topicToRender'] == '/diagnostics'
+    three_d = text['content']['items'][0]['content']
+    assert set(three_d['config']['topics']) == {f'{prefix}formation/scene',
+                                                f'{prefix}formation/markers'}
+    assert three_d['config']['followTf'] == frame
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+POSES = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0), 3: (0.0, -1.5, -2.5)}
+
+
+def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
+    """
+    A monitor with ``foxglove_port``: what a Foxglove client receives equals its topics.
+
+    The monitor is in the namespace ``/fleet_a`` with the world frame ``odom``: the channels
+    are its resolved names, the scene is in its frame.
+    """
+    sc = scenario.load(CONFIG / 'particle_circular.yaml', [], num_vehicles=3, c0=[1.0, -2.0],
+                       informed=[1])
+    port = _free_port()
+    nodes.add(MonitorNode(context=nodes.context, cli_args=[
+        '--ros-args', '-r', '__ns:=/fleet_a', '-p', 'period:=0.0', '-p', 'markers_period:=0.05',
+        '-p', 'diagnostics_period:=0.1', '-p', 'world_frame:=odom', '-p',
+        f'foxglove_port:={port}']))
+    scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
+    ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
+    with client(port) as fox:
+        topics = (scene_topic, metrics_topic, names.DIAGNOSTICS_TOPIC)
+        fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
+        assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
+        assert fox.channels[names.DIAGNOSTICS_TOPIC]['schemaEncoding'] == 'ros2msg'
+        fox.subscribe(topics)
+        node = nodes.node
+        node.create_publisher(String, '/fleet_a/formation/scenario', itf.LATCHED_QOS).publish(
+            itf.scenario_msg(sc))
+        odom = {k: node.create_publisher(Odometry, f'/fleet_a/vehicle_{k}/odom', itf.STATE_QOS)
+                for k in POSES}
+        assert nodes.spin_until(lambda: all(p.get_subscription_count() for p in odom.values()))
+        stamp = 4_200_000_000
+        frames = names.Frames('odom')
+        for k, (x, y, theta) in POSES.items():
+            odom[k].publish(itf.odom_msg(k, stamp, np.array([x, y, theta, 1.0, 1.0, 0.0]), 0j,
+                                         frames))
+        got = {}
+
+        def heard_all():
+            nodes.spin_until(lambda: True, timeout=0)
+            frame = fox.poll(timeout=0.02)
+            if frame is not None:
+                got.setdefault(frame[0]['topic'], []).append(frame[1:])
+            return ros_metrics and all(got.get(t) for t in topics)
+        assert nodes.spin_until(heard_all, timeout=20)
+    (log_time, live), = got[metrics_topic]
+    assert log_time == stamp == messages.stamp_ns(ros_metrics[0].header.stamp)
+    assert live.pop('timestamp') == {'sec': 4, 'nsec': 200_000_000}
+    assert live == dict(zip(ros_metrics[0].name, ros_metrics[0].position))
+    log_time, update = got[scene_topic][-1]
+    assert log_time == stamp
+    assert {e.frame_id for e in update.entities} == {'odom'}
+    by_id = {e.id: e for e in update.entities}
+    for k, (x, y, theta) in POSES.items():
+        heading = by_id[f'vehicle_{k}'].arrows[0]
+        assert _xy(heading.pose.position) == pytest.approx(complex(x, y))
+        assert _yaw(heading.pose.orientation) == pytest.approx(theta)
+    expected = [complex(x, y) + 1j * np.exp(1j * theta) / sc.omega0 for x, y, theta in
+                POSES.values()]
+    assert [_xy(s.pose.position) for s in by_id['centres'].spheres] == pytest.approx(expected)
+    assert _xy(by_id['centres'].cylinders[0].pose.position) == 1 - 2j
+    statuses = {s.name for _, data in got[names.DIAGNOSTICS_TOPIC]
+                for s in deserialize_message(data, DiagnosticArray).status}
+    assert 'fleet_a/formation_control/formation' in statuses         # /diagnostics: shared
+
+
+def test_foxglove_port_in_use_is_a_clear_error(nodes):
+    with socket.socket() as busy:
+        busy.bind(('127.0.0.1', 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(scenario.ScenarioError, match=f'foxglove_port {port}'):
+            nodes.monitor(f'foxglove_port:={port}')

@@ -1,0 +1,293 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A fleet as a ROS 2 user runs it: ``ros2 launch``, ``ros2 run``, ``ros2 topic|node|param``.
+
+The real Jazzy command line: the ``ros2`` of the venv (``make setup`` installs it from
+../shared/ros2-tools) or one on PATH (a Jazzy installation), on the package as ``colcon build``
+installs it (the session's workspace). Each ``ros2`` call costs 1-2 s of start-up, so the
+checks against one running fleet run in parallel batches.
+"""
+import os
+from pathlib import Path
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from formation_control.bags import reader as bagfile
+from formation_control.core import scenario
+from formation_control.protocol import messages, node_parameters
+from formation_control.ros import interface as itf
+from formation_control.ros.monitor import MonitorNode
+from formation_control.ros.plant import PlantNode
+from formation_control.ros.vehicle import VehicleNode
+from formation_control.sim import simulator
+import numpy as np
+import pytest
+from rosutil import CONFIG, domains, Probe, ros_environment, shm_clean
+from sensor_msgs.msg import JointState
+import yaml
+
+BIN = Path(sys.executable).parent
+ROS2 = str(BIN / 'ros2') if (BIN / 'ros2').exists() else shutil.which('ros2')
+pytestmark = pytest.mark.skipif(
+    ROS2 is None, reason='the ros2 command line is not installed: neither in the venv (make '
+    'setup installs it from ../shared/ros2-tools) nor on PATH (a ROS 2 Jazzy installation)')
+
+
+def _default_sigint():
+    signal.signal(signal.SIGINT, signal.SIG_DFL)          # a launcher that ignored it
+
+
+class Cli:
+    """``ros2`` commands in a private domain, on the colcon-installed package."""
+
+    def __init__(self, install, domain_id):
+        site = next((install / 'lib').glob('python3*/site-packages'))
+        env = ros_environment(domain_id)
+        env['AMENT_PREFIX_PATH'] = os.pathsep.join(
+            p for p in (str(install), env.get('AMENT_PREFIX_PATH', '')) if p)
+        env['PYTHONPATH'] = os.pathsep.join(p for p in (str(site), env.get('PYTHONPATH', '')) if p)
+        env['PATH'] = f'{BIN}{os.pathsep}{env["PATH"]}'
+        self.env, self.procs = env, []
+
+    def start(self, *args, log=None):
+        proc = subprocess.Popen([ROS2, *map(str, args)], env=self.env, text=True,
+                                stdout=log or subprocess.PIPE, stderr=subprocess.STDOUT,
+                                stdin=subprocess.DEVNULL, preexec_fn=_default_sigint)
+        self.procs.append(proc)
+        return proc
+
+    def launch(self, log, *args):
+        return self.start('launch', 'formation_control', 'fleet.launch.py', *args, log=log)
+
+    def many(self, *commands, timeout=60.0):
+        """
+        Run ``ros2`` commands at once; return their (exit code, output).
+
+        A command given as (seconds, args) runs until interrupted after ``seconds``.
+        """
+        started = []
+        for cmd in commands:
+            stop_after, args = cmd if isinstance(cmd[0], (int, float)) else (None, cmd)
+            started.append((stop_after, self.start(*args)))
+        t0, out = time.monotonic(), []
+        for stop_after, proc in started:
+            if stop_after is not None:
+                time.sleep(max(0.0, t0 + stop_after - time.monotonic()))
+                proc.send_signal(signal.SIGINT)
+            text, _ = proc.communicate(timeout=timeout)
+            out.append((proc.returncode, text))
+        return out
+
+    def stop_all(self):
+        for proc in self.procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in self.procs:
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+@pytest.fixture
+def cli(colcon_install):
+    with domains() as (did,):
+        made = Cli(colcon_install, did)
+        made.probe = Probe(did)
+        subprocess.run([ROS2, 'daemon', 'start'], env=made.env, capture_output=True, timeout=30)
+        try:
+            yield made
+        finally:
+            made.probe.close()
+            made.stop_all()
+            subprocess.run([ROS2, 'daemon', 'stop'], env=made.env, capture_output=True,
+                           timeout=30)
+            shm_clean(made.env)
+
+
+def _message(text):
+    """Return the first message ``ros2 topic echo`` printed (YAML before ``---``)."""
+    lines = [line for line in text.split('\n---')[0].splitlines()
+             if not line.startswith(('\t', 'A message was lost'))]          # QoS event notes
+    return yaml.safe_load('\n'.join(lines))
+
+
+def _children(pid):
+    path = Path(f'/proc/{pid}/task/{pid}/children')
+    return [int(c) for c in path.read_text().split()] if path.exists() else []
+
+
+def _dump(text):
+    (node, body), = yaml.safe_load(text).items()
+    return node, body['ros__parameters']
+
+
+def _flat(params, prefix=''):
+    out = {}
+    for key, value in params.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f'{prefix}{key}.'))
+        else:
+            out[prefix + key] = value
+    return out
+
+
+def _fresh_values(node_cls, dump_path, *args):
+    """Load a ``ros2 param dump`` into a fresh node (--params-file) and return its values."""
+    with domains() as (did,):
+        fresh = Probe(did)
+        try:
+            node = node_cls(*args, context=fresh.context, cli_args=[
+                '--ros-args', '-r', '__ns:=/fleet_a', '--params-file', str(dump_path)])
+            values = {name: p.value for name, p in node._parameters.items()}
+            node.destroy_node()
+            return values
+        finally:
+            fresh.close()
+
+
+def _launch(cli, path, *args):
+    with open(path, 'w') as log:
+        return cli.launch(log, *args)
+
+
+def _check_lockstep_fleet(launch, tmp_path, sc):
+    """fleet_b ran in fleet_a's domain and equals its offline run: it heard no other fleet."""
+    assert launch.wait(timeout=180) == 0, (tmp_path / 'fleet_b.log').read_text()
+    run = simulator.load_run(tmp_path / 'fleet_b.npz')
+    np.testing.assert_allclose(run.X, simulator.simulate(sc).X, atol=1e-6)
+    summary = simulator.summary(run)
+    assert summary['converged'] and summary['convergence_time'] < sc.duration, summary
+    recorded = bagfile.read_run(tmp_path / 'bag_b')          # the launch's record:=DIR
+    assert recorded.sc == run.sc and simulator.summary(recorded)['converged']
+    np.testing.assert_allclose(recorded.X[-1], run.X[-1], atol=1e-9)
+
+
+def _check_dump(tmp_path, rc, text):
+    """Every parameter is in the dump, and the dump loaded into a fresh node gives the same."""
+    tables = {'/fleet_a/plant': (PlantNode, (), node_parameters.PLANT),
+              '/fleet_a/vehicle_2': (VehicleNode, (2,), node_parameters.VEHICLE),
+              '/fleet_a/formation_monitor': (MonitorNode, (), node_parameters.MONITOR)}
+    assert rc == 0, text
+    name, params = _dump(text)
+    node_cls, args, table = tables[name]
+    values = _flat(params)
+    expected = set(table) - {'vehicle_ids'} | {'use_sim_time'}
+    if node_cls is not MonitorNode:
+        expected |= set(scenario.PARAMETER_NAMES)
+    assert expected <= set(values), expected - set(values)
+    if node_cls is VehicleNode:
+        assert (values['kappa'], values['K_f']) == (3.0, 2.0)           # formation-control set
+    path = tmp_path / f'{name.split("/")[-1]}.yaml'
+    path.write_text(text)
+    fresh = _fresh_values(node_cls, path, *args)
+    compared = [k for k in values if node_cls is not MonitorNode               # the monitor's
+                or not k.startswith('qos_overrides.')]              # come with the scenario
+    assert {k: fresh[k] for k in compared} == {k: values[k] for k in compared}, name
+
+
+def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path):
+    """
+    Two fleets in one domain, launched: fleet_a in real time, fleet_b in lockstep.
+
+    fleet_a is inspected and tuned with the CLI while both run, then stopped with SIGINT.
+    """
+    fleet_b = scenario.load(CONFIG / 'particle_parallel.yaml', ['num_vehicles:=3'],
+                            duration=8.0)
+    patient = tmp_path / 'patient.yaml'          # the CLI batch below loads the CPUs: no vehicle
+    patient.write_text(yaml.safe_dump({'/**': {'ros__parameters': {     # leaves while starved
+        'neighbor_timeout': 30.0, 'command_timeout': 60.0}}}))
+    launch_b = _launch(cli, tmp_path / 'fleet_b.log', 'scenario:=particle_parallel',
+                       'namespace:=fleet_b', 'num_vehicles:=3', 'duration:=8.0',
+                       f'params_file:={patient}', f'record_path:={tmp_path / "fleet_b.npz"}',
+                       f'record:={tmp_path / "bag_b"}')
+    launch = _launch(cli, tmp_path / 'launch.log', 'scenario:=rigid_parallel',
+                     'namespace:=fleet_a', 'num_vehicles:=4', 'mode:=realtime', 'duration:=600.0')
+    diagnostics = cli.probe.collect(DiagnosticArray, '/diagnostics', itf.STREAM_QOS)
+    metrics = cli.probe.collect(JointState, '/fleet_a/formation/metrics', itf.STREAM_QOS)
+    assert cli.probe.spin_until(lambda: metrics, 60), (tmp_path / 'launch.log').read_text()
+    set_ = subprocess.run([str(BIN / 'formation-control'), 'set', 'kappa:=3', 'K_f:=2',
+                           '--namespace', 'fleet_a'], env=cli.env, capture_output=True,
+                          text=True, timeout=60)
+    assert set_.returncode == 0, set_.stdout + set_.stderr
+    assert '4/4 vehicles took kappa = 3.0, K_f = 2.0' in set_.stdout
+    v = '/fleet_a/vehicle_1'
+    out = cli.many(
+        ['node', 'list'],
+        ['topic', 'echo', '--once', '/fleet_a/vehicle_2/odom'],
+        ['topic', 'echo', '--once', '/fleet_a/vehicle_2/formation_state'],
+        ['topic', 'echo', '--once', '/fleet_a/vehicle_3/cmd'],
+        ['topic', 'echo', '--once', '/fleet_a/formation/metrics'],
+        ['topic', 'info', '-v', '/fleet_a/vehicle_4/odom'],
+        ['param', 'dump', '/fleet_a/plant'],
+        ['param', 'dump', '/fleet_a/vehicle_2'],
+        ['param', 'dump', '/fleet_a/formation_monitor'],
+        ['param', 'set', '/fleet_a/plant', 'K', '5.0'],
+        ['param', 'set', v, 'K', '1.0'],
+        ['param', 'set', v, 'kappa', 'fast'],
+        ['param', 'set', v, 'kappa', '-2.0'],
+        ['run', 'formation_control', 'vehicle', '--ros-args', '--params-file',
+         CONFIG / 'rigid_parallel.yaml', '-p', 'vehicle_id:=9'],
+        ['launch', 'formation_control', 'vehicle.launch.py', 'scenario:=rigid_parralel'],
+    )
+    hz, = cli.many((8.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
+    (_, nodes), odom, state, cmd, metric, info, *dumps = out           # batch loads the CPUs
+    dumps, refusals, (run_rc, run_out), bad_launch = dumps[:3], dumps[3:7], dumps[7], dumps[8]
+    fleet = {'/fleet_a/plant', '/fleet_a/formation_monitor',
+             *(f'/fleet_a/vehicle_{k}' for k in range(1, 5))}
+    for _ in range(3):                  # the daemon's graph may lag behind under a load
+        if set(nodes.split()) >= fleet:
+            break
+        nodes = cli.many(['node', 'list'])[0][1]
+    assert set(nodes.split()) >= fleet, nodes
+    msg = _message(odom[1])
+    assert (msg['header']['frame_id'], msg['child_frame_id']) == ('map', 'vehicle_2/base_link')
+    assert _message(state[1])['name'] == list(messages.STATE_FIELDS)
+    assert _message(cmd[1])['header']['frame_id'] == 'vehicle_3/base_link'
+    assert 'order_parameter' in _message(metric[1])['name']
+    rates = [float(line.split()[-1]) for line in hz[1].splitlines()
+             if line.startswith('average rate')]
+    # 1 / dt_control, in one window at least: on a loaded machine some windows run slower
+    assert any(abs(rate - 50.0) < 10.0 for rate in rates), hz[1]
+    assert 'Node name: plant' in info[1] and 'Node namespace: /fleet_a' in info[1]
+    assert 'TRANSIENT_LOCAL' in info[1]
+    reasons = [text for _, text in refusals]
+    assert all('Setting parameter failed' in text for text in reasons), reasons
+    assert 'read-only' in reasons[0]
+    assert 'formation parallel needs K < 0' in reasons[1]
+    assert 'Wrong parameter type' in reasons[2]
+    assert 'kappa' in reasons[3]
+    assert run_rc == 2 and "parameter 'vehicle_id' = 9 is invalid" in run_out, run_out
+    assert bad_launch[0] != 0 and "scenario 'rigid_parralel' not found" in bad_launch[1]
+    for rc, text in dumps:
+        _check_dump(tmp_path, rc, text)
+    _check_lockstep_fleet(launch_b, tmp_path, fleet_b)
+    formation = 'fleet_a/formation_control/formation'                  # namespaced status
+    assert cli.probe.spin_until(lambda: any(
+        s.name == formation and s.message.startswith('converged in')
+        for m in diagnostics for s in m.status), 30)
+    assert launch.poll() is None
+    children = _children(launch.pid)
+    assert len(children) == 6                                   # plant, 4 vehicles, monitor
+    launch.send_signal(signal.SIGINT)
+    assert launch.wait(timeout=30) == 0
+    assert not [c for c in children if Path(f'/proc/{c}').exists()]
+    assert 'every vehicle took' in (tmp_path / 'launch.log').read_text()

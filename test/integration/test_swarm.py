@@ -1,0 +1,248 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Whole fleets as processes through ``formation-control swarm``.
+
+Lockstep runs equal the offline simulator (from the first step, so a few seconds show it; the
+lockstep swarm converging is in test_monitor), a real-time run converges, the bag holds the
+run, Ctrl-C stops every process.
+"""
+import json
+from pathlib import Path
+import re
+import signal
+
+from formation_control.core.scenario import resolve
+from formation_control.protocol import faults, messages, names
+from formation_control.sim import simulator
+import numpy as np
+import pytest
+from rosbags.highlevel import AnyReader
+from rosutil import CONFIG
+from runs import assert_equal_runs, offline_run
+import yaml
+
+
+def _swarm(ros, tmp_path, name, *args, timeout=300):
+    summary = tmp_path / 'summary.json'
+    result = ros.procs.run('formation-control', 'swarm', CONFIG / f'{name}.yaml', *args,
+                           '--summary', summary, timeout=timeout)
+    assert result.returncode == 0, result.stderr + result.stdout
+    return json.loads(summary.read_text()), result.stdout + result.stderr
+
+
+def test_lockstep_fleet_equals_the_offline_simulator(ros, tmp_path):
+    overrides = ['num_vehicles:=6', 'duration:=4.0']
+    args = [a for o in overrides for a in ('-p', o)]
+    out, stdout = _swarm(ros, tmp_path, 'particle_circular', *args)
+    assert out['real_time_factor'] > 0 and 'real_time_factor' in stdout
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    assert_equal_runs(fleet, offline_run(CONFIG / 'particle_circular.yaml', overrides))
+
+
+def test_lockstep_rigid_fleet_in_a_flow_equals_the_offline_simulator(nodes, tmp_path):
+    """The same protocol, the plant and the vehicle nodes in one process."""
+    cfg, overrides = CONFIG / 'rigid_parallel_flow.yaml', ['duration:=4.0']
+    assert_equal_runs(nodes.lockstep_run(cfg, tmp_path / 'run.npz', *overrides),
+                      offline_run(cfg, overrides))
+
+
+def test_realtime_fleet_converges(ros, tmp_path):
+    """rigid_parallel converges at 6.1 s, offline and in real time."""
+    out, _ = _swarm(ros, tmp_path, 'rigid_parallel', '--mode', 'realtime', '--duration', '12')
+    assert out['mode'] == 'realtime'
+    assert out['converged'], out
+    assert 0.5 < out['real_time_factor'] < 1.2
+
+
+def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
+    bag = tmp_path / 'bag'
+    out, _ = _swarm(ros, tmp_path, 'particle_parallel', '-p', 'num_vehicles:=3', '--duration',
+                    '2', '--bag', bag)
+    steps = int(round(2.0 / 0.02)) + 1
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['storage_identifier'] == 'mcap'
+    with AnyReader([bag]) as reader:
+        def raw(topic):
+            return [(reader.deserialize(data, c.msgtype), bytes(data)) for c, _, data
+                    in reader.messages([c for c in reader.connections if c.topic == topic])]
+
+        def read(topic):
+            return [m for m, _ in raw(topic)]
+        for k in (1, 2, 3):
+            for name in ('odom', 'cmd', 'formation_state'):
+                msgs, data = zip(*raw(f'/vehicle_{k}/{name}'))
+                stamps = [messages.stamp_ns(m.header.stamp) for m in msgs]
+                assert stamps == sorted(stamps)
+                assert sorted(set(stamps)) == [n * 20_000_000 for n in range(steps)]
+                for d, before, s, s_before in zip(data[1:], data, stamps[1:], stamps):
+                    assert s != s_before or d == before     # a step asked again, sent unchanged
+            assert len(read(f'/vehicle_{k}/flow')) == 1
+        odom = read('/vehicle_2/odom')
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    last = odom[-1]
+    assert last.header.stamp.sec == 2 and last.header.stamp.nanosec == 0
+    assert last.pose.pose.position.x == pytest.approx(fleet.X[-1, 0, 1], abs=1e-12)
+    assert last.child_frame_id == 'vehicle_2/base_link'
+
+
+def _fleet_pids(domain_id):
+    """Return the processes of this test's domain running the plant, a vehicle or the monitor."""
+    pids = []
+    for entry in Path('/proc').iterdir():
+        try:
+            environ = (entry / 'environ').read_bytes().split(b'\0')
+            cmdline = (entry / 'cmdline').read_bytes().split(b'\0')
+        except (OSError, ValueError):
+            continue
+        if (f'ROS_DOMAIN_ID={domain_id}'.encode() in environ
+                and any(arg.endswith((b'/plant', b'/vehicle', b'/monitor')) for arg in cmdline)):
+            pids.append(int(entry.name))
+    return pids
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
+    from geometry_msgs.msg import WrenchStamped
+
+    from formation_control.ros.interface import STATE_QOS
+    swarm = ros.procs.start('formation-control', 'swarm', CONFIG / 'particle_parallel.yaml',
+                            '-p', 'num_vehicles:=3', '--duration', '600')
+    cmds = ros.probe.collect(WrenchStamped, '/vehicle_3/cmd', STATE_QOS)
+    assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
+    fleet = _fleet_pids(ros.domain_id)
+    assert len(fleet) == 5
+    swarm.send_signal(sig)
+    code = swarm.wait(timeout=30)
+    swarm.log.seek(0)
+    assert code == 0, swarm.log.read()[-3000:]
+    assert not [pid for pid in fleet if Path(f'/proc/{pid}').exists()]
+
+
+def test_several_vehicle_nodes_per_process_equal_the_offline_simulator(ros, tmp_path):
+    overrides = ['num_vehicles:=6', 'duration:=2.0']
+    out, _ = _swarm(ros, tmp_path, 'particle_circular', '-p', overrides[0], '-p', overrides[1],
+                    '--vehicles-per-process', '4', '--no-monitor')
+    logs = sorted(p.name for p in Path(out['logs']).glob('*.log'))
+    assert logs == ['plant.log', 'vehicles_1-4.log', 'vehicles_5-6.log']
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    assert_equal_runs(fleet, offline_run(CONFIG / 'particle_circular.yaml', overrides))
+
+
+def test_a_recorded_fleet_keeps_a_deep_history_on_its_state_writers(tmp_path):
+    """A writer that matches the recorder late still resends step 0 (transient local)."""
+    from formation_control.protocol.fleet_plan import RECORDED_DEPTH, write_params
+    sc = resolve({'num_vehicles': 2})
+    plain = yaml.safe_load(Path(write_params(sc, tmp_path / 'a.yaml')).read_text())
+    recorded = yaml.safe_load(Path(write_params(sc, tmp_path / 'b.yaml', recorded=True))
+                              .read_text())
+    overrides = recorded['/**']['ros__parameters']['qos_overrides']
+    assert 'qos_overrides' not in plain['/**']['ros__parameters'] and RECORDED_DEPTH >= 100
+    assert overrides == {f'/vehicle_{k}/{name}': {'publisher': {'depth': RECORDED_DEPTH}}
+                         for k in (1, 2) for name in ('odom', 'formation_state', 'cmd')}
+
+
+FAULTS = ('kill:6@0.2', 'stop:2@1.5', 'cont:2@2.5', 'cut:1-3@3.5..8')
+
+
+def _statuses(bag, name):
+    """Return (bag time s, values) of every /diagnostics status ``name`` in the bag."""
+    out = []
+    with AnyReader([bag]) as reader:
+        for c, t, raw in reader.messages([c for c in reader.connections
+                                          if c.topic == '/diagnostics']):
+            for s in reader.deserialize(raw, c.msgtype).status:
+                if s.name == name:
+                    out.append((t * 1e-9, {v.key: v.value for v in s.values}))
+    return out
+
+
+def _faults_in(bag):
+    with AnyReader([bag]) as reader:
+        faults = [c for c in reader.connections if c.topic == '/' + names.FAULTS_TOPIC]
+        return [json.loads(reader.deserialize(raw, c.msgtype).data) for c, _, raw
+                in reader.messages(faults)]
+
+
+def test_swarm_survives_scripted_faults(ros, tmp_path):
+    """
+    Vehicle 6 killed before convergence, 2 frozen and resumed, the link 1-3 cut for 4.5 s.
+
+    The five converge without 6 (at about 7 s; not the six) and the swarm exits 0; each fault
+    is in the summary and the bag at its fleet time.
+    """
+    bag = tmp_path / 'bag'
+    args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05']
+    out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '20',
+                         '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
+    assert re.search(r'swarm: t = \d+\.\d\d s: kill vehicle 6 \(kill:6@0\.2\)', stderr)
+    assert re.search(r'swarm: t = \d+\.\d\d s: vehicle_6 exited with -9 \(SIGKILL\) \(fault '
+                     r'kill:6@0\.2\); the others carry on', stderr)
+    assert [f['fault'] for f in out['faults']] == [*FAULTS, FAULTS[3]]
+    applied = [f['applied'] for f in out['faults']]
+    # at the first fleet step the swarm sees at or after the time: later on a loaded machine
+    assert all(0 <= f['applied'] - f['scheduled'] < 2.0 for f in out['faults']), out['faults']
+    assert _faults_in(bag) == out['faults']
+    (lost,) = out['lost']
+    assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
+    assert 0.2 <= lost['time'] < 2.0                    # its death is seen a few steps later
+    assert out['survivors'] == [1, 2, 3, 4, 5]
+    assert out['survivors_converged'] and not out['converged']
+    assert 2.0 < out['survivors_convergence_time'] < 20.0         # after the kill at 0.2 s
+    run = simulator.load_run(Path(out['logs']) / 'run.npz')
+    commanded = np.any(run.U != 0.0, axis=1)                       # (T, N)
+    assert not commanded[run.t > lost['time'] + 0.1, 5].any()
+    frozen = (run.t > applied[1] + 0.2) & (run.t < applied[2])
+    assert not commanded[frozen, 1].any() and commanded[run.t > applied[2], 1].any()
+    for k, other in ((1, 3), (3, 1)):
+        log = (Path(out['logs']) / f'vehicle_{k}.log').read_text()
+        assert log.index(f'links cut: [{other}]') < log.index('links cut: []'), log
+        last = _statuses(bag, f'formation_control/vehicle_{k}/links')[-1][1]
+        assert int(last['dropped']) > 0 and str(other) not in last['gone_neighbours'], last
+
+
+def test_swarm_notes_dead_processes_restarts_them_and_applies_process_faults(tmp_path):
+    """The bookkeeping of :class:`Swarm` on stand-in processes (no ROS): fleet time is set."""
+    import sys
+
+    from formation_control.swarm import Swarm
+    sc = resolve({'num_vehicles': 3})
+    swarm = Swarm(sc, workdir=tmp_path, monitor=False, restart_dead=0.5)
+    sleeper = [sys.executable, '-c', 'import time; time.sleep(60)']
+    swarm.commands = [sleeper, [sys.executable, '-c', 'import sys; sys.exit(3)'], sleeper,
+                      sleeper]
+    with swarm:
+        swarm.t = 1.0
+        swarm.procs[1].wait(timeout=30)
+        swarm.check()
+        assert swarm.lost == [{'process': 'vehicle_1', 'vehicles': [1], 'time': 1.0, 'exit': 3,
+                               'cause': 'not scripted', 'restarted': None}]
+        swarm.t = 1.4
+        swarm.check()
+        assert swarm.lost[0]['restarted'] is None
+        swarm.commands[1] = sleeper                         # started again, it stays up
+        swarm.t = 1.5
+        swarm.check()
+        assert swarm.lost[0]['restarted'] == 1.5 and len(swarm.lost) == 1
+        for text in ('stop:2@1.5', 'kill:3@1.5'):
+            swarm.apply(faults.parse(text)[0])
+        swarm.procs[3].wait(timeout=30)
+        swarm.check()
+        assert swarm.lost[-1]['cause'] == 'fault kill:3@1.5' and swarm.lost[-1]['exit'] == -9
+        assert swarm.lost[-1]['restarted'] is None and not swarm.restarts   # scripted: no restart
+        assert 2 not in swarm.running_vehicles()
+        stopped = swarm.procs[2]
+    assert stopped.returncode is not None                  # a frozen process is stopped too
+    assert [f['fault'] for f in swarm.faults] == ['stop:2@1.5', 'kill:3@1.5']
