@@ -7,9 +7,9 @@ STAMP := $(VENV)/.installed
 # release upstream cannot change a fresh install or CI. Refreshed on purpose by `make upgrade`.
 CONSTRAINTS := constraints.txt
 # What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
-# (sweeps on a cluster; its tests run with a LocalCluster) and test/linter tools (setup.py's
-# extras).
-EXTRAS := .[ros,view,cluster,test]
+# (sweeps on a cluster; its tests run with a LocalCluster), test/linter tools and Sphinx for
+# the docs site (setup.py's extras).
+EXTRAS := .[ros,view,cluster,test,docs]
 # The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
 # into the venv when present, so that the tests with `ros2` run; without it they skip, unless
 # a ros2 of a Jazzy installation is on PATH.
@@ -17,7 +17,7 @@ ROS2_TOOLS ?= $(firstword $(wildcard ../shared/ros2-tools))
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
-.PHONY: setup upgrade demo test test-fast lint copyright bench clean
+.PHONY: setup upgrade demo test test-fast docs lint copyright bench clean
 
 setup: $(STAMP)
 
@@ -62,6 +62,12 @@ test: setup
 test-fast: setup
 	$(PY) -m pytest -q test/unit
 
+# The docs site (docs/: MyST pages and the API reference of core, protocol and sim from the
+# docstrings) in docs/_build/html; any warning (a broken reference, a docstring that does not
+# parse) fails the build.
+docs: setup
+	$(PY) -m sphinx -W --keep-going -n -q -b html docs docs/_build/html
+
 # The linters alone (flake8, pep257, copyright), as `colcon test` runs them.
 lint: setup
 	$(PY) -m pytest -q -m linter
@@ -90,4 +96,4 @@ bench: setup
 	$(PY) bench/sweep.py
 
 clean:
-	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png
+	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png docs/_build

@@ -23,8 +23,9 @@ package_name = 'formation_control'
 # The ROS packages themselves come with a ROS installation (apt, colcon); without one they are
 # the ros-jazzy-* wheels of the 'ros' extra. 'view' is the Foxglove live view (the monitor's
 # foxglove_port; no rosdep key, pip only). 'cluster' is Dask distributed, for sweeps on a
-# cluster (formation-control sweep --scheduler). 'test' adds the test and linter dependencies.
-# `make setup` installs '.[ros,view,cluster,test]' with the exact versions of constraints.txt.
+# cluster (formation-control sweep --scheduler). 'test' adds the test and linter dependencies,
+# 'docs' the Sphinx site (make docs). `make setup` installs '.[ros,view,cluster,test,docs]' with
+# the exact versions of constraints.txt.
 ros_requires = [
     'ros-jazzy-rclpy[fastrtps]',         # rclpy, rcl_interfaces, builtin_interfaces, rosgraph_msgs
     'ros-jazzy-ament-index-python',      # ament_index_python
@@ -52,6 +53,8 @@ test_requires = [
     'pydocstyle',
 ]
 
+docs_requires = ['sphinx', 'myst-parser', 'numpydoc']   # docs/conf.py, make docs
+
 setup(
     name=package_name,
     version='0.1.0',
@@ -66,7 +69,7 @@ setup(
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags', 'cryptography'],
     extras_require={'ros': ros_requires, 'view': view_requires, 'cluster': cluster_requires,
-                    'test': test_requires},
+                    'test': test_requires, 'docs': docs_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',

@@ -257,7 +257,7 @@ def command_limits(sc):
     Returns
     -------
     ndarray, shape (2,)
-        (|T|, |F|) bounds (N) for rigid bodies; (unused, turn input) for particles, rad/s^2
+        (``|T|``, ``|F|``) bounds (N) for rigid bodies; (unused, turn input) for particles, rad/s^2
         (second order) or rad/s (first order); inf where there is no limit.
 
     """
@@ -506,7 +506,7 @@ class Controller:
         ndarray, shape (2, n)
             Rigid bodies: thrust (7.1) and steering force (7.3), (8.11), (A.20) (N); particles:
             row 1 the body angular acceleration (5.4) (rad/s^2) or, first order, the turn rate
-            (5.1) (rad/s). Clipped to :attr:`limits`.
+            (5.1) (rad/s). Clipped to ``limits``.
 
         """
         sc = self.sc

@@ -37,7 +37,7 @@ from formation_control.core.models import position, RIGID_MODELS, ROW_THETA, ROW
 import numpy as np
 
 CLAMP = 0.95
-"""Largest |fhat| as a fraction of the vehicle's speed through the water."""
+"""Largest ``|fhat|`` as a fraction of the vehicle's speed through the water."""
 
 
 def relative_velocity(X):

@@ -217,7 +217,7 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     n : int
         Number of vehicles.
     graph : str
-        One of :data:`GRAPHS`.
+        One of ``GRAPHS``.
     offsets : sequence of int
         ``circulant``: vehicle k hears k +- d for each offset d (1 <= d < n/2).
     degree : float

@@ -236,7 +236,7 @@ class Moments:
 
     ``p_m = (1/(m N)) sum_j e^{i m phase_j}`` and ``U = sum_m K_m (N/2) (|p_m|^2 - d_m)``
     with ``d_m = 1/m^2`` where ``K_m < 0`` (so that U = 0 on the (M, N) pattern), else 0.
-    Splay (|p_m| = 0, m = 1..floor(N/2)): every K_m > 0; (M, N) pattern (M clusters of N/M):
+    Splay (``|p_m|`` = 0, m = 1..floor(N/2)): every K_m > 0; (M, N) pattern (M clusters of N/M):
     ``K_m > 0`` for m < M and ``K_M < 0``.
 
     Attributes

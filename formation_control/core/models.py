@@ -34,7 +34,7 @@ vehicle's own place and time (uniform and steady in the thesis). Particles keep 
 
 :func:`deriv` is the right-hand side and :func:`rk4_step` one classical RK4 step on it;
 :func:`integrate` takes the same steps, for large fleets in place on cache-sized blocks of
-vehicles with work rows reused by every stage and step (:func:`_rk4_block`), and agrees with
+vehicles with work rows reused by every stage and step (``_rk4_block``), and agrees with
 the plain formulas to rounding (test_rigid.py); in a flow that is not uniform, where every
 stage needs its own positions, it takes :func:`rk4_step`.
 """
@@ -69,7 +69,7 @@ class Plant:
     Attributes
     ----------
     model : str
-        One of :data:`MODELS`.
+        One of ``MODELS``.
     flow : flowfields.Flowfield
         The flow ``f(t, x, y) = fx + i fy`` (m/s); uniform and steady in the thesis.
     m0 : float
@@ -163,7 +163,7 @@ def body_accel(X, U, plant):
     U : array_like, shape (2, ...)
         Inputs: thrust T and steering force F (N).
     plant : Plant
-        A rigid-body model (``plant.model`` in :data:`RIGID_MODELS`).
+        A rigid-body model (``plant.model`` in ``RIGID_MODELS``).
 
     Returns
     -------
@@ -418,7 +418,7 @@ def integrate(X, U, dt, steps, plant, t=0.0, plain=None):
     Notes
     -----
     Fleets of fewer than PLAIN_BELOW vehicles, where the cost is per numpy call, take
-    :func:`rk4_step`. Larger ones take :func:`_rk4_block` (the same numbers to rounding,
+    :func:`rk4_step`. Larger ones take ``_rk4_block`` (the same numbers to rounding,
     several times faster) on blocks of BLOCK vehicles, which are independent over the period,
     so that each block's work rows stay in cache. With ``plain``, more than PLAIN_BLOCK
     vehicles take :func:`rk4_step` on blocks of PLAIN_BLOCK, for the same reason (each

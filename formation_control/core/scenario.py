@@ -40,9 +40,9 @@ LAW_VARIANTS = ('practical', 'full')
 PATTERNS = ('none', 'splay', 'symmetric')
 HOLD_PREDICTIONS = ('midpoint', 'none')
 PATTERN_GAIN = 0.5
-"""Default K_m (rad/s) of the symmetric patterns (README, "Symmetric patterns")."""
+"""Default K_m (rad/s) of the symmetric patterns (docs/laws.md, "Symmetric patterns")."""
 PATTERN_GAIN_M = 0.1
-"""Default |K_M| (rad/s): K_M = -0.1 gives (3, 12) from seeds 1-3 (-0.05 too, more slowly),
+"""Default ``|K_M|`` (rad/s): K_M = -0.1 gives (3, 12) from seeds 1-3 (-0.05 too, more slowly),
 -0.2 leaves unequal clusters from seed 2."""
 FLOW_SOURCES = ('known', 'estimated')
 FLOW_ESTIMATORS = ('filter', 'observer')

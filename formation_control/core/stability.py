@@ -21,7 +21,7 @@ Two steps can make a run diverge. RK4 integrates a decay of rate ``a`` stably on
 held over a control period closes a sampled loop: a loop of gain ``g`` (1/s) held over
 ``dt_control`` maps an error ``e`` to ``(1 - g dt_control) e``, stable only for
 ``g dt_control < HOLD_LIMIT``; the gains are the steering bandwidth (kappa (3.7), K_p (5.5),
-K_P (8.24), |K| of the first-order laws) and the thrust gain K_f (7.1). :func:`step_warnings`
+K_P (8.24), ``|K|`` of the first-order laws) and the thrust gain K_f (7.1). :func:`step_warnings`
 warns about a step beyond half its limit, :func:`diverging` finds the vehicles whose state is
 no longer finite or has exploded, :func:`divergence` names the likely cause.
 """

@@ -48,7 +48,7 @@ class Fault:
     Attributes
     ----------
     kind : str
-        One of :data:`PROCESS_KINDS` or :data:`LINK_KINDS`.
+        One of ``PROCESS_KINDS`` or :data:`LINK_KINDS`.
     vehicles : tuple of int
         The vehicle (process faults) or the two ends of the link (1-based ids).
     time : float
@@ -87,7 +87,7 @@ def parse(text):
     Raises
     ------
     ScenarioError
-        If the entry does not follow :data:`SYNTAX` or a cut ends before it starts.
+        If the entry does not follow ``SYNTAX`` or a cut ends before it starts.
 
     """
     entry = text.strip()

@@ -16,7 +16,7 @@
 Every topic, frame and namespace name of a fleet: the one place that normalises a namespace.
 
 Topic names are relative, so a fleet lives in the namespace of its nodes (``-r
-__ns:=/fleet_a``); only :data:`DIAGNOSTICS_TOPIC` is absolute. Frames follow REP-105: the
+__ns:=/fleet_a``); only ``DIAGNOSTICS_TOPIC`` is absolute. Frames follow REP-105: the
 ``world`` frame (default ``map``) and one base frame per vehicle (``vehicle_{id}/base_link``).
 """
 

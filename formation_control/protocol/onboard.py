@@ -82,7 +82,7 @@ class Onboard:
         The input it holds (its last command), which the prediction and the full law's view
         read.
     speed_dot : float
-        Its own s' (m/s^2) at :attr:`X`.
+        Its own s' (m/s^2) at ``X``.
     flow : (1,) complex
         The flow it commands with (m/s, map frame): the known local flow or its estimate.
     estimator : estimation.FlowEstimator or None
@@ -125,7 +125,7 @@ class Onboard:
         Returns
         -------
         tuple
-            ``(r, phase, rate, speed)`` of its particle view at :attr:`X` (complex m, rad,
+            ``(r, phase, rate, speed)`` of its particle view at ``X`` (complex m, rad,
             rad/s, m/s).
 
         """

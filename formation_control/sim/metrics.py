@@ -15,7 +15,7 @@
 """
 Formation metrics of the thesis' analysis, and the convergence test.
 
-Order parameter |p|, circle centres, potentials, composite Lyapunov values, centre spread,
+Order parameter ``|p|``, circle centres, potentials, composite Lyapunov values, centre spread,
 radius, crab angles; the steady states the analysis predicts for rigid bodies.
 """
 from dataclasses import dataclass
@@ -90,11 +90,10 @@ def snapshot(ctrl, X, inputs, t=0.0):
     Snapshot
         Of floats; for a batch, of arrays of shape ``X.shape[1:-1]`` (one value per fleet),
         computed with the same per-fleet reductions.
-        |p| (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max |phase rate|, the smallest
+        ``|p|`` (1.10), V (1.11), (1.14), (7.18), V_c (2.10), max ``|phase rate|``, the smallest
         distance between two vehicles; circular: centre spread, mean radius and centre, with a
-        pattern the moments |p_m| (:func:`phase_orders`); rigid bodies: mean |u - u0| and mean
-        crab angles
-        (:func:`crab_angles`).
+        pattern the moments ``|p_m|`` (:func:`phase_orders`); rigid bodies: mean ``|u - u0|``
+        and mean crab angles (:func:`crab_angles`).
 
     """
     flow = ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
@@ -280,7 +279,7 @@ def crab_angles(X, flow):
 
 def steady_turn(sc):
     """
-    Return the steady turn of a rigid body on radius 1/|omega0|, (7.9)-(7.10) corrected.
+    Return the steady turn of a rigid body on radius 1/``|omega0|``, (7.9)-(7.10) corrected.
 
     Parameters
     ----------

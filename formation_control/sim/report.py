@@ -41,8 +41,8 @@ def series(run):
         ``t`` (T,) s; ``x``, ``y`` (m), ``theta`` (rad), ``omega`` (rad/s), ``u`` (m/s), each
         (T, N); ``ground`` (T, N) complex, the ground velocity (8.1) (m/s), and ``speed`` its
         modulus; ``beta``, ``beta_hat`` (T, N), the crab angles (rad); ``lyapunov`` (T,) V_c
-        (2.10) and ``order`` (T,) |p| (1.10); with a symmetric pattern ``phase_orders``
-        (T, m) the moduli |p_m| (:func:`metrics.phase_orders`) and ``centre`` (T,) complex,
+        (2.10) and ``order`` (T,) ``|p|`` (1.10); with a symmetric pattern ``phase_orders``
+        (T, m) the moduli ``|p_m|`` (:func:`metrics.phase_orders`) and ``centre`` (T,) complex,
         the mean circle centre (m).
 
     """

@@ -19,7 +19,7 @@ The flowfield models against their formulas; each vehicle integrated in the flow
 place and time (closed-form trajectories); the estimator's error following ``exp(-lambda_f t)``
 along a closed-loop run (the cascade of docs/errata.md), the observer and consensus variants;
 the bound on the formation error in a slowly turning flow; the measured robustness in shear
-and vortex fields (README, "Flowfields"); bad inputs.
+and vortex fields (docs/laws.md, "Flowfields"); bad inputs.
 """
 from formation_control.core import estimation, flowfields, models, scenario
 from formation_control.core.control import Controller
@@ -262,7 +262,7 @@ def test_controller_refuses_to_guess_a_flow_that_is_not_uniform():
         ctrl.view(np.zeros((6, 2)))
 
 
-# --- robustness in shear and vortex fields (README, "Flowfields") -------------------------------
+# --- robustness in shear and vortex fields (docs/laws.md, "Flowfields") --------------------------
 
 FIELDS = {
     'shear': ('flow_model:=shear', 'flow_shear:=0.05', 'flow_shear_width:=5.0'),
@@ -306,7 +306,7 @@ def robustness(name, field, source, seconds=20.0):
 @pytest.mark.parametrize('name, field, source', list(ROBUSTNESS))
 def test_robustness_in_shear_and_vortex_fields(name, field, source):
     """
-    What the laws, made for a uniform flow, do in one that is not: the README's table.
+    What the laws, made for a uniform flow, do in one that is not: the table of docs/laws.md.
 
     The circle holds together to a few centimetres, its centre drifts (the vortex carries a
     rigid fleet at 3.4 cm/s), and the steady turn is kept to a few hundredths of a rad/s;
