@@ -115,9 +115,7 @@ def colcon_workspace(tmp_path_factory):
         '.venv', 'build', 'install', 'log', '*.egg-info', '__pycache__', '.git', '*.npz',
         '*.png', '.pytest_cache'))
     command = colcon_build_command(src, msgs=not MSGS_TOOLS)
-    prefix = str(Path(sys.executable).parents[1])
-    env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}',
-               CMAKE_PREFIX_PATH=prefix)
+    env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}')
     result = subprocess.run(command, cwd=ws, env=env, capture_output=True, text=True,
                             timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr
