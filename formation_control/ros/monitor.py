@@ -95,7 +95,7 @@ class MonitorNode(Node):
 
     @property
     def sc(self):
-        """The fleet's scenario, with the gains it agreed on (None: not heard yet)."""
+        """Return the fleet's scenario, with the gains it agreed on (None: not heard yet)."""
         return None if self.watch is None else self.watch.sc
 
     def _on_scenario(self, msg):
