@@ -61,19 +61,20 @@ class GainAgreement:
         self.vehicle_of = {f'{prefix}vehicle_{k}': k for k in range(1, sc.num_vehicles + 1)}
         self.held = {name: [_hashable(getattr(sc, name))] * sc.num_vehicles for name in RUNTIME}
 
-    def announce(self, node, changed):
+    def announce(self, node, changed, convert=None):
         """
         Note the parameters ``node`` announced ({name: value}); return those the fleet agrees on.
 
         The returned values ({name: value}, {} none) differ from the scenario's; :meth:`take`
-        makes them the scenario's.
+        makes them the scenario's. ``convert`` turns an announced value into a Python one; it
+        is called only for the run-time parameters of the fleet's vehicles.
         """
         k = self.vehicle_of.get(node)
         changed = {name: v for name, v in changed.items() if name in RUNTIME}
         if k is None or not changed:
             return {}
         for name, value in changed.items():
-            self.held[name][k - 1] = _hashable(value)
+            self.held[name][k - 1] = _hashable(value if convert is None else convert(value))
         return {name: values[0] for name, values in self.held.items()
                 if len(set(values)) == 1 and values[0] != _hashable(getattr(self.sc, name))}
 

@@ -114,7 +114,7 @@ class MonitorNode(Node):
         if self.watch is None:
             return
         agreed = self.watch.gains.announce(msg.node, {
-            p.name: parameter_value_to_python(p.value) for p in msg.changed_parameters})
+            p.name: p.value for p in msg.changed_parameters}, parameter_value_to_python)
         if not agreed:
             return
         try:

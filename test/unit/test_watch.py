@@ -78,6 +78,18 @@ def test_gains_of_other_nodes_and_read_only_parameters_are_ignored():
     assert gains.take({'c0': (1.0, 2.0)}).c0_c == 1 + 2j
 
 
+def test_only_the_run_time_values_of_the_fleets_vehicles_are_converted():
+    gains = watch.GainAgreement(_scenario(num_vehicles=1, kappa=2.0))
+    seen = []
+
+    def convert(text):
+        seen.append(text)
+        return float(text)
+    assert gains.announce('/plant', {'kappa': '1.5'}, convert) == {}
+    assert gains.announce('/vehicle_1', {'seed': 'x', 'kappa': '1.5'}, convert) == {'kappa': 1.5}
+    assert seen == ['1.5']
+
+
 def test_an_agreed_value_the_scenario_refuses_is_not_taken(clock):
     sc = _scenario(num_vehicles=1)
     w = _watch(sc, clock)
