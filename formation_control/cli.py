@@ -140,9 +140,6 @@ def cmd_swarm(args):
     stop = threading.Event()                         # SIGINT, SIGTERM: stop the fleet
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    if args.vehicles_per_process < 1:
-        raise scenario.ScenarioError(f'--vehicles-per-process {args.vehicles_per_process} is '
-                                     f'invalid: must be >= 1')
     if args.foxglove is not None and (args.no_monitor or not 0 < args.foxglove < 65536):
         raise scenario.ScenarioError(f'--foxglove {args.foxglove} is invalid: a TCP port in '
                                      f'1..65535, served by the monitor (not with --no-monitor)')

@@ -30,7 +30,7 @@ import time
 
 from formation_control.ops import security
 from formation_control.protocol import faults, names
-from formation_control.protocol.fleet_plan import write_params
+from formation_control.protocol.fleet_plan import FleetPlan, ros_arguments, write_params
 from formation_control.sim import simulator
 
 CLOCK_EVENTS = 8
@@ -101,9 +101,8 @@ class Swarm:
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
                  env=None, monitor_params=(), restart_dead=None, namespace='/', secure=None,
                  stop=None):
-        if secure is not None and per_process != 1:
-            raise security.SecurityError(f'--vehicles-per-process {per_process} with --secure: '
-                                         f'a member of a TLS fleet is one process, 1 only')
+        plan = FleetPlan(sc.num_vehicles, mode, per_process, namespace, secure is not None,
+                         wait_for_start)
         self.sc, self.mode = sc, mode
         self.place = place or (lambda name: [])
         self.stop = stop
@@ -111,36 +110,23 @@ class Swarm:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
         params = write_params(sc, self.dir / 'scenario.yaml', wait_for_start, namespace)
-        self.prefix = prefix = names.namespace_prefix(namespace)
+        self.prefix = prefix = plan.prefix
         remap = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
-        common = ['--ros-args', *remap, '--params-file', params, '-p', f'mode:={mode}']
-        for p in node_params:
-            common += ['-p', p]
-        self.commands = [[executable('plant'), *common, '-p', f'record_path:={self.record}',
-                          '-p', f'real_time_factor:={float(real_time_factor)}',
-                          '-p', f'wait_for_start:={str(wait_for_start).lower()}']]
-        self.logs = ['plant.log']
-        self.members = [()]
-        ids = list(range(1, sc.num_vehicles + 1))
-        for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
-            if per_process == 1:
-                self.commands.append([executable('vehicle'), *common, '-p',
-                                      f'vehicle_id:={group[0]}'])
-                self.logs.append(f'vehicle_{group[0]}.log')
-            else:
-                self.commands.append([executable('vehicles'), *common, '-p',
-                                      f'vehicle_ids:={group}'])
-                self.logs.append(f'vehicles_{group[0]}-{group[-1]}.log')
-            self.members.append(tuple(group))
+        fleet = ['--params-file', params, *ros_arguments(plan.common),
+                 *(a for p in node_params for a in ('-p', p))]
+        world = dict(p.split(':=', 1) for p in node_params if p.startswith('world_frame:='))
+        processes = [plan.plant(record_path=self.record,
+                                real_time_factor=float(real_time_factor)), *plan.vehicles()]
         if monitor:
-            world = [a for p in node_params if p.startswith('world_frame:=') for a in ('-p', p)]
-            self.commands.append([executable('monitor'), '--ros-args', *remap,
-                                  '-r', f'/clock:={prefix}clock', *world, '-p',
-                                  f'use_sim_time:={str(mode == "lockstep").lower()}',
-                                  *(a for p in monitor_params for a in ('-p', p))])
-            self.logs.append('monitor.log')
-            self.members.append(())
-        self.names = [log[:-4] for log in self.logs]
+            processes.append(plan.monitor(**world))
+        self.commands = [
+            [executable(p.executable), '--ros-args', *remap, *(fleet if p.fleet else []),
+             *(['-r', ':='.join(plan.clock)] if p.clock else []), *ros_arguments(p.parameters),
+             *(a for m in monitor_params for a in ('-p', m) if p.name == 'monitor')]
+            for p in processes]
+        self.logs = [f'{p.name}.log' for p in processes]
+        self.members = [p.vehicles for p in processes]
+        self.names = [p.name for p in processes]
         base = os.environ if env is None else env
         self.envs = {name: env if secure is None else security.member_env(secure, name, base)
                      for name in self.names}

@@ -12,9 +12,19 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The processes of a fleet and the parameters they are given (``swarm``, the launch files)."""
-from pathlib import Path
+"""
+The processes of a fleet and the parameters they are given (``swarm``, the launch files).
 
+A :class:`FleetPlan` describes a fleet once: its plant, its vehicle processes (one vehicle
+each, or groups of ``per_process`` in ``vehicles`` processes), its monitor and bag recorder,
+which of them take the scenario's parameter file, which follow the fleet's ``/clock``
+(``use_sim_time`` in lockstep) and the member of a TLS fleet each runs as. ``swarm`` turns it
+into command lines, ``fleet.launch.py`` into launch Nodes.
+"""
+from pathlib import Path
+from typing import NamedTuple
+
+from formation_control.core.errors import ScenarioError
 from formation_control.protocol import names
 import yaml
 
@@ -45,3 +55,135 @@ def write_params(sc, path, recorded=False, namespace='/'):
             for k in range(1, sc.num_vehicles + 1) for name in RECORDED_TOPICS}
     Path(path).write_text(yaml.safe_dump({'/**': {'ros__parameters': values}}))
     return str(path)
+
+
+SWARM_LABELS = ('--vehicles-per-process', '--secure')
+"""How ``formation-control swarm`` spells ``per_process`` and ``secure`` (in errors)."""
+LAUNCH_LABELS = ('vehicles_per_process', 'secure')
+"""How ``fleet.launch.py`` spells them."""
+
+
+class Process(NamedTuple):
+    """
+    One process of a fleet.
+
+    Attributes
+    ----------
+    name : str
+        ``plant``, ``vehicle_3``, ``vehicles_1-4``, ``monitor`` or ``recorder``: the name of
+        its log and, but for the recorder (``swarm``), of its member of a TLS fleet.
+    executable : str
+        The console script (``ros2 run formation_control <executable>``).
+    vehicles : tuple of int
+        The vehicles it runs.
+    parameters : dict
+        Its own parameters, given after the fleet's.
+    fleet : bool
+        It takes the scenario's parameter file and :attr:`FleetPlan.common`.
+    clock : bool
+        Its ``/clock`` is remapped to the fleet's (:attr:`FleetPlan.clock`).
+
+    """
+
+    name: str
+    executable: str
+    vehicles: tuple = ()
+    parameters: dict = {}
+    fleet: bool = True
+    clock: bool = False
+
+    @property
+    def member(self):
+        """Return the member of a TLS fleet the process runs as."""
+        return 'swarm' if self.name == 'recorder' else self.name
+
+
+def _count(value, label):
+    """Return ``value`` (an int or its digits) as an int >= 1."""
+    number = int(value) if isinstance(value, str) and value.isdigit() else value
+    if isinstance(number, bool) or not isinstance(number, int) or number < 1:
+        raise ScenarioError(f'{label} {value!r} is invalid: an integer >= 1')
+    return number
+
+
+class FleetPlan:
+    """
+    The processes of a fleet of ``num_vehicles`` in ``namespace``, checked.
+
+    Parameters
+    ----------
+    num_vehicles : int
+        Number of vehicles.
+    mode : str
+        ``lockstep`` or ``realtime``: in lockstep the monitor and the recorder take the fleet's
+        time (``use_sim_time``).
+    per_process : int or str
+        Vehicle nodes per process, >= 1 (1: a ``vehicle`` process each).
+    namespace : str
+        The fleet's namespace.
+    secure : bool
+        Each process runs as its member of a TLS fleet: one vehicle per process.
+    recorded : bool
+        A bag records the fleet: the plant waits for the recorder (``wait_for_start``).
+    labels : (str, str)
+        How the caller spells ``per_process`` and ``secure``, for the errors
+        (:data:`SWARM_LABELS`, :data:`LAUNCH_LABELS`).
+    frames : dict, optional
+        ``world_frame`` and ``base_frame`` of every node that takes them (empty: the defaults).
+
+    Raises
+    ------
+    ScenarioError
+        ``per_process`` is not an integer >= 1, or not 1 with ``secure``.
+
+    """
+
+    def __init__(self, num_vehicles, mode='lockstep', per_process=1, namespace='/',
+                 secure=False, recorded=False, labels=SWARM_LABELS, frames=None):
+        self.per_process = _count(per_process, labels[0])
+        if secure and self.per_process != 1:
+            raise ScenarioError(f'{labels[0]} {self.per_process} with {labels[1]}: a member of a '
+                                f'TLS fleet is one process, 1 only')
+        self.num_vehicles, self.mode, self.recorded = num_vehicles, mode, recorded
+        self.prefix = names.namespace_prefix(namespace)
+        self.clock = ('/clock', self.prefix + 'clock')
+        """The remapping of the fleet's clock: ``/clock`` to the namespace's."""
+        self.frames = dict(frames or {})
+        self.common = {'mode': mode, **self.frames}
+        """The parameters of every process that takes the fleet's file, after it."""
+        self.sim_time = {'use_sim_time': mode == 'lockstep'}
+
+    def groups(self):
+        """Return the vehicle ids of each vehicle process."""
+        ids = list(range(1, self.num_vehicles + 1))
+        return [tuple(ids[i:i + self.per_process]) for i in range(0, len(ids), self.per_process)]
+
+    def plant(self, **parameters):
+        """Return the plant process; ``parameters`` come before ``wait_for_start``."""
+        return Process('plant', 'plant', (), {**parameters, 'wait_for_start': self.recorded})
+
+    def vehicles(self):
+        """Return the vehicle processes."""
+        if self.per_process == 1:
+            return [Process(f'vehicle_{k}', 'vehicle', (k,), {'vehicle_id': k})
+                    for (k,) in self.groups()]
+        return [Process(f'vehicles_{g[0]}-{g[-1]}', 'vehicles', g, {'vehicle_ids': list(g)})
+                for g in self.groups()]
+
+    def monitor(self, **parameters):
+        """Return the monitor: the world frame and the fleet's time, not the fleet's file."""
+        world = {k: v for k, v in self.frames.items() if k == 'world_frame'}
+        return Process('monitor', 'monitor', (), {**world, **parameters, **self.sim_time},
+                       fleet=False, clock=True)
+
+    def recorder(self, bag, monitor):
+        """Return the bag recorder of ``bag`` (recording the monitor's topics if ``monitor``)."""
+        return Process('recorder', 'recorder', (), {
+            'bag': bag, 'num_vehicles': self.num_vehicles, 'monitor': monitor,
+            **self.sim_time}, fleet=False, clock=True)
+
+
+def ros_arguments(parameters):
+    """Return ``parameters`` as ``-p NAME:=VALUE`` arguments (booleans ``true``/``false``)."""
+    return [a for name, value in parameters.items() for a in (
+        '-p', f'{name}:={str(value).lower() if isinstance(value, bool) else value}')]

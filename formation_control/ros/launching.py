@@ -26,8 +26,7 @@ import tempfile
 
 from formation_control.core import scenario
 from formation_control.ops import security
-from formation_control.protocol import names
-from formation_control.protocol.fleet_plan import write_params
+from formation_control.protocol.fleet_plan import FleetPlan, LAUNCH_LABELS, write_params
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -101,36 +100,26 @@ def _fleet(context):
     a = _values(context, FLEET_ARGUMENTS)
     record = a['record']
     sc, files = _scenario(a, recorded=bool(record))
-    if not a['vehicles_per_process'].isdigit() or int(a['vehicles_per_process']) < 1:
-        raise scenario.ScenarioError(f"vehicles_per_process {a['vehicles_per_process']!r} is "
-                                     f'invalid: an integer >= 1')
-    per_process = int(a['vehicles_per_process'])
-    if a['secure'] and per_process != 1:
-        raise security.SecurityError(f'vehicles_per_process {per_process} with secure: a member '
-                                     f'of a TLS fleet is one process, 1 only')
-    frames = {'world_frame': a['world_frame'], 'base_frame': a['base_frame']}
-    common = {'mode': a['mode'], **frames}
-    sim_time = {'use_sim_time': a['mode'] == 'lockstep'}
-    clock = [('/clock', names.namespace_prefix(a['namespace'] or '/') + 'clock')]
-    actions = [_node('plant', a, [*files, {**common, 'record_path': a['record_path'],
-                                           'wait_for_start': bool(record)}], 'plant',
-                     on_exit=Shutdown(reason='the plant has finished the run'))]
-    ids = list(range(1, sc.num_vehicles + 1))
-    for group in (ids[i:i + per_process] for i in range(0, len(ids), per_process)):
-        if per_process == 1:
-            actions.append(_node('vehicle', a, [*files, {**common, 'vehicle_id': group[0]}],
-                                 f'vehicle_{group[0]}'))
-        else:
-            actions.append(_node('vehicles', a, [*files, {**common, 'vehicle_ids': group}],
-                                 None))
+    plan = FleetPlan(sc.num_vehicles, a['mode'], a['vehicles_per_process'],
+                     a['namespace'] or '/', bool(a['secure']), bool(record), LAUNCH_LABELS,
+                     {'world_frame': a['world_frame'], 'base_frame': a['base_frame']})
+    processes = [plan.plant(record_path=a['record_path']), *plan.vehicles()]
     if _true(a['monitor']):
-        actions.append(_node('monitor', a, [{'world_frame': a['world_frame'], **sim_time}],
-                             'monitor', remappings=clock))
+        processes.append(plan.monitor())
     if record:
-        actions.append(_node('recorder', a, [{'bag': record, 'num_vehicles': sc.num_vehicles,
-                                              'monitor': _true(a['monitor']), **sim_time}],
-                             'swarm', remappings=clock))
-    return actions
+        processes.append(plan.recorder(record, _true(a['monitor'])))
+    return [_process_node(p, a, plan, files) for p in processes]
+
+
+def _process_node(process, a, plan, files):
+    """Return the launch Node of a :class:`~formation_control.protocol.fleet_plan.Process`."""
+    params = [*files, {**plan.common, **process.parameters}] if process.fleet else [
+        process.parameters]
+    extra = {'remappings': [plan.clock]} if process.clock else {}
+    if process.name == 'plant':
+        extra['on_exit'] = Shutdown(reason='the plant has finished the run')
+    member = None if process.executable == 'vehicles' else process.member
+    return _node(process.executable, a, params, member, **extra)
 
 
 def _vehicle(context):

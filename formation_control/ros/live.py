@@ -30,6 +30,7 @@ Each message is logged at the fleet time of the state it shows (ns).
 """
 from formation_control.core.scenario import ScenarioError
 from formation_control.protocol import messages, names
+from formation_control.protocol.names import WORLD_FRAME
 from formation_control.view import scene
 import foxglove
 from foxglove.channels import SceneUpdateChannel
@@ -61,7 +62,7 @@ class LiveView:
 
     """
 
-    def __init__(self, node, host, port, frame=scene.FRAME):
+    def __init__(self, node, host, port, frame=WORLD_FRAME):
         self.frame = frame
         self.context = foxglove.Context()
         try:
@@ -86,9 +87,9 @@ class LiveView:
     def wants_scene(self):
         return self.scene.has_sinks()
 
-    def log_scene(self, ns, *fleet):
-        """Log the scene of a fleet at ``ns``: ``fleet`` as :func:`scene.fleet_scene` takes."""
-        self.scene.log(scene.fleet_scene(ns, *fleet, frame=self.frame), log_time=int(ns))
+    def log_scene(self, picture):
+        """Log the scene of a :class:`~formation_control.view.picture.Picture` at its stamp."""
+        self.scene.log(scene.fleet_scene(*picture, frame=self.frame), log_time=int(picture.ns))
 
     def log_metrics(self, ns, values):
         if self.metrics.has_sinks():

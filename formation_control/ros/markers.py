@@ -13,17 +13,15 @@
 # limitations under the License.
 
 """
-RViz markers of a fleet (visualization_msgs/MarkerArray in ``map``).
+RViz markers of a fleet's :class:`~formation_control.view.picture.Picture` (MarkerArray).
 
 Each vehicle's heading arrow, its ground-velocity arrow in a flow, its trail, the circle
-centres c_k and the prescribed centre c0.
+centres c_k, the prescribed centre c0, the live links and the metrics as text, in the
+monitor's ``world_frame``.
 """
-from formation_control.core.models import position, ROW_THETA
 from formation_control.protocol import messages
-from formation_control.ros import interface as itf
-from formation_control.view import palette
+from formation_control.view import palette, picture
 from geometry_msgs.msg import Point
-import numpy as np
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -33,10 +31,10 @@ HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
         palette.LINK, palette.LABEL))
 
 
-def _marker(ns, name, ident, kind, color):
+def _marker(ns, frame, name, ident, kind, color):
     m = Marker()
     messages.set_stamp(m.header, ns)
-    m.header.frame_id = itf.WORLD_FRAME
+    m.header.frame_id = frame
     m.ns, m.id, m.type, m.action, m.color = name, ident, kind, Marker.ADD, color
     m.pose.orientation.w = 1.0
     return m
@@ -46,106 +44,69 @@ def _point(z):
     return Point(x=float(z.real), y=float(z.imag))
 
 
-def vehicle_markers(ns, k, position, heading, ground_velocity, trail):
+def vehicle_markers(ns, frame, k, position, heading, ground_velocity, trail):
     """Return the heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
-    arrow = _marker(ns, 'heading', k, Marker.ARROW, HEADING)
+    arrow = _marker(ns, frame, 'heading', k, Marker.ARROW, HEADING)
     arrow.pose.position = _point(position)
     messages.yaw_quaternion(arrow.pose.orientation, heading)
-    arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.6, 0.12, 0.12
+    arrow.scale.x, arrow.scale.y, arrow.scale.z = picture.HEADING_LENGTH, 0.12, 0.12
     out = [arrow]
     if ground_velocity is not None:
-        vel = _marker(ns, 'velocity', k, Marker.ARROW, VELOCITY)
+        vel = _marker(ns, frame, 'velocity', k, Marker.ARROW, VELOCITY)
         vel.points = [_point(position), _point(position + ground_velocity)]
         vel.scale.x, vel.scale.y, vel.scale.z = 0.05, 0.12, 0.12
         out.append(vel)
-    line = _marker(ns, 'trail', k, Marker.LINE_STRIP, TRAIL)
+    line = _marker(ns, frame, 'trail', k, Marker.LINE_STRIP, TRAIL)
     line.points = [_point(z) for z in trail]
-    line.scale.x = 0.03
+    line.scale.x = picture.TRAIL_WIDTH
     out.append(line)
     return out
 
 
-def centre_markers(ns, centres, target):
+def centre_markers(ns, frame, centres, target):
     """Return the circle centres c_k as spheres and the prescribed centre c0 (None: none)."""
-    spheres = _marker(ns, 'centres', 0, Marker.SPHERE_LIST, CENTRE)
+    spheres = _marker(ns, frame, 'centres', 0, Marker.SPHERE_LIST, CENTRE)
     spheres.points = [_point(c) for c in centres]
-    spheres.scale.x = spheres.scale.y = spheres.scale.z = 0.1
+    spheres.scale.x = spheres.scale.y = spheres.scale.z = picture.CENTRE_SIZE
     out = [spheres]
     if target is not None:
-        disc = _marker(ns, 'target_centre', 0, Marker.CYLINDER, TARGET)
+        disc = _marker(ns, frame, 'target_centre', 0, Marker.CYLINDER, TARGET)
         disc.pose.position = _point(target)
-        disc.scale.x = disc.scale.y = 0.25
-        disc.scale.z = 0.02
+        disc.scale.x = disc.scale.y = picture.TARGET_SIZE[0]
+        disc.scale.z = picture.TARGET_SIZE[1]
         out.append(disc)
     return out
 
 
-def link_marker(ns, positions, edges):
-    """
-    Return the live links of the communication graph as one LINE_LIST marker.
-
-    Parameters
-    ----------
-    ns : int
-        Stamp (ns).
-    positions : array_like of complex, shape (N,)
-        Vehicle positions (m).
-    edges : array_like of int, shape (L, 2)
-        The live links, 0-based vehicle indices.
-
-    """
-    line = _marker(ns, 'links', 0, Marker.LINE_LIST, LINK)
-    line.points = [_point(positions[i]) for edge in edges for i in edge]
-    line.scale.x = 0.02
+def link_marker(ns, frame, positions, edges):
+    """Return the live links ((L, 2), 0-based) as one LINE_LIST marker."""
+    line = _marker(ns, frame, 'links', 0, Marker.LINE_LIST, LINK)
+    line.points = [_point(z) for z in picture.link_points(positions, edges)]
+    line.scale.x = picture.LINK_WIDTH
     return line
 
 
-METRICS_SHOWN = (('order_parameter', '|p|'), ('lyapunov', 'V_c'),
-                 ('centre_spread', 'centre spread (m)'), ('speed_error', 'speed error (m/s)'))
-"""The metrics the text marker lists, with their labels, where the formation has them."""
-
-
-def metrics_marker(ns, values, positions):
-    """
-    Return the metrics of the sample as a text marker above the fleet (RViz shows no topics).
-
-    Parameters
-    ----------
-    ns : int
-        Stamp (ns) of the metrics sample.
-    values : dict of str to float
-        The metrics by name (``formation/metrics``).
-    positions : array_like of complex, shape (N,)
-        Vehicle positions (m): the text stands 1 m above the highest, at their mean x.
-
-    """
-    text = _marker(ns, 'metrics', 0, Marker.TEXT_VIEW_FACING, LABEL)
-    r = np.asarray(positions)
-    text.pose.position = _point(complex(r.real.mean(), r.imag.max() + 1.0))
+def metrics_marker(ns, frame, values, positions):
+    """Return the metrics of the sample as a text marker above the fleet (RViz shows no topics)."""
+    text = _marker(ns, frame, 'metrics', 0, Marker.TEXT_VIEW_FACING, LABEL)
+    text.pose.position = _point(picture.label_position(positions))
     text.scale.z = 0.3
-    text.text = '\n'.join(f'{label} = {values[name]:.4f}' for name, label in METRICS_SHOWN
-                          if name in values and np.isfinite(values[name]))
+    text.text = picture.metrics_text(values)
     return text
 
 
-def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):
+def fleet_markers(pic, values, frame):
     """
     Return the MarkerArray of a fleet.
 
     Parameters
     ----------
-    ns : int
-        Stamp (ns).
-    X : array_like, shape (6, N)
-        States (rows of :mod:`models`).
-    ground_velocity : array_like of complex, shape (N,), or None
-        Ground velocities (m/s), :func:`models.ground_velocity`; None: no velocity arrows.
-    trails : sequence of N sequences of complex
-        Each vehicle's recent positions (m).
-    centres : array_like of complex, shape (N,), optional
-        Circle centres c_k (m).
-    target : complex, optional
-        Prescribed centre c0 (m).
+    pic : formation_control.view.picture.Picture
+        What to draw.
+    values : dict of str to float
+        The metrics of the sample shown (``formation/metrics``).
+    frame : str
+        The world frame (the monitor's ``world_frame``).
 
     Returns
     -------
@@ -153,11 +114,10 @@ def fleet_markers(ns, X, ground_velocity, trails, centres=None, target=None):
 
     """
     msg = MarkerArray()
-    r = position(X)
-    for i in range(X.shape[1]):
-        vel = None if ground_velocity is None else ground_velocity[i]
-        msg.markers += vehicle_markers(ns, i + 1, complex(r[i]), float(X[ROW_THETA, i]), vel,
-                                       trails[i])
-    if centres is not None:
-        msg.markers += centre_markers(ns, centres, target)
+    for vehicle in picture.vehicles(pic):
+        msg.markers += vehicle_markers(pic.ns, frame, *vehicle)
+    if pic.centres is not None:
+        msg.markers += centre_markers(pic.ns, frame, pic.centres, pic.target)
+    msg.markers.append(link_marker(pic.ns, frame, pic.positions, pic.edges))
+    msg.markers.append(metrics_marker(pic.ns, frame, values, pic.positions))
     return msg

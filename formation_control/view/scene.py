@@ -15,7 +15,8 @@
 """
 The Foxglove live view's messages: a fleet as a ``foxglove.SceneUpdate``, its metrics as JSON.
 
-Pure functions of the monitor's arrays (no ROS): the same fleet the RViz markers show
+Pure functions of the monitor's arrays (no ROS): the same
+:class:`~formation_control.view.picture.Picture` the RViz markers show
 (:mod:`formation_control.ros.markers`), in the monitor's ``world_frame`` (default ``map``).
 One entity per vehicle (``vehicle_k``: heading arrow, ground-velocity arrow, trail, label),
 ``centres`` (the circle centres c_k and the prescribed centre c0) and ``links`` (the live links
@@ -24,19 +25,17 @@ of the graph).
 import cmath
 import math
 
-from formation_control.view import palette
+from formation_control.protocol.names import WORLD_FRAME
+from formation_control.view import palette, picture
 from foxglove.messages import (ArrowPrimitive, Color, CylinderPrimitive, KeyValuePair,
                                LinePrimitive, LinePrimitiveLineType, Point3, Pose, Quaternion,
                                SceneEntity, SceneUpdate, SpherePrimitive, TextPrimitive, Timestamp,
                                Vector3)
 
-FRAME = 'map'
 HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
     Color(r=r, g=g, b=b, a=a) for r, g, b, a in (
         palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
         palette.LINK, palette.LABEL))
-HEADING_LENGTH = 0.6
-"""Length of the heading arrows (m); the ground-velocity arrows are the velocity (m/s as m)."""
 
 
 def stamp(ns):
@@ -62,7 +61,7 @@ def _arrow(z, angle, length, color, width):
                           color=color)
 
 
-def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=FRAME):
+def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=WORLD_FRAME):
     """
     Return the SceneEntity ``vehicle_k``.
 
@@ -84,12 +83,13 @@ def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=FRAME
         The world frame of the positions.
 
     """
-    arrows = [_arrow(position, heading, HEADING_LENGTH, HEADING, 0.05)]
+    arrows = [_arrow(position, heading, picture.HEADING_LENGTH, HEADING, 0.05)]
     if ground_velocity is not None and abs(ground_velocity) > 0:
         arrows.append(_arrow(position, cmath.phase(ground_velocity), abs(ground_velocity),
                              VELOCITY, 0.03))
     lines = [LinePrimitive(type=LinePrimitiveLineType.LineStrip, pose=_pose(0j),
-                           thickness=0.03, points=[_point(z) for z in trail], color=TRAIL)]
+                           thickness=picture.TRAIL_WIDTH, points=[_point(z) for z in trail],
+                           color=TRAIL)]
     label = TextPrimitive(pose=_pose(position + 0.25j), billboard=True, font_size=14.0,
                           scale_invariant=True, color=LABEL, text=str(k))
     return SceneEntity(timestamp=stamp(ns), frame_id=frame, id=f'vehicle_{k}', arrows=arrows,
@@ -97,29 +97,30 @@ def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=FRAME
                        metadata=[KeyValuePair(key='vehicle_id', value=str(k))])
 
 
-def centres_entity(ns, centres, target=None, frame=FRAME):
+def centres_entity(ns, centres, target=None, frame=WORLD_FRAME):
     """Return the SceneEntity ``centres``: c_k as spheres, c0 (None: none) as a flat disc."""
-    size = Vector3(x=0.1, y=0.1, z=0.1)
+    size = Vector3(x=picture.CENTRE_SIZE, y=picture.CENTRE_SIZE, z=picture.CENTRE_SIZE)
     spheres = [SpherePrimitive(pose=_pose(c), size=size, color=CENTRE) for c in centres]
     cylinders = []
     if target is not None:
-        disc = Vector3(x=0.25, y=0.25, z=0.02)
+        width, height = picture.TARGET_SIZE
+        disc = Vector3(x=width, y=width, z=height)
         cylinders.append(CylinderPrimitive(pose=_pose(target), size=disc, bottom_scale=1.0,
                                            top_scale=1.0, color=TARGET))
     return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='centres', spheres=spheres,
                        cylinders=cylinders)
 
 
-def links_entity(ns, positions, edges, frame=FRAME):
+def links_entity(ns, positions, edges, frame=WORLD_FRAME):
     """Return the SceneEntity ``links``: one segment per live link (edges (L, 2), 0-based)."""
-    points = [_point(positions[i]) for edge in edges for i in edge]
-    line = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=_pose(0j), thickness=0.02,
-                         points=points, color=LINK)
+    points = [_point(z) for z in picture.link_points(positions, edges)]
+    line = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=_pose(0j),
+                         thickness=picture.LINK_WIDTH, points=points, color=LINK)
     return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='links', lines=[line])
 
 
 def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres=None,
-                target=None, frame=FRAME):
+                target=None, frame=WORLD_FRAME):
     """
     Return the SceneUpdate of a fleet: every vehicle, its live links, the circle centres.
 
@@ -149,9 +150,8 @@ def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres
     foxglove.messages.SceneUpdate
 
     """
-    entities = [vehicle_entity(ns, i + 1, complex(positions[i]), float(headings[i]),
-                               None if ground_velocity is None else complex(ground_velocity[i]),
-                               trails[i], frame) for i in range(len(positions))]
+    pic = picture.Picture(ns, positions, headings, ground_velocity, trails, edges)
+    entities = [vehicle_entity(ns, *vehicle, frame) for vehicle in picture.vehicles(pic)]
     entities.append(links_entity(ns, positions, edges, frame))
     if centres is not None:
         entities.append(centres_entity(ns, centres, target, frame))

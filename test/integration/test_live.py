@@ -30,7 +30,7 @@ from formation_control.core import scenario
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from formation_control.ros.monitor import MonitorNode
-from formation_control.view import layout, scene
+from formation_control.view import layout, picture, scene
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
 from nav_msgs.msg import Odometry
@@ -75,7 +75,7 @@ def test_scene_shows_each_vehicle_its_velocity_trail_links_and_centres():
         heading = e.arrows[0]
         assert _xy(heading.pose.position) == pytest.approx(r[i])
         assert _yaw(heading.pose.orientation) == pytest.approx(theta[i])
-        assert heading.shaft_length + heading.head_length == pytest.approx(scene.HEADING_LENGTH)
+        assert heading.shaft_length + heading.head_length == pytest.approx(picture.HEADING_LENGTH)
         assert [_xy(p) for p in e.lines[0].points] == pytest.approx(trails[i])
         assert e.texts[0].text == str(i + 1)
         if v[i] == 0:

@@ -376,7 +376,7 @@ def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(rec
     replayed = {messages.stamp_ns(m.header.stamp): dict(zip(m.name, m.position)) for m in box}
     # Every sample from t = 0; the bag may lack the recorded monitor's first ones (published
     # before the recorder's reader matched its writer).
-    period = int(round(monitor.p['period'] * 1e9))
+    period = int(round(monitor.get_parameter('period').value * 1e9))
     assert sorted(replayed) == list(range(0, stamps[-1] + 1, period))
     assert set(stamps) <= set(replayed)
     # The live graph counts the states heard within stale_timeout of wall time: a property of

@@ -115,11 +115,11 @@ def test_the_monitor_follows_a_gain_once_every_vehicle_has_taken_it(nodes):
     for k in (1, 2):
         events.publish(_event(k, 'kappa', 2.5))
     events.publish(_event(3, 'kappa', 4.0))
-    assert nodes.spin_until(lambda: monitor.runtime['kappa'] == [2.5, 2.5, 4.0])
+    assert nodes.spin_until(lambda: monitor.watch.gains.held['kappa'] == [2.5, 2.5, 4.0])
     assert monitor.sc.kappa == sc.kappa                          # the fleet disagrees
     events.publish(_event(3, 'kappa', 2.5))
     assert nodes.spin_until(lambda: monitor.sc.kappa == 2.5)
-    assert monitor.ctrl.sc.kappa == 2.5
+    assert monitor.watch.ctrl.sc.kappa == 2.5
 
 
 def test_a_swarm_in_a_namespace_with_its_own_frames_is_recorded_there(ros, tmp_path):

@@ -1,0 +1,346 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The monitor's rules, without ROS.
+
+What it samples, when the formation counts as converged, the status of each vehicle and of
+the formation, the marker trails and the gains it follows.
+
+:class:`Watch` holds one fleet's latest odometry and commands and is driven by the monitor's
+callbacks; ``clock`` (wall seconds) dates what it hears, so a fake clock tests it.
+"""
+from formation_control.core import graphs, laws
+from formation_control.core.control import Controller
+from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
+from formation_control.core.scenario import resolve, RUNTIME
+from formation_control.protocol import names
+from formation_control.sim import metrics
+import numpy as np
+
+OK, WARN, ERROR = 0, 1, 2
+"""Status levels (those of diagnostic_msgs/DiagnosticStatus)."""
+STREAMS = {'odom': 'odom', 'cmd': 'cmd', 'state': 'formation_state'}
+"""The streams heard of each vehicle, with the topic each is named by in a status."""
+
+
+def _hashable(value):
+    return tuple(value) if isinstance(value, (list, tuple)) else value
+
+
+class GainAgreement:
+    """
+    The run-time parameters every vehicle of the fleet holds (``/parameter_events``).
+
+    A new value is taken once every vehicle announced it; one vehicle changed on its own keeps
+    the last common value.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The fleet's scenario: every vehicle holds its values at first.
+    namespace : str
+        The fleet's namespace: vehicle k is the node ``<namespace>/vehicle_k``.
+
+    """
+
+    def __init__(self, sc, namespace='/'):
+        self.sc = sc
+        prefix = names.namespace_prefix(namespace)
+        self.vehicle_of = {f'{prefix}vehicle_{k}': k for k in range(1, sc.num_vehicles + 1)}
+        self.held = {name: [_hashable(getattr(sc, name))] * sc.num_vehicles for name in RUNTIME}
+
+    def announce(self, node, changed, convert=None):
+        """
+        Note the parameters ``node`` announced ({name: value}); return those the fleet agrees on.
+
+        The returned values ({name: value}, {} none) differ from the scenario's; :meth:`take`
+        makes them the scenario's. ``convert`` turns an announced value into a Python one; it
+        is called only for the run-time parameters of the fleet's vehicles.
+        """
+        k = self.vehicle_of.get(node)
+        changed = {name: v for name, v in changed.items() if name in RUNTIME}
+        if k is None or not changed:
+            return {}
+        for name, value in changed.items():
+            self.held[name][k - 1] = _hashable(value if convert is None else convert(value))
+        return {name: values[0] for name, values in self.held.items()
+                if len(set(values)) == 1 and values[0] != _hashable(getattr(self.sc, name))}
+
+    def take(self, agreed):
+        """Return the scenario with the ``agreed`` values, now the current one (ScenarioError)."""
+        self.sc = resolve({**self.sc.to_dict(), **{
+            name: list(v) if isinstance(v, tuple) else v for name, v in agreed.items()}})
+        return self.sc
+
+
+class Sampling:
+    """
+    When the monitor samples: once it holds an odometry of every vehicle from the current period.
+
+    Parameters
+    ----------
+    n : int
+        Number of vehicles.
+    period : float
+        Fleet seconds between two samples (0: every step).
+
+    """
+
+    def __init__(self, n, period):
+        self.period_ns = int(round(period * 1e9))
+        self.odom_ns = np.full(n, -1, np.int64)
+        self.t0_ns = self.next_ns = None
+        self.t = 0.0
+        """Fleet seconds of the last sample from the first (0 before any)."""
+
+    def odom(self, i, ns):
+        """Note vehicle ``i``'s (0-based) odometry stamped ``ns``; return whether to sample now."""
+        self.odom_ns[i] = ns
+        oldest = self.odom_ns.min()
+        if oldest < 0 or (self.next_ns is not None and oldest < self.next_ns):
+            return False
+        if self.t0_ns is None:
+            self.t0_ns = ns
+        self.next_ns = ns + self.period_ns
+        self.t = (ns - self.t0_ns) * 1e-9
+        return True
+
+
+class Latch:
+    """The convergence latch: :attr:`since` is when the formation last became converged."""
+
+    def __init__(self):
+        self.since = None
+
+    @property
+    def converged(self):
+        return self.since is not None
+
+    def update(self, converged, t):
+        """Note whether the formation is converged at ``t``; return whether that changed."""
+        was = self.converged
+        if not converged:
+            self.since = None
+        elif not was:
+            self.since = t
+        return was != self.converged
+
+
+class Trails:
+    """The last ``length`` sampled positions of each of ``n`` vehicles (a ring)."""
+
+    def __init__(self, length, n):
+        self.ring = np.full((length, n), np.nan, complex)
+        self.count = 0
+
+    def add(self, positions):
+        self.ring[self.count % len(self.ring)] = positions
+        self.count += 1
+
+    def ordered(self):
+        """Return the trails, shape (N, count), each vehicle's oldest position first."""
+        count = min(self.count, len(self.ring))
+        order = (np.arange(count) + self.count - count) % len(self.ring)
+        return self.ring[order].T
+
+
+def vehicle_level(ages, stale, saturated, lagging=None):
+    """
+    Return the status level and reasons of one vehicle.
+
+    Parameters
+    ----------
+    ages : dict of str to float
+        Wall seconds since each stream of :data:`STREAMS` was heard.
+    stale : float
+        The ``stale_timeout`` (s): a stream older is stale; a stale odometry is an error.
+    saturated : bool
+        Its command is saturated.
+    lagging : float, optional
+        The fleet time (s) when the formation is late and this vehicle has not reached its
+        share; None: neither.
+
+    Returns
+    -------
+    (int, list of str)
+
+    """
+    reasons = [f'stale {topic} ({ages[s]:.1f} s)' for s, topic in STREAMS.items()
+               if ages[s] > stale]
+    if saturated:
+        reasons.append('command saturated')
+    if lagging is not None:
+        reasons.append(f'not converging after {lagging:.1f} s')
+    level = ERROR if ages['odom'] > stale else WARN if reasons else OK
+    return level, reasons
+
+
+def formation_level(t, since, converge_within):
+    """Return the formation's status level and message at fleet time ``t``."""
+    if since is not None:
+        return OK, f'converged in {since:.2f} s'
+    if t > converge_within:
+        return WARN, f'not converged after {t:.1f} s'
+    return OK, 'converging'
+
+
+class Watch:
+    """
+    The monitor's view of one fleet: its latest odometry and commands, what it heard when.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The fleet's scenario.
+    namespace : str
+        The fleet's namespace (its vehicles' node names).
+    period, stale_timeout, converge_within : float
+        The monitor's parameters of the same names (s).
+    trail_length : int
+        Samples per marker trail.
+    clock : callable
+        Wall seconds (monotonic).
+
+    """
+
+    def __init__(self, sc, namespace, period, stale_timeout, converge_within, trail_length,
+                 clock):
+        n = sc.num_vehicles
+        self.gains = GainAgreement(sc, namespace)
+        self.ctrl = Controller(sc)
+        self.clock, self.stale, self.converge_within = clock, stale_timeout, converge_within
+        self.X = np.full((6, n), np.nan)
+        self.U = np.zeros((2, n))
+        self.heard = {stream: np.full(n, np.nan) for stream in STREAMS}
+        self.started = clock()
+        self.sampling = Sampling(n, period)
+        self.latch = Latch()
+        self.trails = Trails(trail_length, n)
+        self.vehicle_ok = np.zeros(n, bool)
+        self.saturated = np.zeros(n, bool)
+        self.values = {}
+        self.hearing = np.ones((n, n), bool)
+        self.shown = None
+
+    @property
+    def sc(self):
+        return self.gains.sc
+
+    @property
+    def t(self):
+        return self.sampling.t
+
+    def take(self, agreed):
+        """Follow the gains the fleet agreed on (:meth:`GainAgreement.announce`; ScenarioError)."""
+        self.ctrl = Controller(self.gains.take(agreed))
+
+    def flow(self, x, y):
+        """Return the flow at (x, y) at the time of the last sample."""
+        return self.ctrl.plant.flow(self.t, x, y)
+
+    def odom(self, k, x, ns):
+        """Note vehicle k's state ``x`` stamped ``ns``; return whether to sample now."""
+        self.X[:, k - 1] = x
+        self.heard['odom'][k - 1] = self.clock()
+        return self.sampling.odom(k - 1, ns)
+
+    def cmd(self, k, u):
+        self.U[:, k - 1] = u
+        self.heard['cmd'][k - 1] = self.clock()
+
+    def state(self, k, hears):
+        """Note vehicle k's formation state: ``hears`` {neighbour id: heard} (from ``hears_j``)."""
+        for j, heard in hears.items():
+            self.hearing[k - 1, j - 1] = heard
+        self.heard['state'][k - 1] = self.clock()
+
+    def live_graph(self):
+        """Return the live vehicles (N,) bool and the live links (L, 2), 0-based."""
+        fresh = self.clock() - self.heard['state'] <= self.stale
+        return fresh, graphs.live_edges(self.sc.comm_graph, self.hearing, fresh)
+
+    def sample(self, ns):
+        """
+        Take the sample stamped ``ns`` (after :meth:`odom` said so): return its metrics.
+
+        Returns
+        -------
+        (dict of str to float, bool)
+            The metrics and whether the convergence latch changed.
+
+        """
+        snap = metrics.snapshot(self.ctrl, self.X, self.U, self.t)
+        fresh, live = self.live_graph()
+        self.values = {**snap.values(), 'live_links': float(len(live)),
+                       'algebraic_connectivity': graphs.connectivity(fresh, live)}
+        self.shown = ns, self.t, self.X.copy(), self.U.copy()
+        self.trails.add(position(self.X))
+        flow = self.flow(self.X[ROW_X], self.X[ROW_Y])
+        self.vehicle_ok = metrics.vehicles_converged(self.ctrl,
+                                                     self.ctrl.view(self.X, self.U[1], flow))
+        self.saturated = self.ctrl.saturated(self.U)
+        return self.values, self.latch.update(metrics.converged(self.sc, snap), self.t)
+
+    def vehicle_status(self, i):
+        """Return vehicle i's (0-based) status: (name, level, message, values)."""
+        now = self.clock()
+        ages = {s: now - (h[i] if np.isfinite(h[i]) else self.started)
+                for s, h in self.heard.items()}
+        late = self.t > self.converge_within and not self.latch.converged
+        lagging = self.t if late and not self.vehicle_ok[i] else None
+        level, reasons = vehicle_level(ages, self.stale, self.saturated[i], lagging)
+        values = {f'{s}_age': f'{a:.3f}' for s, a in ages.items()}
+        if self.ctrl.rigid:
+            values.update(thrust=self.U[0, i], steering_force=self.U[1, i])
+        else:
+            values['turn_command'] = self.U[1, i]
+        values['converged'] = bool(self.vehicle_ok[i])
+        return f'vehicle_{i + 1}', level, '; '.join(reasons) or 'ok', values
+
+    def formation_status(self, rejected):
+        """Return the formation's status: (name, level, message, values)."""
+        values = {'time': f'{self.t:.3f}', 'rejected_messages': rejected}
+        values.update({k: f'{v:.6g}' for k, v in self.values.items()})
+        if self.latch.converged:
+            values['convergence_time'] = f'{self.latch.since:.3f}'
+        level, message = formation_level(self.t, self.latch.since, self.converge_within)
+        return 'formation', level, message, values
+
+    def statuses(self, rejected):
+        """Return the formation's status, then every vehicle's."""
+        return [self.formation_status(rejected)] + [
+            self.vehicle_status(i) for i in range(self.sc.num_vehicles)]
+
+    def picture(self):
+        """
+        Return what the last sample shows (None before any).
+
+        Returns
+        -------
+        (X, ns, trails, ground, centres, target)
+            States, stamp, :meth:`Trails.ordered`, ground velocities (None: no flow), circle
+            centres c_k and the prescribed centre c0 (None: not circular, not informed).
+
+        """
+        if self.shown is None:
+            return None
+        ns, t, X, U = self.shown
+        flow = self.ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+        ground = ground_velocity(X, flow) if np.any(flow != 0) else None
+        centres = target = None
+        if isinstance(self.ctrl.formation, laws.Circular):
+            centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1], flow))
+            target = self.sc.c0_c if self.sc.informed else None
+        return X, ns, self.trails.ordered(), ground, centres, target
