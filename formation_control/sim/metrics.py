@@ -149,6 +149,7 @@ def min_separation(r):
     level merges pairs of blocks, comparing across the boundary only the vehicles closer to it
     in x than the smallest distance found so far, each with the next 7 of them by y (no more
     fit in that strip at that distance from one another).
+
     """
     n = r.shape[-1]
     if n < 2:

@@ -25,9 +25,9 @@ import struct
 import subprocess
 import sys
 
+from formation_control import cli
 from formation_control.core.control import Controller
 from formation_control.core.models import ROW_OMEGA, ROW_U, ROW_V
-from formation_control import cli
 from formation_control.core.scenario import initial_state, load, resolve
 from formation_control.sim import simulator
 import numpy as np

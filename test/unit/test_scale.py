@@ -49,7 +49,7 @@ def all_pairs(r):
 
 
 def positions(kind, shape, rng):
-    """Return fleets of positions (shape) complex: spread, on a lattice, in few columns, a ring."""
+    """Return fleets of the given shape (complex, m): spread, a lattice, few columns, a ring."""
     if kind == 'normal':
         return rng.normal(size=shape) + 1j * rng.normal(size=shape)
     if kind == 'lattice':      # ties between pairs and coincident vehicles
