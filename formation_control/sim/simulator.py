@@ -379,7 +379,8 @@ def summary(run):
     Returns
     -------
     dict
-        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end),
+        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end,
+        evaluated sample by sample: a fleet's views stay in cache),
         ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
         ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
         bodies: ``mean_u``, ``mean_v`` (m/s).
@@ -387,11 +388,10 @@ def summary(run):
     """
     sc = run.sc
     ctrl = Controller(sc)
-    samples = metrics.snapshot(ctrl, np.ascontiguousarray(np.moveaxis(run.X, 0, 1)),
-                               np.ascontiguousarray(np.moveaxis(run.U, 0, 1)), run.t[:, None],
-                               separation=False)
-    flags = metrics.converged(sc, samples)
-    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1], separation=False)
+    flags = []
+    for t, X, U in zip(run.t, run.X, run.U):
+        final = metrics.snapshot(ctrl, X, U, t, separation=False)
+        flags.append(metrics.converged(sc, final))
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
            'converged': bool(flags[-1]),
            'convergence_time': metrics.convergence_time(run.t, flags),
