@@ -169,9 +169,9 @@ def _merge_level(p, x, best, size):
     n = p.shape[-1]
     block = np.arange(n) // (2 * size)
     boundary = block * 2 * size + size
-    inner = boundary < n
+    paired = boundary < n
     near = abs(x - x[:, np.minimum(boundary, n - 1)]) < best[:, None]
-    fleet, k = np.nonzero(near & inner)
+    fleet, k = np.nonzero(near & paired)
     order = np.lexsort((p.imag[fleet, k], block[k], fleet))
     fleet, k = fleet[order], k[order]
     group, q = fleet * n + block[k], p[fleet, k]
