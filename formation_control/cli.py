@@ -35,6 +35,9 @@ from formation_control.protocol import names, node_parameters
 from formation_control.sim import report, simulator
 
 
+SIZES = ('num_vehicles', 'duration', 'record_dt')   # the parameters a run's memory grows with
+
+
 def _split(overrides):
     """(scenario overrides, node overrides): link and frame parameters go to the nodes only."""
     from formation_control.protocol.links import PARAMETERS
@@ -475,6 +478,21 @@ def main(argv=None):
     except (scenario.ScenarioError, security.SecurityError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 2
+    except MemoryError as err:
+        print(f'error: {out_of_memory(args, err)}', file=sys.stderr)
+        return 2
+
+
+def out_of_memory(args, err):
+    """Return the one line that reports a MemoryError of a command: what, and what to lower."""
+    what = str(err) or 'an allocation failed'
+    given = [o for o in getattr(args, 'param', []) if o.split(':=', 1)[0].strip() in SIZES]
+    if getattr(args, 'duration', None) is not None:
+        given.append(f'--duration {args.duration:g}')
+    hint = ('lower num_vehicles or --duration, or raise record_dt (fewer samples are kept)'
+            + (', or lower --batch-size or --workers' if args.command == 'sweep' else ''))
+    return (f'out of memory in {args.command}: {what}'
+            + (f" (with {', '.join(given)})" if given else '') + f': {hint}')
 
 
 if __name__ == '__main__':

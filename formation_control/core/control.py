@@ -23,8 +23,8 @@ from dataclasses import replace
 
 from formation_control.core import laws
 from formation_control.core.geometry import inner
-from formation_control.core.models import (body_accel, ground_velocity, Plant, position,
-                                           RIGID_MODELS, rk4_step, ROW_OMEGA, ROW_THETA, ROW_U,
+from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
+                                           position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
 from formation_control.core.scenario import uses_held_force
 import numpy as np
@@ -381,17 +381,18 @@ class Controller:
         Returns
         -------
         ndarray, shape (6, n)
-            One RK4 step of the model over ``delay + sc.command_lead`` (errata, sampled-data
-            laws): a command held over ``[t, t + h]`` and computed for the state at
-            ``t + h/2`` makes each period a midpoint-rule step of the continuous closed loop,
-            whose error is of order h^2 instead of the zero-order hold's h. ``X`` itself,
-            whatever the delay, when ``hold_prediction`` is none.
+            One RK4 step of the model over ``delay + sc.command_lead`` (:func:`models.rk4_step`,
+            on cache-sized blocks of a large fleet; errata, sampled-data laws): a command held
+            over ``[t, t + h]`` and computed for the state at ``t + h/2`` makes each period a
+            midpoint-rule step of the continuous closed loop, whose error is of order h^2
+            instead of the zero-order hold's h. ``X`` itself, whatever the delay, when
+            ``hold_prediction`` is none.
 
         """
         if self.sc.hold_prediction == 'none':
             return np.array(X, float)
         lead = delay + self.sc.command_lead
-        X = rk4_step(X, U_held, lead, self.still)
+        X = integrate(X, U_held, lead, 1, self.still, plain=True)
         drift = lead * np.asarray(self.flow(flow))
         X[ROW_X] += drift.real
         X[ROW_Y] += drift.imag

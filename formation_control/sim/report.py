@@ -47,7 +47,8 @@ def series(run):
 
     """
     ctrl = Controller(run.sc)
-    snaps = [metrics.snapshot(ctrl, X, inputs, t) for t, X, inputs in zip(run.t, run.X, run.U)]
+    snaps = [metrics.snapshot(ctrl, X, inputs, t, separation=False)
+             for t, X, inputs in zip(run.t, run.X, run.U)]
     X = run.X.transpose(1, 0, 2)
     flow = np.array([ctrl.plant.flow(t, x, y) for t, x, y in zip(run.t, X[ROW_X], X[ROW_Y])])
     beta, beta_hat = metrics.crab_angles(X, flow)

@@ -264,7 +264,7 @@ class Outcome:
 
     Every ``record_dt`` and at the last step (the samples of :class:`Recorder`) it evaluates
     :func:`metrics.converged` on :func:`metrics.snapshot` of each fleet, which are computed
-    per fleet; the states are not kept.
+    per fleet (the minimum separation at the last step only); the states are not kept.
 
     Attributes
     ----------
@@ -289,7 +289,7 @@ class Outcome:
         """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
         if n % self.sc.record_every == 0 or n == self.steps:
             t = n * self.sc.dt_control
-            self.final = metrics.snapshot(self.ctrl, X, U, t)
+            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=n == self.steps)
             self.t.append(t)
             self.flags.append(metrics.converged(self.sc, self.final))
             self.X, self.U = X.copy(), U.copy()
@@ -379,7 +379,8 @@ def summary(run):
     Returns
     -------
     dict
-        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end),
+        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end,
+        evaluated sample by sample: a fleet's views stay in cache),
         ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
         ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
         bodies: ``mean_u``, ``mean_v`` (m/s).
@@ -387,10 +388,10 @@ def summary(run):
     """
     sc = run.sc
     ctrl = Controller(sc)
-    samples = metrics.snapshot(ctrl, np.ascontiguousarray(np.moveaxis(run.X, 0, 1)),
-                               np.ascontiguousarray(np.moveaxis(run.U, 0, 1)), run.t[:, None])
-    flags = metrics.converged(sc, samples)
-    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
+    flags = []
+    for t, X, U in zip(run.t, run.X, run.U):
+        final = metrics.snapshot(ctrl, X, U, t, separation=False)
+        flags.append(metrics.converged(sc, final))
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
            'converged': bool(flags[-1]),
            'convergence_time': metrics.convergence_time(run.t, flags),

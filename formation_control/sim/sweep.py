@@ -136,6 +136,14 @@ class Plan:
         return len(self.points) * len(self.seeds)
 
 
+def failure(err):
+    """Return the reason a batch failed with ``err``: an out-of-memory names what to lower."""
+    if isinstance(err, MemoryError):
+        return (f"out of memory ({str(err) or 'an allocation failed'}): lower --batch-size, "
+                f'num_vehicles or --duration')
+    return f'{type(err).__name__}: {err}'
+
+
 def point_label(axes, values):
     """Return 'K=0.5, kappa=2' for one grid point, or 'all runs' without axes."""
     return ', '.join(f'{n}={v}' for n, v in zip(axes, values)) or 'all runs'
@@ -334,7 +342,7 @@ class _Local:
         if self.tries[key] < 2:
             pending.insert(0, (key, args))
         else:
-            failed(key, f'{type(err).__name__}: {err}')
+            failed(key, failure(err))
 
     def _inline(self, task, key, args, done, failed):
         pending = [(key, args)]
@@ -399,7 +407,7 @@ class _Dask:
                 done(key, fut.result())
             except Exception as err:                   # noqa: B902 (KilledWorker, the task's)
                 if attempt:
-                    failed(key, f'{type(err).__name__}: {err}')
+                    failed(key, failure(err))
                 else:
                     again = self.client.submit(task, *args, pure=False)
                     futures[again] = (key, args, 1)

@@ -20,10 +20,12 @@ Its printed figures, the .npz / .png / .json it writes, and exit code 2 for a ba
 import json
 import os
 from pathlib import Path
+import resource
 import struct
 import subprocess
 import sys
 
+from formation_control import cli
 from formation_control.core.control import Controller
 from formation_control.core.models import ROW_OMEGA, ROW_U, ROW_V
 from formation_control.core.scenario import initial_state, load, resolve
@@ -220,6 +222,45 @@ def test_bad_override_exits_2_naming_the_parameter(tmp_path):
                                   'needs K < 0')
     assert 'Traceback' not in proc.stderr
     assert not (tmp_path / 'run.npz').exists()
+
+
+def test_out_of_memory_ends_with_one_line_naming_what_to_lower(tmp_path):
+    limit = 1 << 30      # address space: the fleet's state alone needs 4.8 GB
+
+    def cap():
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+    env = dict(os.environ, MPLBACKEND='Agg', OPENBLAS_NUM_THREADS='1')
+    proc = subprocess.run([str(CLI), 'sim', str(CONFIG / 'particle_circular.yaml'), '-p',
+                           'num_vehicles:=100000000', '--duration', '1'], cwd=tmp_path,
+                          env=env, capture_output=True, text=True, timeout=120, preexec_fn=cap)
+    assert proc.returncode == 2
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and 'Traceback' not in proc.stderr
+    assert lines[0].startswith('error: out of memory in sim: Unable to allocate')
+    assert '(with num_vehicles:=100000000, --duration 1)' in lines[0]
+    assert 'lower num_vehicles or --duration, or raise record_dt' in lines[0]
+
+
+@pytest.mark.parametrize('command', ['sim', 'sweep'])
+def test_a_memory_error_anywhere_in_main_is_one_line(monkeypatch, capsys, tmp_path, command):
+    def exhausted(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr(simulator.Stepper, 'command', exhausted)
+    argv = [command, str(CONFIG / 'particle_parallel.yaml'), '-p', 'num_vehicles:=3']
+    if command == 'sweep':
+        argv += ['--seeds', '1', '--workers', '0', '--out', str(tmp_path / 'sweep.npz')]
+    assert cli.main(argv) == (2 if command == 'sim' else 1)
+    err = capsys.readouterr().err
+    assert 'Traceback' not in err
+    if command == 'sim':
+        assert err == ('error: out of memory in sim: an allocation failed (with '
+                       'num_vehicles:=3): lower num_vehicles or --duration, or raise '
+                       'record_dt (fewer samples are kept)\n')
+    else:
+        assert ('error: batch 0 failed twice: grid point 0, seeds 0-0: out of memory (an '
+                'allocation failed): lower --batch-size, num_vehicles or --duration\n') in err
 
 
 def test_bad_parameter_file_exits_2(tmp_path):
