@@ -50,6 +50,8 @@ test_requires = [
     'flake8-import-order',
     'flake8-quotes',
     'pydocstyle',
+    'mypy',                              # test/unit/test_mypy.py: the type hints of core,
+                                         # protocol and sim
 ]
 
 setup(

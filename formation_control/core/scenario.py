@@ -26,11 +26,11 @@ import math
 from pathlib import Path
 import re
 
-from formation_control.core.errors import ScenarioError
+from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
-from formation_control.core.stability import step_warnings
+from formation_control.core.stability import steering_bandwidth, step_warnings
 import numpy as np
 import yaml
 
@@ -104,6 +104,11 @@ class Spec:
     shown_default: str = ''
 
 
+def default_K(formation):
+    """Return the formation gain K of a scenario that gives none: -1 parallel, 1 circular."""
+    return -1.0 if formation == 'parallel' else 1.0
+
+
 def _param(default, unit, text, **spec):
     """Declare a :class:`Scenario` field with its default and its :class:`Spec`."""
     return field(default=default, metadata={'spec': Spec(unit, text, **spec)})
@@ -138,7 +143,8 @@ class Scenario:
         'backstepping', '', 'steering law: first_order (1.12), (1.16); backstepping (3.7), '
         '(3.14), (7.12); proportional (5.5); pi (8.24)', choices=CONTROLLERS,
         rule='first_order goes with model first_order, and only with it')
-    K: float = _param(0.0, '1/s', 'formation gain K', shown_default='-1.0 parallel, 1.0 circular',
+    K: float = _param(0.0, '1/s', 'formation gain K', shown_default=', '.join(
+                          f'{default_K(f)} {f}' for f in FORMATIONS),
                       rule='K < 0 for parallel (1.12), (3.7); K > 0 for circular (1.16), (3.14)',
                       runtime=True)
     kappa: float = _param(5.0, '1/s', 'backstepping gain kappa (3.7), (3.14)', runtime=True,
@@ -485,8 +491,6 @@ parameter. A *run time* parameter can be changed on a running node (`ros2 param 
 /vehicle_1 kappa 3.0`); a change that would make the scenario invalid is refused with the
 reason.
 
-| parameter | default | unit | allowed | run time | meaning |
-|---|---|---|---|---|---|
 """
 
 MARKDOWN_TAIL = """
@@ -511,15 +515,34 @@ def markdown():
         The whole page, as ``formation-control params`` prints it.
 
     """
-    def cell(text):
-        return text.replace('|', '\\|')
+    rows = [(f'`{name}`', _shown(name), spec.unit, allowed(name), 'yes' if spec.runtime else '',
+             spec.text) for name, spec in PARAMETERS.items()]
+    table = markdown_table(('parameter', 'default', 'unit', 'allowed', 'run time', 'meaning'),
+                           rows)
+    return MARKDOWN_HEAD + '\n'.join(table) + '\n' + MARKDOWN_TAIL
 
-    rows = []
-    for name, spec in PARAMETERS.items():
-        cells = (f'`{name}`', _shown(name), spec.unit, allowed(name),
-                 'yes' if spec.runtime else '', spec.text)
-        rows.append('| ' + ' | '.join(cell(c) for c in cells) + ' |')
-    return MARKDOWN_HEAD + '\n'.join(rows) + '\n' + MARKDOWN_TAIL
+
+def markdown_table(header, rows):
+    """
+    Return the lines of a Markdown table.
+
+    Parameters
+    ----------
+    header : sequence of str
+        The column titles.
+    rows : iterable of sequence of str
+        The cells of each row, as many as titles; a ``|`` in a cell is escaped.
+
+    Returns
+    -------
+    list of str
+        The title line, the rule and one line per row.
+
+    """
+    def line(cells):
+        return '| ' + ' | '.join(c.replace('|', '\\|') for c in cells) + ' |'
+
+    return [line(header), '|' + '---|' * len(header)] + [line(r) for r in rows]
 
 
 def _check_range(sc, name):
@@ -645,11 +668,6 @@ def rhp_zero(sc):
     return sc.u0 * math.sqrt(sc.h * sc.l / sc.I0)
 
 
-def steering_bandwidth(sc):
-    """Return the gain that sets how fast the steering loop acts: kappa, K_p or K_P (1/s)."""
-    return {'backstepping': sc.kappa, 'proportional': sc.K_p, 'pi': sc.K_P}[sc.controller]
-
-
 def uses_held_force(sc):
     """
     Return whether the steering law reads the course rate from the model with the held force.
@@ -739,7 +757,7 @@ def resolve(params):
     values = {k: _coerce(k, v) for k, v in params.items()}
     sc = replace(_DEFAULTS, **values)
     if 'K' not in values:
-        sc = replace(sc, K=-1.0 if sc.formation == 'parallel' else 1.0)
+        sc = replace(sc, K=default_K(sc.formation))
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
@@ -763,14 +781,14 @@ def read_params(path):
         with open(path, encoding='utf-8') as f:
             doc = yaml.load(f, Loader=_Loader)
     except (OSError, yaml.YAMLError) as err:
-        raise ScenarioError(f'{path}: cannot read the scenario ({err})') from None
+        raise UsageError(f'{path}: cannot read the scenario ({err})') from None
     try:
         params = doc['/**']['ros__parameters'] or {}
     except (TypeError, KeyError):
         params = None
     if not isinstance(params, dict):
-        raise ScenarioError(f'{path}: a scenario is a ROS 2 parameter file with a '
-                            f"'/**: ros__parameters:' section mapping parameter names to values")
+        raise UsageError(f'{path}: a scenario is a ROS 2 parameter file with a '
+                         f"'/**: ros__parameters:' section mapping parameter names to values")
     return params
 
 
@@ -794,8 +812,10 @@ def load(path, overrides=(), **values):
 
     Raises
     ------
+    UsageError
+        The file cannot be read or is not a parameter file.
     ScenarioError
-        The file cannot be read or is not a parameter file, or :func:`resolve` refuses it.
+        :func:`resolve` refuses it.
 
     """
     params = read_params(path)
@@ -878,4 +898,4 @@ def find(name):
         candidate = None
     if candidate is not None and candidate.exists():
         return candidate
-    raise ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')
+    raise UsageError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')

@@ -37,8 +37,18 @@ EXPLODING = 1e6
 """A turn rate (rad/s) or a speed (m/s) beyond this has exploded."""
 
 
+STEERING_GAINS = {'first_order': 'K', 'backstepping': 'kappa', 'proportional': 'K_p',
+                  'pi': 'K_P'}
+"""The gain of each controller whose modulus is its steering bandwidth (1/s)."""
+
+
 class DivergenceError(ScenarioError):
     """The integration of a run diverged (non-finite or exploding state)."""
+
+
+def steering_bandwidth(sc):
+    """Return how fast the steering loop acts (1/s): kappa, K_p, K_P or |K| by controller."""
+    return abs(getattr(sc, STEERING_GAINS[sc.controller]))
 
 
 def modes(sc):
@@ -51,10 +61,10 @@ def modes(sc):
         ``(name, formula, rate (1/s), step parameter, step (s), stability limit of rate * step)``.
 
     """
-    gains = {'backstepping': ('kappa', sc.kappa), 'proportional': ('K_p', sc.K_p),
-             'pi': ('K_P', sc.K_P), 'first_order': ('|K|', abs(sc.K))}
-    name, gain = gains.get(sc.controller, ('|K|', abs(sc.K)))
-    out = [('steering loop', name, gain, 'dt_control', sc.dt_control, HOLD_LIMIT)]
+    name = STEERING_GAINS[sc.controller]
+    formula = f'|{name}|' if name == 'K' else name
+    out = [('steering loop', formula, steering_bandwidth(sc), 'dt_control', sc.dt_control,
+            HOLD_LIMIT)]
     if sc.model in RIGID_MODELS:
         out += [('surge drag', '2 h u0 / m0', 2.0 * sc.h * sc.u0 / sc.m0, 'dt_integration',
                  sc.dt_integration, RK4_LIMIT),

@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import re
 
 from formation_control.core.control import Controller
-from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.errors import UsageError
+from formation_control.core.scenario import resolve
 from formation_control.sim import metrics
 
 PROCESS_KINDS = ('kill', 'restart', 'stop', 'cont')
@@ -86,7 +87,7 @@ def parse(text):
 
     Raises
     ------
-    ScenarioError
+    UsageError
         If the entry does not follow :data:`SYNTAX` or a cut ends before it starts.
 
     """
@@ -96,11 +97,11 @@ def parse(text):
         return [Fault(m[1], (int(m[2]),), float(m[3]), entry)]
     m = _CUT.match(entry)
     if not m:
-        raise ScenarioError(f'--fault {text!r} is invalid: expected {SYNTAX}')
+        raise UsageError(f'--fault {text!r} is invalid: expected {SYNTAX}')
     pair, start, end = (int(m[1]), int(m[2])), float(m[3]), float(m[4])
     if not start < end:
-        raise ScenarioError(f'--fault {text!r} is invalid: the cut must end after it starts '
-                            f'({start:g} .. {end:g} s)')
+        raise UsageError(f'--fault {text!r} is invalid: the cut must end after it starts '
+                         f'({start:g} .. {end:g} s)')
     return [Fault('cut', pair, start, entry), Fault('mend', pair, end, entry)]
 
 
@@ -108,16 +109,16 @@ def _check_ids(fault, sc):
     n = sc.num_vehicles
     bad = [k for k in fault.vehicles if not 1 <= k <= n]
     if bad:
-        raise ScenarioError(f'--fault {fault.text!r} is invalid: vehicle ids must lie in '
-                            f'1..num_vehicles = {n}')
+        raise UsageError(f'--fault {fault.text!r} is invalid: vehicle ids must lie in '
+                         f'1..num_vehicles = {n}')
     if not fault.time <= sc.duration:
-        raise ScenarioError(f'--fault {fault.text!r} is invalid: {fault.time:g} s is after the '
-                            f'end of the run (duration {sc.duration:g} s)')
+        raise UsageError(f'--fault {fault.text!r} is invalid: {fault.time:g} s is after the '
+                         f'end of the run (duration {sc.duration:g} s)')
     if fault.kind == 'cut':
         i, j = fault.vehicles
         if i == j or j not in sc.comm_graph.neighbours(i):
-            raise ScenarioError(f'--fault {fault.text!r} is invalid: vehicles {i} and {j} are '
-                                f'not neighbours in the communication graph ({sc.graph})')
+            raise UsageError(f'--fault {fault.text!r} is invalid: vehicles {i} and {j} are '
+                             f'not neighbours in the communication graph ({sc.graph})')
 
 
 _STATES = {'kill': ('running', 'stopped'), 'stop': ('running',), 'cont': ('stopped',),
@@ -139,7 +140,7 @@ def schedule(texts, sc):
 
     Raises
     ------
-    ScenarioError
+    UsageError
         Naming the entry and what is wrong with it.
 
     """
@@ -151,14 +152,14 @@ def schedule(texts, sc):
         if f.kind in PROCESS_KINDS:
             k = f.vehicles[0]
             if state[k] not in _STATES[f.kind]:
-                raise ScenarioError(f'--fault {f.text!r} is invalid: vehicle {k} is {state[k]} '
-                                    f'at {f.time:g} s')
+                raise UsageError(f'--fault {f.text!r} is invalid: vehicle {k} is {state[k]} '
+                                 f'at {f.time:g} s')
             state[k] = _AFTER[f.kind]
         else:
             link = frozenset(f.vehicles)
             if (f.kind == 'cut') == (link in down):
-                raise ScenarioError(f'--fault {f.text!r} is invalid: it overlaps another cut of '
-                                    f'link {f.vehicles[0]}-{f.vehicles[1]}')
+                raise UsageError(f'--fault {f.text!r} is invalid: it overlaps another cut of '
+                                 f'link {f.vehicles[0]}-{f.vehicles[1]}')
             (down.add if f.kind == 'cut' else down.discard)(link)
     return Schedule(faults)
 

@@ -21,7 +21,7 @@ parameters (descriptor with unit and range, read-only) and writes the node secti
 """
 import re
 
-from formation_control.core.scenario import ScenarioError, Spec
+from formation_control.core.scenario import markdown_table, ScenarioError, Spec
 from formation_control.protocol.links import PARAMETERS as LINKS
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
 
@@ -130,7 +130,7 @@ def _number(x):
 
 
 def _range(spec):
-    parts = [' \\| '.join(spec.choices)] if spec.choices else []
+    parts = [' | '.join(spec.choices)] if spec.choices else []
     if spec.low is not None:
         parts.append(f'[{_number(spec.low)}, {_number(spec.high)}]' if spec.high is not None
                      else f'>= {_number(spec.low)}')
@@ -161,10 +161,8 @@ def markdown():
            'Set per node (`--ros-args -p name:=value`, or `swarm ... -p name:=value`), not in '
            'the scenario;', 'all but `cut_links` are read-only once the node runs.', '']
     for node, table in NODES.items():
-        out += [f'## `{node}`', '', '| name | default | unit | allowed | meaning |',
-                '|---|---|---|---|---|']
-        for name, (default, spec) in table.items():
-            out.append(f'| `{name}` | {_shown(default)} | {spec.unit} | {_range(spec)} | '
-                       f'{spec.text} |')
-        out.append('')
+        rows = [(f'`{name}`', _shown(default), spec.unit, _range(spec), spec.text)
+                for name, (default, spec) in table.items()]
+        out += [f'## `{node}`', '', *markdown_table(
+            ('name', 'default', 'unit', 'allowed', 'meaning'), rows), '']
     return '\n'.join(out)

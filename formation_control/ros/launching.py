@@ -25,6 +25,7 @@ from pathlib import Path
 import tempfile
 
 from formation_control.core import scenario
+from formation_control.core.errors import UsageError
 from formation_control.ops import security
 from formation_control.protocol import names
 from formation_control.protocol.fleet_plan import write_params
@@ -84,7 +85,7 @@ def _scenario(a, recorded=False):
     files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
     if a['params_file']:
         if not Path(a['params_file']).is_file():
-            raise scenario.ScenarioError(f"params_file {a['params_file']!r} not found")
+            raise UsageError(f"params_file {a['params_file']!r} not found")
         files.append(a['params_file'])
     return sc, files
 
@@ -102,8 +103,8 @@ def _fleet(context):
     record = a['record']
     sc, files = _scenario(a, recorded=bool(record))
     if not a['vehicles_per_process'].isdigit() or int(a['vehicles_per_process']) < 1:
-        raise scenario.ScenarioError(f"vehicles_per_process {a['vehicles_per_process']!r} is "
-                                     f'invalid: an integer >= 1')
+        raise UsageError(f"vehicles_per_process {a['vehicles_per_process']!r} is "
+                         f'invalid: an integer >= 1')
     per_process = int(a['vehicles_per_process'])
     if a['secure'] and per_process != 1:
         raise security.SecurityError(f'vehicles_per_process {per_process} with secure: a member '
