@@ -58,9 +58,10 @@ demo: setup
 test: setup
 	$(PY) -m pytest -q
 
-# The unit tests alone (test/unit: pure, no DDS), in well under a minute.
+# The unit tests but the long simulations (test/unit: pure, no DDS; the tests marked slow
+# are left out), in under a minute.
 test-fast: setup
-	$(PY) -m pytest -q test/unit
+	$(PY) -m pytest -q test/unit -m 'not slow'
 
 # The linters alone (flake8, pep257, copyright), as `colcon test` runs them.
 lint: setup

@@ -19,6 +19,8 @@ From vehicle state to commands: particle views, flow transforms and the rigid-bo
 computes the view of itself (:meth:`Controller.view`), shares it, and turns the views of the
 vehicles it knows into its own command (:meth:`Controller.command`).
 """
+from __future__ import annotations
+
 from dataclasses import replace
 
 from formation_control.core import laws

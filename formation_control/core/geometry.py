@@ -13,10 +13,14 @@
 # limitations under the License.
 
 """The planar inner product on complex numbers."""
+from __future__ import annotations
+
 import numpy as np
+from numpy.typing import NDArray
 
 
-def inner(a, b):
+def inner(a: complex | NDArray[np.complex128],
+          b: complex | NDArray[np.complex128]) -> NDArray[np.float64]:
     """
     Return the inner product of planar vectors written as complex numbers.
 

@@ -25,6 +25,8 @@ all-to-all laws), ``ring``, ``circulant`` (vehicle k hears k +- d for each d in
 ``graph_offsets``), ``random`` (connected, mean degree ``graph_degree``, seeded by
 ``graph_seed``) and ``explicit`` (``graph_edges``: 1-based id pairs).
 """
+from __future__ import annotations
+
 import math
 
 import numpy as np

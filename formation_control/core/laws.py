@@ -36,6 +36,8 @@ Symmetric circular patterns (Sepulchre, Paley and Leonard, "Stabilization of pla
 motion: all-to-all communication", IEEE TAC 52(5), 2007) add a phase potential U to the
 circular law (:class:`Moments`, :class:`Slots`); docs/errata.md, "Symmetric patterns".
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 
 from formation_control.core.geometry import inner
@@ -166,7 +168,7 @@ class Parallel:
     """
 
     K: float
-    coupling: Coupling = None
+    coupling: Coupling | None = None
 
     def terms(self, view, idx=slice(None)):
         """
@@ -396,8 +398,8 @@ class Circular:
     K: float
     omega0: float
     c0: complex = 0j
-    informed: np.ndarray = None
-    coupling: Coupling = None
+    informed: np.ndarray | None = None
+    coupling: Coupling | None = None
     pattern: object = None
 
     def centres(self, view):

@@ -19,6 +19,8 @@ A scenario file is ``/**: ros__parameters: ...``. :func:`load` reads and validat
 error names the parameter and the values it may take, before anything runs. The parameters,
 their defaults, units and ranges are one table, the fields of :class:`Scenario`.
 """
+from __future__ import annotations
+
 from dataclasses import asdict, dataclass, field, fields, replace
 from functools import cached_property
 import json
@@ -93,8 +95,8 @@ class Spec:
 
     unit: str
     text: str
-    low: float = None
-    high: float = None
+    low: float | None = None
+    high: float | None = None
     above: bool = False
     zero: str = ''
     models: tuple = MODELS

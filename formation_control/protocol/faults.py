@@ -23,6 +23,8 @@ are fleet (simulated) seconds. :func:`schedule` parses and checks a script again
 scenario; :class:`Schedule` hands the faults out as fleet time passes. The swarm runner
 applies them.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 import re
 

@@ -21,6 +21,8 @@ over the integration steps (:class:`simulator.Stepper`), records every ``record_
 last finite state, zero command, no more odometry; the others go on.
 :func:`stability.likely_cause` names why.
 """
+from __future__ import annotations
+
 from formation_control.core import stability
 from formation_control.sim.simulator import Recorder, Stepper
 import numpy as np

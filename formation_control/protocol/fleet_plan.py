@@ -13,6 +13,8 @@
 # limitations under the License.
 
 """The processes of a fleet and the parameters they are given (``swarm``, the launch files)."""
+from __future__ import annotations
+
 from pathlib import Path
 
 from formation_control.protocol import names

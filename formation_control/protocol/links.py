@@ -18,6 +18,8 @@ Links between vehicles: who is alive, and the faults a study injects on what a v
 Node parameters (not scenario parameters: the offline simulator has no links), with their
 defaults, units and allowed ranges in :data:`PARAMETERS`.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 import heapq
 import itertools

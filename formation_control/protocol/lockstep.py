@@ -26,6 +26,8 @@ Real time: the plant integrates the steps the wall clock has reached (:class:`Pa
 samples vehicle k's odometry at integration step (k - 1) mod substeps of each period
 (:func:`sample_slots`).
 """
+from __future__ import annotations
+
 import math
 
 from formation_control.protocol.links import Liveness

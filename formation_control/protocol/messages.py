@@ -21,6 +21,8 @@ the values of its formation_state (:func:`state_names`) and their canonical CDR 
 (:class:`StateWire`), and stamps. The functions taking a message read and write attributes
 only, so they serve rclpy messages and those a bag reader builds alike.
 """
+from __future__ import annotations
+
 import math
 from operator import attrgetter
 import struct

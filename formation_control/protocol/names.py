@@ -19,6 +19,7 @@ Topic names are relative, so a fleet lives in the namespace of its nodes (``-r
 __ns:=/fleet_a``); only :data:`DIAGNOSTICS_TOPIC` is absolute. Frames follow REP-105: the
 ``world`` frame (default ``map``) and one base frame per vehicle (``vehicle_{id}/base_link``).
 """
+from __future__ import annotations
 
 WORLD_FRAME = 'map'
 BASE_FRAME = 'vehicle_{id}/base_link'

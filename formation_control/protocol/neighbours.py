@@ -30,6 +30,8 @@ On a communication graph other than the complete one, each formation state also 
 its sender's graph neighbours the sender hears; a neighbour is in the Laplacian sums only while
 the link is mutual (it hears this vehicle too), so the sums stay symmetric however links drop.
 """
+from __future__ import annotations
+
 import math
 
 from formation_control.core.laws import View

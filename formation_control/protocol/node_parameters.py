@@ -19,6 +19,8 @@ Each entry is ``name -> (default, scenario.Spec)``; the same table declares the 
 parameters (descriptor with unit and range, read-only) and writes the node section of
 ``docs/parameters.md`` (:func:`markdown`). The offline simulator has none of these.
 """
+from __future__ import annotations
+
 import re
 
 from formation_control.core.scenario import markdown_table, ScenarioError, Spec

@@ -22,6 +22,8 @@ estimate (:class:`estimation.FlowEstimator`, ``estimated``). A measurement that 
 topic (the local flow, the through-water velocity) is paired with the odometry of the same
 stamp (:class:`Pairing`).
 """
+from __future__ import annotations
+
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator
 from formation_control.core.models import RIGID_MODELS

@@ -18,6 +18,8 @@ Formation metrics of the thesis' analysis, and the convergence test.
 Order parameter |p|, circle centres, potentials, composite Lyapunov values, centre spread,
 radius, crab angles; the steady states the analysis predicts for rigid bodies.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 
 from formation_control.core import laws

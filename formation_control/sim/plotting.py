@@ -19,6 +19,8 @@ Trajectories with heading (and ground-velocity) arrows; turning rate and speeds;
 the composite Lyapunov value on a log scale. They draw :func:`report.series`, so a run from the
 simulator, the plant's ``.npz`` or a bag looks the same.
 """
+from __future__ import annotations
+
 from formation_control.core.models import RIGID_MODELS
 from formation_control.sim.report import series
 import matplotlib

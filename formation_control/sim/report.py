@@ -18,6 +18,8 @@ What a run shows, whatever recorded it (offline simulator, the plant's ``.npz``,
 The series the figures draw, and the final values next to the steady state the thesis
 predicts.
 """
+from __future__ import annotations
+
 from formation_control.core.control import Controller
 from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
                                            ROW_U, ROW_X, ROW_Y)

@@ -21,6 +21,8 @@ the plant over ``dt_control / dt_integration`` steps. Each vehicle commands with
 the local flow at its place (``flow_source: known``) or its estimate (``estimated``,
 :mod:`estimation`), from what it measures at the period's start.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field, replace
 import json
 
@@ -63,7 +65,7 @@ class Run:
     X: np.ndarray
     U: np.ndarray
     meta: dict = field(default_factory=dict)
-    flow_hat: np.ndarray = None
+    flow_hat: np.ndarray | None = None
 
     def arrays(self):
         """

@@ -23,6 +23,8 @@ run's result does not depend on the batch it is in, the batch size or the worker
 batch's rows are written to ``<out>.parts/`` as it completes, ``resume`` skips those already
 there, and the parts are merged into one ``.npz`` at the end.
 """
+from __future__ import annotations
+
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass

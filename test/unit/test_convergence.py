@@ -46,6 +46,7 @@ def test_parallel_scenarios_synchronise(name, seed, source):
     assert abs(vs[0].e.mean()) < 0.9                          # it did have work to do
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, seed, source', _cases(CIRCULAR))
 def test_circular_scenarios_share_one_circle(name, seed, source):
     run = run_of(name, seed, SOURCES[source])
@@ -71,6 +72,7 @@ def test_circular_in_flow_moves_at_the_inertial_speed(seed, source):
     assert np.ptp(final.speed) > 0.5                           # spread round the circle
 
 
+@pytest.mark.slow
 def test_backstepping_matches_first_order_speed_of_convergence():
     """Ch. 9: the second-order laws perform comparably to the first-order ones."""
     from formation_control.sim.simulator import summary

@@ -177,6 +177,7 @@ def test_run_record_holds_the_estimates(tmp_path):
 
 # --- a slowly turning flow: the bound from the estimator bandwidth -----------------------------
 
+@pytest.mark.slow
 def test_turning_flow_keeps_the_circle_within_the_bandwidth_bound():
     """
     In f = f0 + A e^{i w t} the estimation error settles at |e| = A w / sqrt(lambda_f^2 + w^2).
@@ -303,6 +304,7 @@ def robustness(name, field, source, seconds=20.0):
     return spread, abs(centres[-1] - centres[0]) / seconds, rate, speed
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, field, source', list(ROBUSTNESS))
 def test_robustness_in_shear_and_vortex_fields(name, field, source):
     """

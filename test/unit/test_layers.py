@@ -44,10 +44,26 @@ def modules(package=PACKAGE):
     return found
 
 
+def _runtime_nodes(tree):
+    """Yield the nodes of a module but those under ``if TYPE_CHECKING:`` (never run)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        if isinstance(node, ast.If) and getattr(node.test, 'id', None) == 'TYPE_CHECKING':
+            todo.extend(node.orelse)
+        else:
+            todo.extend(ast.iter_child_nodes(node))
+
+
 def imports(path, known):
-    """Return the names a module imports: modules of the package, other packages by name."""
+    """
+    Return the names a module imports: modules of the package, other packages by name.
+
+    Imports for the type checker alone (``if TYPE_CHECKING:``) are left out: they never run.
+    """
     out = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in _runtime_nodes(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
             out.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module:

@@ -38,6 +38,7 @@ def _late(run, seconds):
     return run.t >= run.t[-1] - seconds
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name', ['rigid_parallel', 'rigid_parallel_cop'])
 def test_rigid_parallel_without_flow(name, seed):
@@ -66,6 +67,7 @@ def test_rigid_parallel_in_flow_crab_angle_8_17(seed, source):
     assert np.max(abs(beta_hat)) > 0.05 or abs(np.sin(X[2]).mean()) < 0.1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name', ['rigid_circular', 'rigid_circular_center'])
 def test_rigid_circular_steady_turn(name, seed):
@@ -94,6 +96,7 @@ def test_rigid_circular_center_moves_the_centre(seed):
     assert abs(ctrl.formation.centres(vs[-1]).mean()) > 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 def test_full_law_with_a_slower_loop_converges(seed):
     """The full (7.12) law (s', beta' from the model, beta'' omitted) with kappa = 2."""
@@ -117,6 +120,7 @@ def _pi_figures(run, seconds=50.0):
     return centres, spread, radius, error, drift
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', FLOW_CASES)
 def test_pi_in_flow_is_only_practically_stable(seed, source):
     """
@@ -135,6 +139,7 @@ def test_pi_in_flow_is_only_practically_stable(seed, source):
     assert 0.005 < drift < 0.03
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', FLOW_CASES)
 def test_pi_in_flow_with_prescribed_centre_keeps_a_bounded_offset(seed, source):
     run = run_of('rigid_circular_flow_center', seed, SOURCES[source])
