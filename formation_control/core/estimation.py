@@ -37,9 +37,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import position, RIGID_MODELS, ROW_THETA, ROW_U, ROW_V
 import numpy as np
-from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from formation_control.core.graphs import Graph
@@ -49,7 +49,7 @@ CLAMP = 0.95
 """Largest |fhat| as a fraction of the vehicle's speed through the water."""
 
 
-def relative_velocity(X: NDArray[np.float64]) -> NDArray[np.complex128]:
+def relative_velocity(X: RealArray) -> ComplexArray:
     """
     Return the velocity through the flow of each vehicle, world frame.
 
@@ -106,15 +106,15 @@ class FlowEstimator:
 
     """
 
-    def __init__(self, sc: Scenario, n: int) -> None:
+    def __init__(self, sc: Scenario, n: int | tuple[int, ...]) -> None:
         self.sc = sc
         self.fhat = np.zeros(n, complex)
-        self.rhat: NDArray[np.complex128] | None = None
+        self.rhat: ComplexArray | None = None
         self.v_rel = np.zeros(n, complex)
         self.limit = CLAMP * (sc.u0 if sc.model in RIGID_MODELS else 1.0)
 
-    def update(self, X: NDArray[np.float64], v_ground: NDArray[np.complex128],
-               neighbours: NDArray[np.complex128] | None = None) -> NDArray[np.complex128]:
+    def update(self, X: RealArray, v_ground: ComplexArray,
+               neighbours: ComplexArray | None = None) -> ComplexArray:
         """
         Take one period's measurements; return the estimates (n,) complex.
 
@@ -140,7 +140,7 @@ class FlowEstimator:
                 np.asarray(neighbours) - self.fhat)
         return self.clamp()
 
-    def _observe(self, r: NDArray[np.complex128], v_rel: NDArray[np.complex128],
+    def _observe(self, r: ComplexArray, v_rel: ComplexArray,
                  dt: float) -> None:
         """Advance the position-only observer to the position samples r."""
         if self.rhat is None:
@@ -153,7 +153,7 @@ class FlowEstimator:
         self.fhat = self.fhat + k2 * innovation
         self.v_rel = v_rel
 
-    def clamp(self) -> NDArray[np.complex128]:
+    def clamp(self) -> ComplexArray:
         """Clamp the estimates to ``|fhat| <= limit``; return them."""
         size = abs(self.fhat)
         over = size > self.limit
@@ -165,7 +165,7 @@ class FlowEstimator:
         self.sc = sc
 
 
-def neighbour_mean(graph: Graph, fhat: NDArray[np.complex128]) -> NDArray[np.complex128]:
+def neighbour_mean(graph: Graph, fhat: ComplexArray) -> ComplexArray:
     """
     Return the mean of each vehicle's neighbours' estimates over a communication graph.
 
@@ -189,4 +189,4 @@ def neighbour_mean(graph: Graph, fhat: NDArray[np.complex128]) -> NDArray[np.com
         return (fhat.sum() - fhat) / (n - 1)
     src, dst = graph.arcs
     total = (np.bincount(dst, fhat.real[src], n) + 1j * np.bincount(dst, fhat.imag[src], n))
-    return total / graph.degrees()
+    return np.asarray(total / graph.degrees(), complex)

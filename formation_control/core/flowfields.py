@@ -42,14 +42,14 @@ from os import PathLike
 from pathlib import Path
 from typing import NoReturn, TYPE_CHECKING
 
+from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
-from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from formation_control.core.scenario import Scenario
 
 FLOW_MODELS = ('uniform', 'time_varying', 'shear', 'vortex', 'grid')
-Grid = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.complex128]]
+Grid = tuple[RealArray, RealArray, ComplexArray]
 """The lines x, y (m) of a gridded flow and the flow at its nodes (m/s), shape (ny, nx)."""
 
 
@@ -61,7 +61,7 @@ def _fail(name: str, value: object, allowed: str) -> NoReturn:
     raise FlowfieldError(f"parameter '{name}' = {value!r} is invalid: {allowed}")
 
 
-def read_grid(path: str | PathLike[str]) -> Grid:
+def read_grid(path: str | PathLike[str]) -> tuple[RealArray, RealArray, ComplexArray]:
     """
     Read a gridded flow file.
 
@@ -152,8 +152,8 @@ class Flowfield:
             return
         self.max_speed = abs(self.value) + extra
 
-    def __call__(self, t: float, x: NDArray[np.float64],
-                 y: NDArray[np.float64]) -> NDArray[np.complex128]:
+    def __call__(self, t: float | RealArray, x: RealArray,
+                 y: RealArray) -> ComplexArray:
         """
         Return the flow at the time ``t`` and the positions ``x, y``.
 
@@ -182,12 +182,12 @@ class Flowfield:
             return self.value + self._vortex(np.asarray(x) + 1j * np.asarray(y) - self.centre)
         return self._bilinear(np.asarray(x, float), np.asarray(y, float))
 
-    def _vortex(self, d: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    def _vortex(self, d: ComplexArray) -> ComplexArray:
         """Return the Rankine vortex's velocity at the offsets d from its centre (complex m)."""
         rho2 = np.maximum(abs(d) ** 2, self.radius ** 2)
         return 1j * d * self.circulation / (2.0 * np.pi * rho2)
 
-    def _bilinear(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.complex128]:
+    def _bilinear(self, x: RealArray, y: RealArray) -> ComplexArray:
         """Return the grid flow bilinearly interpolated at x, y (held at the border)."""
         xs, ys = np.clip(x, self.x[0], self.x[-1]), np.clip(y, self.y[0], self.y[-1])
         i = np.clip(np.searchsorted(self.x, xs) - 1, 0, self.x.size - 2)

@@ -44,8 +44,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from formation_control.core.flowfields import Flowfield
+from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
-from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from formation_control.core.scenario import Scenario
@@ -119,7 +119,7 @@ class Plant:
         return cls(sc.model, Flowfield(sc), sc.m0, sc.I0, sc.l, sc.h, sc.l1)
 
 
-def position(X: NDArray[np.float64]) -> NDArray[np.complex128]:
+def position(X: RealArray) -> ComplexArray:
     """
     Return the position of each vehicle as a complex number.
 
@@ -137,8 +137,8 @@ def position(X: NDArray[np.float64]) -> NDArray[np.complex128]:
     return X[ROW_X] + 1j * X[ROW_Y]
 
 
-def ground_velocity(X: NDArray[np.float64],
-                    flow: complex | NDArray[np.complex128]) -> NDArray[np.complex128]:
+def ground_velocity(X: RealArray,
+                    flow: complex | ComplexArray) -> ComplexArray:
     """
     Return the ground (inertial) velocity of each vehicle, (8.1).
 
@@ -160,8 +160,8 @@ def ground_velocity(X: NDArray[np.float64],
     return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA]) + flow
 
 
-def body_accel(X: NDArray[np.float64], U: NDArray[np.float64],
-               plant: Plant) -> tuple[NDArray[np.float64], ...]:
+def body_accel(X: RealArray, U: RealArray,
+               plant: Plant) -> tuple[RealArray, ...]:
     """
     Return the body-frame accelerations of the rigid-body models, (6.15), (8.9), (8.22), (A.3).
 
@@ -193,9 +193,9 @@ def body_accel(X: NDArray[np.float64], U: NDArray[np.float64],
     return out[0], out[1], out[2]
 
 
-def _body_accel(du: NDArray[np.float64], dv: NDArray[np.float64], dw: NDArray[np.float64],
-                X: NDArray[np.float64], U: NDArray[np.float64], plant: Plant,
-                t: NDArray[np.float64]) -> None:
+def _body_accel(du: RealArray, dv: RealArray, dw: RealArray,
+                X: RealArray, U: RealArray, plant: Plant,
+                t: RealArray) -> None:
     """Write :func:`body_accel` into the rows du, dv, dw; t: two scratch rows."""
     u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
     thrust, force = U[0], U[1]
@@ -222,8 +222,8 @@ def _body_accel(du: NDArray[np.float64], dv: NDArray[np.float64], dw: NDArray[np
         dw -= tmp
 
 
-def _rates(K: NDArray[np.float64], Z: NDArray[np.float64], U: NDArray[np.float64], plant: Plant,
-           c: NDArray[np.float64], s: NDArray[np.float64], t: NDArray[np.float64]) -> None:
+def _rates(K: RealArray, Z: RealArray, U: RealArray, plant: Plant,
+           c: RealArray, s: RealArray, t: RealArray) -> None:
     """
     Write dX/dt at the state Z into K, given c, s = cos, sin(theta); t: two scratch rows.
 
@@ -253,8 +253,8 @@ def _rates(K: NDArray[np.float64], Z: NDArray[np.float64], U: NDArray[np.float64
         ky += flow.imag
 
 
-def deriv(X: NDArray[np.float64], U: NDArray[np.float64], plant: Plant,
-          t: float = 0.0) -> NDArray[np.float64]:
+def deriv(X: RealArray, U: RealArray, plant: Plant,
+          t: float = 0.0) -> RealArray:
     """
     Return the state derivative dX/dt of the model ``plant.model``.
 
@@ -289,8 +289,8 @@ def deriv(X: NDArray[np.float64], U: NDArray[np.float64], plant: Plant,
     return dX
 
 
-def _series(d2: NDArray[np.float64], coefs: tuple[float, ...], power: int, dmax: float,
-            out: NDArray[np.float64]) -> NDArray[np.float64]:
+def _series(d2: RealArray, coefs: tuple[float, ...], power: int, dmax: float,
+            out: RealArray) -> RealArray:
     """
     Write ``out = d2 (a0 + d2 (a1 + ...))`` by Horner, in place, for a Taylor series in d.
 
@@ -305,8 +305,8 @@ def _series(d2: NDArray[np.float64], coefs: tuple[float, ...], power: int, dmax:
     return out
 
 
-def _cos_sin(out: NDArray[np.float64], cs: NDArray[np.float64], theta: NDArray[np.float64],
-             d: NDArray[np.float64], t: NDArray[np.float64]) -> None:
+def _cos_sin(out: RealArray, cs: RealArray, theta: RealArray,
+             d: RealArray, t: RealArray) -> None:
     """
     Write (cos, sin)(theta + d) into out, given cs = (cos, sin)(theta); t: three scratch rows.
 
@@ -335,7 +335,7 @@ def _cos_sin(out: NDArray[np.float64], cs: NDArray[np.float64], theta: NDArray[n
     os_ += s                                                 # s cos d + c sin d
 
 
-def _rk4_block(X: NDArray[np.float64], U: NDArray[np.float64], dt: float, steps: int,
+def _rk4_block(X: RealArray, U: RealArray, dt: float, steps: int,
                plant: Plant) -> None:
     """
     Take ``steps`` RK4 steps of one block of vehicles in place, reusing its work rows.
@@ -372,8 +372,8 @@ def _rk4_block(X: NDArray[np.float64], U: NDArray[np.float64], dt: float, steps:
         X[:m] += acc
 
 
-def rk4_step(X: NDArray[np.float64], U: NDArray[np.float64], dt: float, plant: Plant,
-             t: float = 0.0) -> NDArray[np.float64]:
+def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
+             t: float = 0.0) -> RealArray:
     """
     Return the state after one classical Runge-Kutta (RK4) step with the input held.
 
@@ -403,8 +403,8 @@ def rk4_step(X: NDArray[np.float64], U: NDArray[np.float64], dt: float, plant: P
     return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def integrate(X: NDArray[np.float64], U: NDArray[np.float64], dt: float, steps: int, plant: Plant,
-              t: float = 0.0, plain: bool | None = None) -> NDArray[np.float64]:
+def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
+              t: float = 0.0, plain: bool | None = None) -> RealArray:
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 

@@ -30,9 +30,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from formation_control.core.errors import ScenarioError
+from formation_control.core.geometry import BoolArray, RealArray
 from formation_control.core.models import RIGID_MODELS, ROW_OMEGA
 import numpy as np
-from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from formation_control.core.scenario import Scenario
@@ -95,7 +95,7 @@ def step_warnings(sc: Scenario) -> list[str]:
             for m in modes(sc) if m[2] > 0 and m[2] * m[4] > 0.5 * m[5]]
 
 
-def diverging(X: NDArray[np.float64]) -> NDArray[np.bool_]:
+def diverging(X: RealArray) -> BoolArray:
     """
     Return the vehicles whose state diverged.
 
@@ -120,7 +120,7 @@ def likely_cause(sc: Scenario) -> str:
     return _text(worst)
 
 
-def divergence(sc: Scenario, t: float, i: int, X: NDArray[np.float64]) -> DivergenceError:
+def divergence(sc: Scenario, t: float, i: int, X: RealArray) -> DivergenceError:
     """
     Return the :class:`DivergenceError` of vehicle index ``i`` diverged by time ``t`` (s).
 
