@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 import json
 from os import PathLike
-from typing import Any
+from typing import Any, overload
 
 from formation_control.core import stability
 from formation_control.core.control import Controller
@@ -336,6 +336,15 @@ def initial_states(sc: Scenario, seeds: Sequence[int]) -> RealArray:
 
     """
     return np.stack([initial_state(replace(sc, seed=int(s))) for s in seeds], axis=1)
+
+
+@overload
+def simulate(sc: Scenario, X0: ArrayLike | None = None,
+             recorder: Recorder | None = None) -> Run: ...
+
+
+@overload
+def simulate(sc: Scenario, X0: ArrayLike | None, recorder: Outcome) -> Outcome: ...
 
 
 def simulate(sc: Scenario, X0: ArrayLike | None = None,
