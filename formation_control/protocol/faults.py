@@ -25,13 +25,15 @@ applies them.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 import re
 
 from formation_control.core.control import Controller
 from formation_control.core.errors import UsageError
-from formation_control.core.scenario import resolve
+from formation_control.core.scenario import resolve, Scenario
 from formation_control.sim import metrics
+from formation_control.sim.simulator import Run
 
 PROCESS_KINDS = ('kill', 'restart', 'stop', 'cont')
 LINK_KINDS = ('cut', 'mend')
@@ -62,18 +64,18 @@ class Fault:
     """
 
     kind: str
-    vehicles: tuple
+    vehicles: tuple[int, ...]
     time: float
     text: str
 
-    def describe(self):
+    def describe(self) -> str:
         """Return a one-line description, e.g. ``kill vehicle 3`` or ``cut link 1-2``."""
         if self.kind in LINK_KINDS:
             return f'{self.kind} link {self.vehicles[0]}-{self.vehicles[1]}'
         return f'{self.kind} vehicle {self.vehicles[0]}'
 
 
-def parse(text):
+def parse(text: str) -> list[Fault]:
     """
     Parse one script entry.
 
@@ -107,7 +109,7 @@ def parse(text):
     return [Fault('cut', pair, start, entry), Fault('mend', pair, end, entry)]
 
 
-def _check_ids(fault, sc):
+def _check_ids(fault: Fault, sc: Scenario) -> None:
     n = sc.num_vehicles
     bad = [k for k in fault.vehicles if not 1 <= k <= n]
     if bad:
@@ -128,7 +130,7 @@ _STATES = {'kill': ('running', 'stopped'), 'stop': ('running',), 'cont': ('stopp
 _AFTER = {'kill': 'killed', 'stop': 'stopped', 'cont': 'running', 'restart': 'running'}
 
 
-def schedule(texts, sc):
+def schedule(texts: Iterable[str], sc: Scenario) -> Schedule:
     """
     Parse and check a fault script against scenario ``sc``.
 
@@ -148,7 +150,7 @@ def schedule(texts, sc):
     """
     faults = [f for text in texts for f in parse(text)]
     state = dict.fromkeys(range(1, sc.num_vehicles + 1), 'running')
-    down = set()
+    down: set[frozenset[int]] = set()
     for f in sorted(faults, key=lambda f: f.time):
         _check_ids(f, sc)
         if f.kind in PROCESS_KINDS:
@@ -177,20 +179,20 @@ class Schedule:
 
     """
 
-    def __init__(self, faults):
+    def __init__(self, faults: Iterable[Fault]) -> None:
         self.pending = sorted(faults, key=lambda f: f.time)
-        self.down = set()
+        self.down: set[frozenset[int]] = set()
 
-    def __bool__(self):
+    def __bool__(self) -> bool:
         return bool(self.pending)
 
-    def due(self, t):
+    def due(self, t: float) -> list[Fault]:
         """Return the faults whose time has come at fleet time ``t`` (s), in time order, once."""
         count = next((i for i, f in enumerate(self.pending) if f.time > t), len(self.pending))
         out, self.pending = self.pending[:count], self.pending[count:]
         return out
 
-    def cut_links(self, fault):
+    def cut_links(self, fault: Fault) -> dict[int, tuple[int, ...]]:
         """
         Apply a link fault; return ``{vehicle: cut_links}`` for its two ends.
 
@@ -202,7 +204,8 @@ class Schedule:
                 for k in fault.vehicles}
 
 
-def survivors_converged(run, members):
+def survivors_converged(run: Run,
+                        members: Sequence[int]) -> tuple[bool, float | None] | tuple[None, None]:
     """
     Return whether, and from when, the vehicles ``members`` reach the formation in ``run``.
 
@@ -230,6 +233,6 @@ def survivors_converged(run, members):
                    'pattern_form': 'auto', 'init_x': [], 'init_y': [], 'init_theta': [],
                    'init_omega': [], 'init_u': [], 'init_v': []})
     ctrl = Controller(sub)
-    flags = [metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows]))
+    flags = [bool(metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows])))
              for X, U in zip(run.X, run.U)]
     return bool(flags[-1]), metrics.convergence_time(run.t, flags)

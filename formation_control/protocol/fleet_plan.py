@@ -15,8 +15,10 @@
 """The processes of a fleet and the parameters they are given (``swarm``, the launch files)."""
 from __future__ import annotations
 
+from os import PathLike
 from pathlib import Path
 
+from formation_control.core.scenario import Scenario
 from formation_control.protocol import names
 import yaml
 
@@ -31,7 +33,8 @@ RECORDED_TOPICS = ('odom', 'formation_state', 'cmd')
 """The per-vehicle topics whose writers keep :data:`RECORDED_DEPTH` samples under a bag."""
 
 
-def write_params(sc, path, recorded=False, namespace='/'):
+def write_params(sc: Scenario, path: str | PathLike[str], recorded: bool = False,
+                 namespace: str = '/') -> str:
     """
     Write the resolved scenario as a ROS 2 parameter file at ``path``; return the path.
 

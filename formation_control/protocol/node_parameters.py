@@ -21,7 +21,9 @@ parameters (descriptor with unit and range, read-only) and writes the node secti
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 import re
+from typing import Any
 
 from formation_control.core.scenario import markdown_table, ScenarioError, Spec
 from formation_control.protocol.links import PARAMETERS as LINKS
@@ -41,7 +43,7 @@ FRAMES = {
 """The frames every node of a fleet is given alike."""
 
 
-def check_frames(values, per_vehicle=True):
+def check_frames(values: Mapping[str, Any], per_vehicle: bool = True) -> None:
     """
     Refuse frame parameters that are not tf2 frame ids or that would be shared.
 
@@ -127,11 +129,11 @@ MONITOR = {
 NODES = {'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR}
 
 
-def _number(x):
+def _number(x: float) -> str:
     return str(x) if isinstance(x, int) else f'{x:g}'
 
 
-def _range(spec):
+def _range(spec: Spec) -> str:
     parts = [' | '.join(spec.choices)] if spec.choices else []
     if spec.low is not None:
         parts.append(f'[{_number(spec.low)}, {_number(spec.high)}]' if spec.high is not None
@@ -141,7 +143,7 @@ def _range(spec):
     return '; '.join(parts)
 
 
-def _shown(value):
+def _shown(value: object) -> str:
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, str):
@@ -149,7 +151,7 @@ def _shown(value):
     return str(list(value)) if isinstance(value, tuple) else str(value)
 
 
-def markdown():
+def markdown() -> str:
     """
     Return the node section of docs/parameters.md: one table per node.
 

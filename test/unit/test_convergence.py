@@ -35,6 +35,7 @@ def _cases(names):
         (n, 1, 'estimated') for n in names if n.endswith('_flow')]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, seed, source', _cases(PARALLEL))
 def test_parallel_scenarios_synchronise(name, seed, source):
     run = run_of(name, seed, SOURCES[source])
@@ -60,6 +61,7 @@ def test_circular_scenarios_share_one_circle(name, seed, source):
     assert np.max(abs(c0 - c0.mean())) > 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', [(s, 'known') for s in SEEDS] + [(1, 'estimated')])
 def test_circular_in_flow_moves_at_the_inertial_speed(seed, source):
     """(1.6): on the common circle the inertial speed varies with gamma, s = |e^{i theta} + f|."""

@@ -122,6 +122,7 @@ def test_estimate_error_decays_as_exp_minus_lambda_t_along_the_closed_loop(name)
     assert np.max(err[0]) > 0.1                                   # it did have to learn it
 
 
+@pytest.mark.slow
 def test_observer_from_the_position_only_learns_a_uniform_flow():
     """The position-only observer: error poles e^{s dt}, s^2 + l1 s + l2 = 0 (l1 = 2, l2 = 1)."""
     run = run_of('particle_parallel_flow', 1, ESTIMATED + ('flow_estimator:=observer',))

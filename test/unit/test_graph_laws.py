@@ -170,6 +170,7 @@ def test_parallel_fleets_converge_on_random_connected_graphs():
         assert s['order_parameter'] > 0.999
 
 
+@pytest.mark.slow
 def test_a_fleet_converges_while_its_graph_switches_between_connected_graphs():
     """Every 2 s the fleet switches between a ring and a random connected graph."""
     sc = load(CONFIG / 'particle_circular_ring.yaml', ['duration:=60'], seed=4)
@@ -222,6 +223,7 @@ def test_the_plot_draws_the_communication_graph(tmp_path):
     assert plot_run(complete, tmp_path / 'all.png')['links'].size == 0
 
 
+@pytest.mark.slow
 def test_a_parallel_ring_has_a_stable_twisted_state():
     """Documented pitfall: phases winding once around a ring of 12 are a stable equilibrium."""
     n = 12

@@ -128,6 +128,7 @@ def test_composite_lyapunov_never_increases_backstepping(case):
     assert np.max(np.diff(v)) <= 1e-6 * v[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('formation', ['parallel', 'circular'])
 @pytest.mark.parametrize('flow', [[0.0, 0.0], [0.4, -0.2]])
 def test_potential_never_increases_first_order(formation, flow):

@@ -171,6 +171,7 @@ def test_splay_spaces_the_vehicles_evenly_on_one_circle(name, overrides, seed):
     assert first.min_separation < 0.8 * chord or first.phase_orders[0] > 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name, overrides', [
     ('particle_circular_splay', ()), ('particle_circular_symmetric', ()),

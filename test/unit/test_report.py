@@ -74,6 +74,7 @@ def test_parallel_flow_crab_prediction_follows_the_heading():
     assert pred == pytest.approx(np.arctan2(f_body.imag, sc.u0 + f_body.real))
 
 
+@pytest.mark.slow
 def test_series_lyapunov_never_increases_under_backstepping():
     run = run_of('particle_circular', 1)
     d = report.series(run)

@@ -51,6 +51,7 @@ def test_rigid_parallel_without_flow(name, seed):
     np.testing.assert_allclose(X[3], 0.0, atol=1e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', FLOW_CASES)
 def test_rigid_parallel_in_flow_crab_angle_8_17(seed, source):
     """Theorem 8: common inertial heading, beta -> 0, beta_hat -> (8.17), s_hat -> (8.17)."""
@@ -88,6 +89,7 @@ def test_rigid_circular_steady_turn(name, seed):
         assert abs(c.mean() - sc.c0_c) < 1e-2
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 def test_rigid_circular_center_moves_the_centre(seed):
     """Only vehicle 1 knows c0, yet the circle moves there; without c0 it settles elsewhere."""
@@ -201,6 +203,7 @@ def _assert_close_per_row(new, ref, rtol=1e-12):
     assert np.all(abs(new - ref) <= rtol * scale), np.max(abs(new - ref) / scale, axis=1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('plain_below', [0, 10**9], ids=['blocks', 'plain'])
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
 @pytest.mark.parametrize('model', models.MODELS)
