@@ -63,7 +63,7 @@ test: setup
 test-fast: setup
 	$(PY) -m pytest -q test/unit -m 'not slow'
 
-# The linters alone (flake8, pep257, copyright), as `colcon test` runs them.
+# The linters alone (flake8, pep257, copyright, mypy), as `colcon test` runs them.
 lint: setup
 	$(PY) -m pytest -q -m linter
 

@@ -158,6 +158,18 @@ def test_the_checks_see_a_climb_and_a_circle(tmp_path):
     assert 'rclpy' in imports(known['formation_control.sim.c'], known)
 
 
+def test_an_import_for_the_type_checker_alone_is_no_edge(tmp_path):
+    pkg = tmp_path / 'formation_control'
+    (pkg / 'core').mkdir(parents=True)
+    (pkg / 'core' / 'a.py').write_text(
+        'from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n'
+        '    from formation_control.core import b\nelse:\n    import numpy\n')
+    (pkg / 'core' / 'b.py').write_text('from formation_control.core import a\n')
+    edges, known = graph(pkg)
+    assert circles(edges) == []
+    assert imports(known['formation_control.core.a'], known) == {'typing', 'numpy'}
+
+
 @pytest.mark.parametrize('name', FLOORS[:-2])
 def test_a_floor_is_a_folder(name):
     assert (PACKAGE / name / '__init__.py').is_file()
