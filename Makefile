@@ -86,9 +86,10 @@ demo: setup
 test: setup
 	$(PY) -m pytest -q
 
-# The unit tests alone (test/unit: pure, no DDS), in well under a minute.
+# The unit tests but the long simulations (test/unit: pure, no DDS; the tests marked slow
+# are left out), in under a minute.
 test-fast: setup
-	$(PY) -m pytest -q test/unit
+	$(PY) -m pytest -q test/unit -m 'not slow'
 
 # The docs site (docs/: MyST pages and the API reference of core, protocol and sim from the
 # docstrings) in docs/_build/html; any warning (a broken reference, a docstring that does not
@@ -96,7 +97,7 @@ test-fast: setup
 docs: setup
 	$(PY) -m sphinx -W --keep-going -n -q -b html docs docs/_build/html
 
-# The linters alone (flake8, pep257, copyright), as `colcon test` runs them.
+# The linters alone (flake8, pep257, copyright, mypy), as `colcon test` runs them.
 lint: setup
 	$(PY) -m pytest -q -m linter
 

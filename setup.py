@@ -68,6 +68,8 @@ test_requires = [
     'flake8-import-order',
     'flake8-quotes',
     'pydocstyle',
+    'mypy',                              # test/unit/test_mypy.py: the type hints of core,
+                                         # protocol and sim
 ]
 
 docs_requires = ['sphinx', 'myst-parser', 'numpydoc']   # docs/conf.py, make docs

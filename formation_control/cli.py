@@ -30,6 +30,7 @@ import sys
 import threading
 
 from formation_control.core import scenario
+from formation_control.core.errors import UsageError
 from formation_control.ops import security
 from formation_control.protocol import names, node_parameters
 from formation_control.sim import report, simulator
@@ -49,7 +50,7 @@ def _split(overrides):
 def _load(args, node_params_allowed=False):
     overrides, node = _split(args.param)
     if node and not node_params_allowed:
-        raise scenario.ScenarioError(
+        raise UsageError(
             f"{', '.join(node)}: link and frame parameters apply to the ROS nodes only (use "
             f'swarm)')
     sc = scenario.load(scenario.find(args.scenario), overrides,
@@ -117,7 +118,7 @@ def cmd_sweep(args):
         failures = sweep.execute(the_plan, args.out, workers, args.scheduler, args.resume,
                                  progress=sweep.Progress(the_plan.runs))
     except sweep.SweepError as err:
-        raise scenario.ScenarioError(str(err)) from None
+        raise UsageError(str(err)) from None
     except KeyboardInterrupt:
         print(f'\ninterrupted: the batches done are in {sweep.parts_dir(args.out)}; the same '
               f'command with --resume continues', file=sys.stderr)
@@ -144,15 +145,15 @@ def cmd_swarm(args):
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
     if args.foxglove is not None and (args.no_monitor or not 0 < args.foxglove < 65536):
-        raise scenario.ScenarioError(f'--foxglove {args.foxglove} is invalid: a TCP port in '
-                                     f'1..65535, served by the monitor (not with --no-monitor)')
+        raise UsageError(f'--foxglove {args.foxglove} is invalid: a TCP port in '
+                         f'1..65535, served by the monitor (not with --no-monitor)')
     sc = _load(args, node_params_allowed=True)
     note = swarm.environment_note()
     if note:
         print(note, file=sys.stderr)
     if args.restart_dead is not None and not args.restart_dead >= 0:
-        raise scenario.ScenarioError(f'--restart-dead {args.restart_dead:g} is invalid: a delay '
-                                     f'in fleet seconds, >= 0')
+        raise UsageError(f'--restart-dead {args.restart_dead:g} is invalid: a delay '
+                         f'in fleet seconds, >= 0')
     try:
         run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
                                    monitor=not args.no_monitor, node_params=_split(args.param)[1],
@@ -235,9 +236,9 @@ def load_source(path):
         try:
             return simulator.load_run(path)
         except (OSError, ValueError, KeyError) as err:
-            raise scenario.ScenarioError(f'{path}: not a run .npz ({err})') from None
-    raise scenario.ScenarioError(f'SOURCE {path!r} is neither a run .npz nor a rosbag2 bag '
-                                 f'directory (one with metadata.yaml)')
+            raise UsageError(f'{path}: not a run .npz ({err})') from None
+    raise UsageError(f'SOURCE {path!r} is neither a run .npz nor a rosbag2 bag '
+                     f'directory (one with metadata.yaml)')
 
 
 def cmd_plot(args):
@@ -475,7 +476,7 @@ def main(argv=None):
         parser.error('--ros-args: only play takes them (swarm: -p NAME:=VALUE)')
     try:
         return args.func(args)
-    except (scenario.ScenarioError, security.SecurityError) as err:
+    except (scenario.ScenarioError, UsageError, security.SecurityError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 2
     except MemoryError as err:

@@ -21,9 +21,10 @@ Read a rosbag2 bag written by ``swarm --bag`` with the ``rosbags`` library.
 from collections import defaultdict
 import json
 
+from formation_control.core.errors import UsageError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.models import ROW_OMEGA
-from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.scenario import resolve
 from formation_control.protocol import names
 from formation_control.protocol.messages import input_from_cmd, stamp_ns, state_from_odom
 from formation_control.sim.simulator import Run
@@ -53,15 +54,15 @@ def fleet_prefix(path):
         for conn in reader.connections:
             if conn.topic.endswith('/' + names.SCENARIO_TOPIC):
                 return conn.topic[:-len(names.SCENARIO_TOPIC)]
-    raise ScenarioError(f'{path}: the bag has no {names.SCENARIO_TOPIC} topic (the plant '
-                        f'publishes it; record that topic)')
+    raise UsageError(f'{path}: the bag has no {names.SCENARIO_TOPIC} topic (the plant '
+                     f'publishes it; record that topic)')
 
 
 def _scenario(path, prefix):
     for _, msg in messages(path, [prefix + names.SCENARIO_TOPIC]):
         return resolve(json.loads(msg.data))
-    raise ScenarioError(f'{path}: the bag has no {names.SCENARIO_TOPIC} message (the plant '
-                        f'publishes it; record that topic)')
+    raise UsageError(f'{path}: the bag has no {names.SCENARIO_TOPIC} message (the plant '
+                     f'publishes it; record that topic)')
 
 
 def read_run(path):
@@ -81,7 +82,7 @@ def read_run(path):
 
     Raises
     ------
-    ScenarioError
+    UsageError
         No scenario, or no step with the odometry of every vehicle.
 
     """
@@ -102,7 +103,7 @@ def read_run(path):
             cmds[cmd_index[topic]].append((_stamp(msg), input_from_cmd(msg, sc.model)))
     stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)
     if stamps.size == 0:
-        raise ScenarioError(f'{path}: no step with the odometry of all {n} vehicles')
+        raise UsageError(f'{path}: no step with the odometry of all {n} vehicles')
     steps = np.rint((stamps - stamps[0]) * 1e-9 / sc.dt_control).astype(int)
     keep = (steps % sc.record_every == 0) | (steps == steps[-1])
     stamps, steps = stamps[keep], steps[keep]

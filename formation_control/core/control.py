@@ -19,18 +19,22 @@ From vehicle state to commands: particle views, flow transforms and the rigid-bo
 computes the view of itself (:meth:`Controller.view`), shares it, and turns the views of the
 vehicles it knows into its own command (:meth:`Controller.command`).
 """
+from __future__ import annotations
+
 from dataclasses import replace
+from typing import Any
 
 from formation_control.core import laws
-from formation_control.core.geometry import inner
+from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
-from formation_control.core.scenario import uses_held_force
+from formation_control.core.scenario import Scenario, uses_held_force
 import numpy as np
 
 
-def particle_speed_terms(theta, flow):
+def particle_speed_terms(theta: RealArray,
+                         flow: complex | ComplexArray) -> tuple[RealArray, RealArray, RealArray]:
     """
     Return the inertial speed, course and course-rate factor of unit-speed particles in a flow.
 
@@ -55,7 +59,7 @@ def particle_speed_terms(theta, flow):
     return np.sqrt(s2), np.angle(vel), (1.0 + inner(flow, e)) / s2
 
 
-def particle_view(X, flow):
+def particle_view(X: RealArray, flow: complex | ComplexArray) -> laws.View:
     """
     Return the particle view of unit-speed particles.
 
@@ -79,7 +83,8 @@ def particle_view(X, flow):
     return laws.View(position(X), gamma, g * w, s, s_dot)
 
 
-def body_rate_from_inertial(w, theta, flow):
+def body_rate_from_inertial(w: RealArray, theta: RealArray,
+                            flow: complex | ComplexArray) -> RealArray:
     """
     Return the body turn rate that gives the inertial course rate ``w``, (5.1).
 
@@ -101,7 +106,9 @@ def body_rate_from_inertial(w, theta, flow):
     return w / particle_speed_terms(theta, flow)[2]
 
 
-def body_accel_from_inertial(lam, theta, omega, flow):
+def body_accel_from_inertial(lam: RealArray, theta: RealArray,
+                             omega: RealArray,
+                             flow: complex | ComplexArray) -> RealArray:
     """
     Return the body angular acceleration that gives the inertial one ``lam``, (5.3)/(5.4).
 
@@ -129,7 +136,7 @@ def body_accel_from_inertial(lam, theta, omega, flow):
     return (lam - g_dot * omega) * s2 / n
 
 
-def thrust(X, u0, K_f, plant):
+def thrust(X: RealArray, u0: float, K_f: float, plant: Plant) -> RealArray:
     """
     Return the feedback-linearising thrust of rigid bodies, (7.1) = (8.10).
 
@@ -154,7 +161,8 @@ def thrust(X, u0, K_f, plant):
     return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
 
 
-def rigid_view(X, U_applied, plant, flow, use_heading, full):
+def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
+               flow: complex | ComplexArray, use_heading: bool, full: bool) -> laws.View:
     """
     Return the particle view of rigid bodies.
 
@@ -196,7 +204,7 @@ def rigid_view(X, U_applied, plant, flow, use_heading, full):
     return laws.View(r, np.angle(vel), rate, speed, inner(vel, acc) / speed)
 
 
-def drag_moment_accel(X, plant):
+def drag_moment_accel(X: RealArray, plant: Plant) -> RealArray:
     """
     Return the yaw acceleration of the centre-of-pressure drag moment, (A.3), (A.13).
 
@@ -218,7 +226,8 @@ def drag_moment_accel(X, plant):
     return -plant.l1 * plant.h * np.hypot(X[ROW_U], X[ROW_V]) * X[ROW_V] / plant.I0
 
 
-def steering_force(a, X, plant, cancel_drag_moment=True):
+def steering_force(a: RealArray, X: RealArray, plant: Plant,
+                   cancel_drag_moment: bool = True) -> RealArray:
     """
     Return the steering force that gives the yaw acceleration ``a``, (7.3), (8.11), (A.20).
 
@@ -245,7 +254,7 @@ def steering_force(a, X, plant, cancel_drag_moment=True):
     return -plant.I0 * a / plant.l
 
 
-def command_limits(sc):
+def command_limits(sc: Scenario) -> RealArray:
     """
     Return the bounds on the magnitude of each input row.
 
@@ -268,7 +277,7 @@ def command_limits(sc):
     return np.array([v if v > 0 else np.inf for v in limits])
 
 
-def pattern_law(sc):
+def pattern_law(sc: Scenario) -> laws.Moments | laws.Slots | None:
     """
     Return the phase potential of the scenario's symmetric pattern.
 
@@ -321,31 +330,33 @@ class Controller:
 
     """
 
-    def __init__(self, sc):
+    def __init__(self, sc: Scenario) -> None:
         self.sc = sc
         self.plant = Plant.of(sc)
         self.still = Plant.of(replace(sc, flow=(0.0, 0.0), flow_model='uniform'))
         self.rigid = sc.model in RIGID_MODELS
         coupling = None if sc.all_to_all else sc.comm_graph.coupling()
+        self.formation: laws.Formation
         if sc.formation == 'parallel':
             self.formation = laws.Parallel(sc.K, coupling)
         else:
             self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
                                            pattern_law(sc))
-        self._couplings = {}
+        self._couplings: dict[bytes, laws.Coupling] = {}
         self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
         self.full = uses_held_force(sc)
-        self.integral = None
+        self.integral: RealArray | None = None
         self.limits = command_limits(sc)
 
-    def thrust(self, X):
+    def thrust(self, X: RealArray) -> RealArray:
         """Return the thrust of ``X`` (6, n), (7.1)/(8.10): (n,) N; 0 for particles."""
         if not self.rigid:
             return np.zeros(X.shape[1:])
         return thrust(X, self.sc.u0, self.sc.K_f, self.plant)
 
-    def flow(self, flow):
+    def flow(self,
+             flow: complex | ComplexArray | None) -> complex | ComplexArray:
         """
         Return the flow the vehicles use: ``flow`` (complex, or one per vehicle), else uniform.
 
@@ -362,7 +373,9 @@ class Controller:
                              f"vehicle's flow")
         return self.plant.flow.value
 
-    def predict(self, X, U_held, flow=None, delay=0.0):
+    def predict(self, X: RealArray, U_held: RealArray,
+                flow: complex | ComplexArray | None = None,
+                delay: float = 0.0) -> RealArray:
         """
         Return the state a command is computed for: ``X`` predicted to the middle of its hold.
 
@@ -381,7 +394,7 @@ class Controller:
         Returns
         -------
         ndarray, shape (6, n)
-            One RK4 step of the model over ``delay + sc.command_lead`` (:func:`models.rk4_step`,
+            One RK4 step of the model over ``delay + sc.command_lead`` (:func:`models.integrate`,
             on cache-sized blocks of a large fleet; errata, sampled-data laws): a command held
             over ``[t, t + h]`` and computed for the state at ``t + h/2`` makes each period a
             midpoint-rule step of the continuous closed loop, whose error is of order h^2
@@ -398,7 +411,8 @@ class Controller:
         X[ROW_Y] += drift.imag
         return X
 
-    def view(self, X, F_held=None, flow=None):
+    def view(self, X: RealArray, F_held: RealArray | None = None,
+             flow: complex | ComplexArray | None = None) -> laws.View:
         """
         Return the particle view of the vehicles ``X``: what each vehicle shares with the others.
 
@@ -426,7 +440,7 @@ class Controller:
         U_applied = np.stack([self.thrust(X), held])
         return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full)
 
-    def formation_of(self, members=None):
+    def formation_of(self, members: BoolArray | None = None) -> laws.Formation:
         """
         Return the formation law over the fleet vehicles ``members`` (bool mask; None = all).
 
@@ -438,7 +452,7 @@ class Controller:
         if members is None:
             return f
         members = np.asarray(members, bool)
-        changes = {}
+        changes: dict[str, Any] = {}
         if isinstance(f, laws.Circular):
             changes['informed'] = np.asarray(f.informed)[members]
             if isinstance(f.pattern, laws.Slots):
@@ -452,7 +466,8 @@ class Controller:
             changes['coupling'] = self._couplings[key]
         return replace(f, **changes)
 
-    def phase_accel(self, view, idx, members=None):
+    def phase_accel(self, view: laws.View, idx: laws.Index,
+                    members: BoolArray | None = None) -> RealArray:
         """
         Return the desired phase acceleration of the vehicles ``idx``.
 
@@ -479,12 +494,13 @@ class Controller:
         if sc.controller == 'proportional':
             return laws.proportional(f, view, sc.K_p, idx)
         err = f.terms(view, idx).phi - view.rate[idx]
-        if self.integral is None:
-            self.integral = np.zeros_like(err)
-        self.integral = self.integral + err * sc.dt_control
+        integral = np.zeros_like(err) if self.integral is None else self.integral
+        self.integral = integral + err * sc.dt_control
         return sc.K_P * err + sc.K_I * self.integral
 
-    def command(self, view, X, idx=slice(None), members=None, flow=None):
+    def command(self, view: laws.View, X: RealArray, idx: laws.Index = slice(None),
+                members: BoolArray | None = None,
+                flow: complex | ComplexArray | None = None) -> RealArray:
         """
         Return the inputs of the vehicles ``idx`` of ``view``.
 
@@ -525,11 +541,11 @@ class Controller:
                                             self.flow(flow))
         return self.saturate(U)
 
-    def saturate(self, U):
+    def saturate(self, U: RealArray) -> RealArray:
         """Return the inputs U (2, n) with each row clipped to its :func:`command_limits`."""
         limits = self.limits.reshape((2,) + (1,) * (np.ndim(U) - 1))
         return np.clip(U, -limits, limits)
 
-    def saturated(self, U):
+    def saturated(self, U: RealArray) -> BoolArray:
         """Return (n,) bool: whether each vehicle's input U (2, n) sits on a limit."""
         return np.any(abs(np.asarray(U)) >= self.limits[:, None] * (1 - 1e-9), axis=0)

@@ -33,14 +33,23 @@ equation that does not depend on the control (``e' = -lambda_f e``): the cascade
 docs/errata.md, "Flow estimation". Every estimate is clamped to ``|fhat| <= CLAMP * speed``
 (1 for particles, u0 for rigid bodies), so that the transforms (5.1)-(5.4) stay defined.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import position, RIGID_MODELS, ROW_THETA, ROW_U, ROW_V
 import numpy as np
+
+if TYPE_CHECKING:
+    from formation_control.core.graphs import Graph
+    from formation_control.core.scenario import Scenario
 
 CLAMP = 0.95
 """Largest ``|fhat|`` as a fraction of the vehicle's speed through the water."""
 
 
-def relative_velocity(X):
+def relative_velocity(X: RealArray) -> ComplexArray:
     """
     Return the velocity through the flow of each vehicle, world frame.
 
@@ -59,7 +68,7 @@ def relative_velocity(X):
     return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA])
 
 
-def observer_gains(l1, l2, dt):
+def observer_gains(l1: float, l2: float, dt: float) -> tuple[float, float]:
     """
     Return the corrector gains of the discrete position-only observer.
 
@@ -97,13 +106,15 @@ class FlowEstimator:
 
     """
 
-    def __init__(self, sc, n):
+    def __init__(self, sc: Scenario, n: int | tuple[int, ...]) -> None:
         self.sc = sc
         self.fhat = np.zeros(n, complex)
-        self.rhat = self.v_rel = None
+        self.rhat: ComplexArray | None = None
+        self.v_rel = np.zeros(n, complex)
         self.limit = CLAMP * (sc.u0 if sc.model in RIGID_MODELS else 1.0)
 
-    def update(self, X, v_ground, neighbours=None):
+    def update(self, X: RealArray, v_ground: ComplexArray,
+               neighbours: ComplexArray | None = None) -> ComplexArray:
         """
         Take one period's measurements; return the estimates (n,) complex.
 
@@ -129,7 +140,8 @@ class FlowEstimator:
                 np.asarray(neighbours) - self.fhat)
         return self.clamp()
 
-    def _observe(self, r, v_rel, dt):
+    def _observe(self, r: ComplexArray, v_rel: ComplexArray,
+                 dt: float) -> None:
         """Advance the position-only observer to the position samples r."""
         if self.rhat is None:
             self.rhat, self.v_rel = r.copy(), v_rel
@@ -141,19 +153,19 @@ class FlowEstimator:
         self.fhat = self.fhat + k2 * innovation
         self.v_rel = v_rel
 
-    def clamp(self):
+    def clamp(self) -> ComplexArray:
         """Clamp the estimates to ``|fhat| <= limit``; return them."""
         size = abs(self.fhat)
         over = size > self.limit
         self.fhat[over] *= self.limit / size[over]
         return self.fhat
 
-    def retune(self, sc):
+    def retune(self, sc: Scenario) -> None:
         """Take the gains of ``sc`` (changed at run time); the estimates carry on."""
         self.sc = sc
 
 
-def neighbour_mean(graph, fhat):
+def neighbour_mean(graph: Graph, fhat: ComplexArray) -> ComplexArray:
     """
     Return the mean of each vehicle's neighbours' estimates over a communication graph.
 
@@ -177,4 +189,4 @@ def neighbour_mean(graph, fhat):
         return (fhat.sum() - fhat) / (n - 1)
     src, dst = graph.arcs
     total = (np.bincount(dst, fhat.real[src], n) + 1j * np.bincount(dst, fhat.imag[src], n))
-    return total / graph.degrees()
+    return np.asarray(total / graph.degrees(), complex)

@@ -36,22 +36,32 @@ background ``flow`` a term that varies in time or space:
 A grid file is an ``.npz`` with ``x`` (nx,), ``y`` (ny,) increasing, and ``fx, fy`` (ny, nx);
 or a CSV with a header ``x,y,fx,fy`` and one row per grid node (any order).
 """
-from pathlib import Path
+from __future__ import annotations
 
+from os import PathLike
+from pathlib import Path
+from typing import NoReturn, TYPE_CHECKING
+
+from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
 
+if TYPE_CHECKING:
+    from formation_control.core.scenario import Scenario
+
 FLOW_MODELS = ('uniform', 'time_varying', 'shear', 'vortex', 'grid')
+Grid = tuple[RealArray, RealArray, ComplexArray]
+"""The lines x, y (m) of a gridded flow and the flow at its nodes (m/s), shape (ny, nx)."""
 
 
 class FlowfieldError(ValueError):
     """A flowfield cannot be built (bad grid file); the message names the parameter."""
 
 
-def _fail(name, value, allowed):
+def _fail(name: str, value: object, allowed: str) -> NoReturn:
     raise FlowfieldError(f"parameter '{name}' = {value!r} is invalid: {allowed}")
 
 
-def read_grid(path):
+def read_grid(path: str | PathLike[str]) -> tuple[RealArray, RealArray, ComplexArray]:
     """
     Read a gridded flow file.
 
@@ -120,7 +130,7 @@ class Flowfield:
 
     """
 
-    def __init__(self, sc):
+    def __init__(self, sc: Scenario) -> None:
         self.model = sc.flow_model
         self.value = complex(sc.flow_c)
         self.uniform = self.model == 'uniform'
@@ -142,7 +152,8 @@ class Flowfield:
             return
         self.max_speed = abs(self.value) + extra
 
-    def __call__(self, t, x, y):
+    def __call__(self, t: float | RealArray, x: RealArray,
+                 y: RealArray) -> ComplexArray:
         """
         Return the flow at the time ``t`` and the positions ``x, y``.
 
@@ -165,17 +176,18 @@ class Flowfield:
         if self.model == 'time_varying':
             return np.full(shape, self.value + self.amplitude * np.exp(1j * self.rate * t))
         if self.model == 'shear':
-            return self.value + self.shear * np.clip(y, -self.width, self.width)
+            return np.asarray(self.value + self.shear * np.clip(y, -self.width, self.width),
+                              complex)
         if self.model == 'vortex':
             return self.value + self._vortex(np.asarray(x) + 1j * np.asarray(y) - self.centre)
         return self._bilinear(np.asarray(x, float), np.asarray(y, float))
 
-    def _vortex(self, d):
+    def _vortex(self, d: ComplexArray) -> ComplexArray:
         """Return the Rankine vortex's velocity at the offsets d from its centre (complex m)."""
         rho2 = np.maximum(abs(d) ** 2, self.radius ** 2)
         return 1j * d * self.circulation / (2.0 * np.pi * rho2)
 
-    def _bilinear(self, x, y):
+    def _bilinear(self, x: RealArray, y: RealArray) -> ComplexArray:
         """Return the grid flow bilinearly interpolated at x, y (held at the border)."""
         xs, ys = np.clip(x, self.x[0], self.x[-1]), np.clip(y, self.y[0], self.y[-1])
         i = np.clip(np.searchsorted(self.x, xs) - 1, 0, self.x.size - 2)
@@ -186,6 +198,6 @@ class Flowfield:
         return ((1 - b) * ((1 - a) * g[j, i] + a * g[j, i + 1])
                 + b * ((1 - a) * g[j + 1, i] + a * g[j + 1, i + 1]))
 
-    def max_rate(self):
+    def max_rate(self) -> float:
         """Return a bound of ``|df/dt|`` at a fixed place (m/s^2): 2 pi A / T, else 0."""
         return self.amplitude * self.rate if self.model == 'time_varying' else 0.0

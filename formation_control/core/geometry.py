@@ -12,11 +12,25 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The planar inner product on complex numbers."""
+"""The planar inner product on complex numbers, and the array types of the annotations."""
+from __future__ import annotations
+
+from typing import Any, TypeAlias
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+RealArray: TypeAlias = NDArray[np.floating[Any]]
+"""An array of real numbers (float64 in practice)."""
+ComplexArray: TypeAlias = NDArray[np.complexfloating[Any, Any]]
+"""An array of complex numbers, planar vectors ``x + i y`` (complex128 in practice)."""
+BoolArray: TypeAlias = NDArray[np.bool_]
+"""An array of flags."""
+IntArray: TypeAlias = NDArray[np.integer[Any]]
+"""An array of indices or counts."""
 
 
-def inner(a, b):
+def inner(a: ArrayLike, b: ArrayLike) -> RealArray:
     """
     Return the inner product of planar vectors written as complex numbers.
 

@@ -25,9 +25,17 @@ all-to-all laws), ``ring``, ``circulant`` (vehicle k hears k +- d for each d in
 ``graph_offsets``), ``random`` (connected, mean degree ``graph_degree``, seeded by
 ``graph_seed``) and ``explicit`` (``graph_edges``: 1-based id pairs).
 """
-import math
+from __future__ import annotations
 
+from collections.abc import Sequence
+import math
+from typing import NoReturn, TYPE_CHECKING
+
+from formation_control.core.geometry import BoolArray, IntArray, RealArray
 import numpy as np
+
+if TYPE_CHECKING:
+    from formation_control.core.laws import Coupling
 
 GRAPHS = ('complete', 'ring', 'circulant', 'random', 'explicit')
 
@@ -36,7 +44,7 @@ class GraphError(ValueError):
     """A graph parameter is invalid: the message names the parameter and the reason."""
 
 
-def _fail(name, value, reason):
+def _fail(name: str, value: object, reason: str) -> NoReturn:
     raise GraphError(f"parameter '{name}' = {value!r} is invalid: {reason}")
 
 
@@ -56,14 +64,14 @@ class Graph:
 
     """
 
-    def __init__(self, n, edges, nu):
+    def __init__(self, n: int, edges: IntArray | None, nu: float) -> None:
         self.n = n
         self.complete = edges is None or len(edges) == n * (n - 1) // 2
         self._edges = edges
         self.nu = nu
 
     @property
-    def edges(self):
+    def edges(self) -> IntArray:
         """(E, 2) int: each undirected edge once, as 0-based indices (i < j)."""
         if self._edges is None:
             i, j = np.triu_indices(self.n, 1)
@@ -71,18 +79,18 @@ class Graph:
         return self._edges
 
     @property
-    def arcs(self):
+    def arcs(self) -> tuple[IntArray, IntArray]:
         """(src, dst): every edge in both directions, (2E,) int each."""
         i, j = self.edges.T
         return np.concatenate([i, j]), np.concatenate([j, i])
 
-    def degrees(self):
+    def degrees(self) -> IntArray:
         """(n,) int: the number of neighbours of each vehicle."""
         if self._edges is None:
             return np.full(self.n, self.n - 1)
         return np.bincount(self.edges.ravel(), minlength=self.n)
 
-    def neighbours(self, k):
+    def neighbours(self, k: int) -> list[int]:
         """Return the ids (1-based, sorted) vehicle ``k`` hears."""
         if self._edges is None:
             return [j for j in range(1, self.n + 1) if j != k]
@@ -90,18 +98,18 @@ class Graph:
         own = k - 1
         return sorted(int(x) + 1 for x in np.concatenate([j[i == own], i[j == own]]))
 
-    def adjacency(self):
+    def adjacency(self) -> RealArray:
         """(n, n) float: the weights a_kj (dense; for small fleets, tests and metrics)."""
         A = np.zeros((self.n, self.n))
         A[self.edges[:, 0], self.edges[:, 1]] = 1.0
         return A + A.T
 
-    def laplacian(self):
+    def laplacian(self) -> RealArray:
         """(n, n) float: L = D - A."""
         A = self.adjacency()
         return np.diag(A.sum(axis=1)) - A
 
-    def coupling(self, members=None):
+    def coupling(self, members: BoolArray | None = None) -> Coupling:
         """
         Return the :class:`laws.Coupling` of the graph among the vehicles ``members``.
 
@@ -127,7 +135,7 @@ class Graph:
         return Coupling(src, dst, self.nu, self.n)
 
 
-def algebraic_connectivity(A):
+def algebraic_connectivity(A: RealArray) -> float:
     """
     lambda_2 of the Laplacian of the symmetric weights ``A`` (n, n): > 0 iff connected.
 
@@ -140,11 +148,11 @@ def algebraic_connectivity(A):
     return float(np.linalg.eigvalsh(L)[1])
 
 
-def _components(n, edges):
+def _components(n: int, edges: IntArray | Sequence[tuple[int, int]]) -> int:
     """Count the connected components of the graph on n vertices (union-find)."""
     parent = list(range(n))
 
-    def root(x):
+    def root(x: int) -> int:
         while parent[x] != x:
             parent[x] = parent[parent[x]]
             x = parent[x]
@@ -154,7 +162,7 @@ def _components(n, edges):
     return len({root(x) for x in range(n)})
 
 
-def _circulant(n, offsets, name='graph_offsets'):
+def _circulant(n: int, offsets: Sequence[int], name: str = 'graph_offsets') -> IntArray:
     offsets = list(offsets)
     if not offsets:
         _fail(name, offsets, 'give at least one offset d (vehicle k hears k +- d)')
@@ -170,7 +178,7 @@ def _circulant(n, offsets, name='graph_offsets'):
     return np.concatenate([np.stack([k, (k + d) % n], axis=1) for d in offsets])
 
 
-def _random(n, degree, seed):
+def _random(n: int, degree: float, seed: int) -> IntArray:
     """Draw a connected graph: a random spanning tree, then random edges up to the degree."""
     if n < 3:
         _fail('graph', 'random', f'a random connected graph needs num_vehicles >= 3 (got {n})')
@@ -187,7 +195,7 @@ def _random(n, degree, seed):
     return np.array(sorted(edges))
 
 
-def _explicit(n, flat):
+def _explicit(n: int, flat: Sequence[int]) -> IntArray:
     flat = list(flat)
     name = 'graph_edges'
     if len(flat) % 2 or not flat:
@@ -208,7 +216,8 @@ def _explicit(n, flat):
     return np.array(sorted(seen)) - 1
 
 
-def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.0):
+def build(n: int, graph: str = 'complete', offsets: Sequence[int] = (1,), degree: float = 4.0,
+          seed: int = 0, edges: Sequence[int] = (), nu: float = 0.0) -> Graph:
     """
     Build and validate the communication graph a scenario names.
 
@@ -267,7 +276,7 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     return Graph(n, pairs.astype(np.int64), nu)
 
 
-def live_edges(graph, hearing, fresh):
+def live_edges(graph: Graph, hearing: BoolArray, fresh: BoolArray) -> IntArray:
     """
     Return the edges of ``graph`` that are live: both ends fresh and each hearing the other.
 
@@ -291,7 +300,7 @@ def live_edges(graph, hearing, fresh):
     return graph.edges[live]
 
 
-def connectivity(members, edges):
+def connectivity(members: BoolArray, edges: IntArray) -> float:
     """
     Return the algebraic connectivity of the graph of unit-weight ``edges`` among ``members``.
 

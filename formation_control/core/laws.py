@@ -36,18 +36,28 @@ Symmetric circular patterns (Sepulchre, Paley and Leonard, "Stabilization of pla
 motion: all-to-all communication", IEEE TAC 52(5), 2007) add a phase potential U to the
 circular law (:class:`Moments`, :class:`Slots`); docs/errata.md, "Symmetric patterns".
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any, TypeAlias
 
-from formation_control.core.geometry import inner
+from formation_control.core.geometry import ComplexArray, inner, IntArray, RealArray
 import numpy as np
+from numpy.typing import NDArray
+
+Index: TypeAlias = 'slice | int | Sequence[int] | NDArray[np.integer[Any]]'
+"""The vehicles a law is evaluated for: all (``slice(None)``), one, or some."""
+Value: TypeAlias = 'float | RealArray'
+"""A per-fleet value: a float for one fleet, an array for a batch of fleets."""
 
 
-def _mean(x):
+def _mean(x: NDArray[Any]) -> NDArray[Any]:
     """Return the mean over the fleet (the last axis), kept as an axis of length 1."""
     return x.mean(axis=-1, keepdims=True)
 
 
-def _fleet(x):
+def _fleet(x: NDArray[Any] | float) -> Value:
     """Return a per-fleet value: a float for one fleet, the array for a batch of fleets."""
     return float(x) if np.ndim(x) == 0 else x
 
@@ -67,18 +77,18 @@ class View:
 
     """
 
-    r: np.ndarray
-    phase: np.ndarray
-    rate: np.ndarray
-    speed: np.ndarray
-    speed_dot: np.ndarray
+    r: ComplexArray
+    phase: RealArray
+    rate: RealArray
+    speed: RealArray
+    speed_dot: RealArray
 
     @property
-    def e(self):
+    def e(self) -> ComplexArray:
         """(N,) complex unit vectors ``e_k = e^{i phase_k}``."""
         return np.exp(1j * self.phase)
 
-    def ahead(self, tau):
+    def ahead(self, tau: RealArray | float) -> View:
         """
         Return the view ``tau`` (N,) seconds later, at constant phase rate and speed.
 
@@ -110,26 +120,26 @@ class Coupling:
 
     """
 
-    src: np.ndarray
-    dst: np.ndarray
+    src: IntArray
+    dst: IntArray
     nu: float
     n: int
 
-    def total(self, per_arc, m):
+    def total(self, per_arc: RealArray, m: int) -> RealArray:
         """
         Return ``sum_j a_kj x_kj`` for each of the m vehicles, from the values on the arcs.
 
         ``per_arc`` is (2E,), or (..., 2E) for a batch of fleets (one sum per fleet).
         """
         if np.ndim(per_arc) == 1:
-            return np.bincount(self.src, weights=per_arc, minlength=m)
+            return np.asarray(np.bincount(self.src, weights=per_arc, minlength=m), float)
         lead = np.shape(per_arc)[:-1]
         fleets = int(np.prod(lead))
         index = (np.arange(fleets)[:, None] * m + self.src).ravel()
         sums = np.bincount(index, weights=np.ravel(per_arc), minlength=fleets * m)
-        return sums.reshape(lead + (m,))
+        return np.asarray(sums, float).reshape(lead + (m,))
 
-    def laplacian(self, x):
+    def laplacian(self, x: ComplexArray) -> ComplexArray:
         """Return ``(L x)_k = sum_j a_kj (x_k - x_j)`` of the complex values x (..., M)."""
         d = x[..., self.src] - x[..., self.dst]
         m = x.shape[-1]
@@ -149,9 +159,9 @@ class Terms:
 
     """
 
-    phi: np.ndarray
-    phi_dot: np.ndarray
-    sigma: np.ndarray
+    phi: RealArray
+    phi_dot: RealArray
+    sigma: RealArray
 
 
 @dataclass(frozen=True)
@@ -166,9 +176,9 @@ class Parallel:
     """
 
     K: float
-    coupling: Coupling = None
+    coupling: Coupling | None = None
 
-    def terms(self, view, idx=slice(None)):
+    def terms(self, view: View, idx: Index = slice(None)) -> Terms:
         """
         Return phi, phi' and sigma of the parallel law for the vehicles ``idx``.
 
@@ -188,7 +198,7 @@ class Parallel:
 
         """
         if self.coupling is not None:
-            return self._graph_terms(view, idx)
+            return self._graph_terms(view, idx, self.coupling)
         e = view.e
         p = _mean(e)
         pw = _mean(e * view.rate)
@@ -197,16 +207,16 @@ class Parallel:
         phi_dot = -self.K * (inner(pw, ek) - wk * inner(p, ek))
         return Terms(-self.K * q, phi_dot, q / e.shape[-1])
 
-    def _graph_terms(self, view, idx):
+    def _graph_terms(self, view: View, idx: Index, g: Coupling) -> Terms:
         """Return the terms on the graph: phi_k' = -(K/nu) sum_j a_kj cos(dphase)(w_j - w_k)."""
-        g, m = self.coupling, view.phase.shape[-1]
+        m = view.phase.shape[-1]
         d = view.phase[..., g.dst] - view.phase[..., g.src]
         q = g.total(np.sin(d), m)[..., idx] / g.nu
         dw = view.rate[..., g.dst] - view.rate[..., g.src]
         phi_dot = -self.K * g.total(np.cos(d) * dw, m)[..., idx] / g.nu
         return Terms(-self.K * q, phi_dot, q / g.n)
 
-    def potential(self, view):
+    def potential(self, view: View) -> Value:
         """
         Return the potential of phase synchrony.
 
@@ -246,14 +256,15 @@ class Moments:
 
     """
 
-    gains: tuple
+    gains: tuple[float, ...]
 
-    def moments(self, phase):
+    def moments(self, phase: RealArray) -> ComplexArray:
         """Return ``p_m`` (complex) for m = 1..len(gains) of the phases (N,)."""
         return np.array([np.exp(1j * m * phase).mean(axis=-1) / m
                          for m in range(1, len(self.gains) + 1)])
 
-    def gradient(self, view, idx=slice(None), coupling=None):
+    def gradient(self, view: View, idx: Index = slice(None),
+                 coupling: Coupling | None = None) -> tuple[RealArray, RealArray]:
         """
         Return ``b_k = dU/dphase_k`` and its time derivative for the vehicles idx.
 
@@ -285,7 +296,7 @@ class Moments:
             b_dot = b_dot + gain * (inner(pw, Ek) - m * wk * inner(pm, Ek))
         return b, b_dot
 
-    def potential(self, view, coupling=None):
+    def potential(self, view: View, coupling: Coupling | None = None) -> Value:
         """Return ``U = sum_m K_m (N/2) (|p_m|^2 - d_m)`` (rad/s) of the view's phases."""
         n = view.phase.shape[-1]
         u = 0.0
@@ -314,9 +325,10 @@ class Slots:
     """
 
     gain: float
-    beta: np.ndarray
+    beta: RealArray
 
-    def gradient(self, view, idx=slice(None), coupling=None):
+    def gradient(self, view: View, idx: Index = slice(None),
+                 coupling: Coupling | None = None) -> tuple[RealArray, RealArray]:
         """
         Return ``b_k = dU/dphase_k`` and its time derivative for the vehicles idx.
 
@@ -349,7 +361,7 @@ class Slots:
         q_dot = g.total(np.cos(d) * (w[..., g.dst] - w[..., g.src]), m)[..., idx] / g.nu
         return -self.gain * q, -self.gain * q_dot
 
-    def potential(self, view, coupling=None):
+    def potential(self, view: View, coupling: Coupling | None = None) -> Value:
         """Return U (rad/s): ``K_s (N/2)(1 - |mean x|^2)``, on a graph ``K_s <x, L x>/(2 nu)``."""
         psi = view.phase - self.beta
         if coupling is None:
@@ -396,11 +408,11 @@ class Circular:
     K: float
     omega0: float
     c0: complex = 0j
-    informed: np.ndarray = None
-    coupling: Coupling = None
-    pattern: object = None
+    informed: RealArray | None = None
+    coupling: Coupling | None = None
+    pattern: Moments | Slots | None = None
 
-    def centres(self, view):
+    def centres(self, view: View) -> ComplexArray:
         """
         Return the circle centres of the vehicles.
 
@@ -418,13 +430,13 @@ class Circular:
         """
         return view.r + 1j * view.e / self.omega0
 
-    def _a0(self, n, idx=slice(None)):
+    def _a0(self, n: int, idx: Index = slice(None)) -> RealArray | float:
         """Return a_k0 of the vehicles idx of n (0.0 when nobody is informed)."""
         if self.informed is None:
             return 0.0
         return np.broadcast_to(self.informed, (n,))[..., idx]
 
-    def terms(self, view, idx=slice(None)):
+    def terms(self, view: View, idx: Index = slice(None)) -> Terms:
         """
         Return phi, phi' and sigma of the circular law for the vehicles ``idx``.
 
@@ -472,7 +484,7 @@ class Circular:
             sigma = sigma - b / (self.K * self.omega0 ** 2)
         return Terms(phi, phi_dot, sigma)
 
-    def potential(self, view):
+    def potential(self, view: View) -> Value:
         """
         Return the potential of the circular formation.
 
@@ -502,7 +514,7 @@ class Circular:
         return _fleet(spread + prescribed)
 
 
-def first_order(formation, view, idx=slice(None)):
+def first_order(formation: Formation, view: View, idx: Index = slice(None)) -> RealArray:
     """
     Return the first-order steering law, ``phase_k' = phi_k``.
 
@@ -524,7 +536,8 @@ def first_order(formation, view, idx=slice(None)):
     return formation.terms(view, idx).phi
 
 
-def backstepping(formation, view, kappa, idx=slice(None)):
+def backstepping(formation: Formation, view: View, kappa: float,
+                 idx: Index = slice(None)) -> RealArray:
     """
     Return the backstepping phase acceleration.
 
@@ -555,7 +568,8 @@ def backstepping(formation, view, kappa, idx=slice(None)):
     return t.sigma - kappa * (view.rate[..., idx] - t.phi) + t.phi_dot
 
 
-def proportional(formation, view, K_p, idx=slice(None)):
+def proportional(formation: Formation, view: View, K_p: float,
+                 idx: Index = slice(None)) -> RealArray:
     """
     Return the proportional phase acceleration.
 
@@ -579,7 +593,7 @@ def proportional(formation, view, K_p, idx=slice(None)):
     return -K_p * (view.rate[..., idx] - formation.terms(view, idx).phi)
 
 
-def composite_lyapunov(formation, view):
+def composite_lyapunov(formation: Formation, view: View) -> Value:
     """
     Return the composite Lyapunov value of the backstepping laws.
 
@@ -599,3 +613,7 @@ def composite_lyapunov(formation, view):
     """
     z = view.rate - formation.terms(view).phi
     return _fleet(formation.potential(view) + 0.5 * np.sum(z ** 2, axis=-1))
+
+
+Formation: TypeAlias = 'Parallel | Circular'
+"""A formation law: parallel (1.12) or circular (1.16)."""

@@ -38,10 +38,17 @@ vehicles with work rows reused by every stage and step (``_rk4_block``), and agr
 the plain formulas to rounding (test_rigid.py); in a flow that is not uniform, where every
 stage needs its own positions, it takes :func:`rk4_step`.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from formation_control.core.flowfields import Flowfield
+from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
+
+if TYPE_CHECKING:
+    from formation_control.core.scenario import Scenario
 
 ROW_X, ROW_Y, ROW_THETA, ROW_OMEGA, ROW_U, ROW_V = range(6)
 STATE_NAMES = ('x', 'y', 'theta', 'omega', 'u', 'v')
@@ -94,7 +101,7 @@ class Plant:
     l1: float
 
     @classmethod
-    def of(cls, sc):
+    def of(cls, sc: Scenario) -> Plant:
         """
         Return the plant of a scenario.
 
@@ -112,7 +119,7 @@ class Plant:
         return cls(sc.model, Flowfield(sc), sc.m0, sc.I0, sc.l, sc.h, sc.l1)
 
 
-def position(X):
+def position(X: RealArray) -> ComplexArray:
     """
     Return the position of each vehicle as a complex number.
 
@@ -130,7 +137,8 @@ def position(X):
     return X[ROW_X] + 1j * X[ROW_Y]
 
 
-def ground_velocity(X, flow):
+def ground_velocity(X: RealArray,
+                    flow: complex | ComplexArray) -> ComplexArray:
     """
     Return the ground (inertial) velocity of each vehicle, (8.1).
 
@@ -152,7 +160,8 @@ def ground_velocity(X, flow):
     return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA]) + flow
 
 
-def body_accel(X, U, plant):
+def body_accel(X: RealArray, U: RealArray,
+               plant: Plant) -> tuple[RealArray, ...]:
     """
     Return the body-frame accelerations of the rigid-body models, (6.15), (8.9), (8.22), (A.3).
 
@@ -184,7 +193,9 @@ def body_accel(X, U, plant):
     return out[0], out[1], out[2]
 
 
-def _body_accel(du, dv, dw, X, U, plant, t):
+def _body_accel(du: RealArray, dv: RealArray, dw: RealArray,
+                X: RealArray, U: RealArray, plant: Plant,
+                t: RealArray) -> None:
     """Write :func:`body_accel` into the rows du, dv, dw; t: two scratch rows."""
     u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
     thrust, force = U[0], U[1]
@@ -211,7 +222,8 @@ def _body_accel(du, dv, dw, X, U, plant, t):
         dw -= tmp
 
 
-def _rates(K, Z, U, plant, c, s, t):
+def _rates(K: RealArray, Z: RealArray, U: RealArray, plant: Plant,
+           c: RealArray, s: RealArray, t: RealArray) -> None:
     """
     Write dX/dt at the state Z into K, given c, s = cos, sin(theta); t: two scratch rows.
 
@@ -241,7 +253,8 @@ def _rates(K, Z, U, plant, c, s, t):
         ky += flow.imag
 
 
-def deriv(X, U, plant, t=0.0):
+def deriv(X: RealArray, U: RealArray, plant: Plant,
+          t: float = 0.0) -> RealArray:
     """
     Return the state derivative dX/dt of the model ``plant.model``.
 
@@ -276,7 +289,8 @@ def deriv(X, U, plant, t=0.0):
     return dX
 
 
-def _series(d2, coefs, power, dmax, out):
+def _series(d2: RealArray, coefs: tuple[float, ...], power: int, dmax: float,
+            out: RealArray) -> RealArray:
     """
     Write ``out = d2 (a0 + d2 (a1 + ...))`` by Horner, in place, for a Taylor series in d.
 
@@ -291,7 +305,8 @@ def _series(d2, coefs, power, dmax, out):
     return out
 
 
-def _cos_sin(out, cs, theta, d, t):
+def _cos_sin(out: RealArray, cs: RealArray, theta: RealArray,
+             d: RealArray, t: RealArray) -> None:
     """
     Write (cos, sin)(theta + d) into out, given cs = (cos, sin)(theta); t: three scratch rows.
 
@@ -320,7 +335,8 @@ def _cos_sin(out, cs, theta, d, t):
     os_ += s                                                 # s cos d + c sin d
 
 
-def _rk4_block(X, U, dt, steps, plant):
+def _rk4_block(X: RealArray, U: RealArray, dt: float, steps: int,
+               plant: Plant) -> None:
     """
     Take ``steps`` RK4 steps of one block of vehicles in place, reusing its work rows.
 
@@ -356,7 +372,8 @@ def _rk4_block(X, U, dt, steps, plant):
         X[:m] += acc
 
 
-def rk4_step(X, U, dt, plant, t=0.0):
+def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
+             t: float = 0.0) -> RealArray:
     """
     Return the state after one classical Runge-Kutta (RK4) step with the input held.
 
@@ -386,7 +403,8 @@ def rk4_step(X, U, dt, plant, t=0.0):
     return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def integrate(X, U, dt, steps, plant, t=0.0, plain=None):
+def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
+              t: float = 0.0, plain: bool | None = None) -> RealArray:
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 

@@ -19,20 +19,29 @@ A scenario file is ``/**: ros__parameters: ...``. :func:`load` reads and validat
 error names the parameter and the values it may take, before anything runs. The parameters,
 their defaults, units and ranges are one table, the fields of :class:`Scenario`.
 """
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, fields, replace
 from functools import cached_property
 import json
 import math
+from os import PathLike
 from pathlib import Path
 import re
+from typing import Any, NoReturn, TYPE_CHECKING
 
-from formation_control.core.errors import ScenarioError
+from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
+from formation_control.core.geometry import RealArray
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
-from formation_control.core.stability import step_warnings
+from formation_control.core.stability import steering_bandwidth, step_warnings
 import numpy as np
 import yaml
+
+if TYPE_CHECKING:
+    from formation_control.core.graphs import Graph
 
 FORMATIONS = ('parallel', 'circular')
 CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
@@ -93,18 +102,23 @@ class Spec:
 
     unit: str
     text: str
-    low: float = None
-    high: float = None
+    low: float | None = None
+    high: float | None = None
     above: bool = False
     zero: str = ''
-    models: tuple = MODELS
-    choices: tuple = ()
+    models: tuple[str, ...] = MODELS
+    choices: tuple[str, ...] = ()
     rule: str = ''
     runtime: bool = False
     shown_default: str = ''
 
 
-def _param(default, unit, text, **spec):
+def default_K(formation: str) -> float:
+    """Return the formation gain K of a scenario that gives none: -1 parallel, 1 circular."""
+    return -1.0 if formation == 'parallel' else 1.0
+
+
+def _param(default: object, unit: str, text: str, **spec: Any) -> Any:
     """Declare a :class:`Scenario` field with its default and its :class:`Spec`."""
     return field(default=default, metadata={'spec': Spec(unit, text, **spec)})
 
@@ -138,7 +152,8 @@ class Scenario:
         'backstepping', '', 'steering law: first_order (1.12), (1.16); backstepping (3.7), '
         '(3.14), (7.12); proportional (5.5); pi (8.24)', choices=CONTROLLERS,
         rule='first_order goes with model first_order, and only with it')
-    K: float = _param(0.0, '1/s', 'formation gain K', shown_default='-1.0 parallel, 1.0 circular',
+    K: float = _param(0.0, '1/s', 'formation gain K', shown_default=', '.join(
+                          f'{default_K(f)} {f}' for f in FORMATIONS),
                       rule='K < 0 for parallel (1.12), (3.7); K > 0 for circular (1.16), (3.14)',
                       runtime=True)
     kappa: float = _param(5.0, '1/s', 'backstepping gain kappa (3.7), (3.14)', runtime=True,
@@ -276,38 +291,38 @@ class Scenario:
                            '(particles: always 1)', rule=f'> 0 for rigid bodies; {_ENTRIES}')
     init_v: tuple = _param((), 'm/s', 'initial sideslip speed relative to the flow; empty = 0 '
                            '(particles: always 0)', rule=_ENTRIES)
-    warnings: tuple = field(default=(), compare=False)
+    warnings: tuple[str, ...] = field(default=(), compare=False)
 
     @property
-    def flow_c(self):
+    def flow_c(self) -> complex:
         """Return the flow as a complex number ``fx + i fy`` (m/s)."""
         return complex(self.flow[0], self.flow[1])
 
     @property
-    def c0_c(self):
+    def c0_c(self) -> complex:
         """Return the prescribed centre as a complex number (m)."""
         return complex(self.c0[0], self.c0[1])
 
     @cached_property
-    def comm_graph(self):
+    def comm_graph(self) -> Graph:
         """Return the communication graph (:func:`graphs.build`; validated by :func:`resolve`)."""
         from formation_control.core import graphs
         return graphs.build(self.num_vehicles, self.graph, self.graph_offsets, self.graph_degree,
                             self.graph_seed, self.graph_edges, self.graph_nu)
 
     @property
-    def all_to_all(self):
+    def all_to_all(self) -> bool:
         """Return whether the laws take their all-to-all form (complete graph, default nu)."""
         return self.graph == 'complete' and self.graph_nu == 0
 
     @property
-    def pattern_slots(self):
+    def pattern_slots(self) -> bool:
         """Return whether the pattern takes its slot form (pattern_form, or auto on a graph)."""
         return self.pattern_form == 'slots' or (self.pattern_form == 'auto'
                                                 and not self.all_to_all)
 
     @property
-    def pattern_offsets(self):
+    def pattern_offsets(self) -> RealArray:
         """
         Return the slot offsets beta_k (rad), (N,) over vehicles 1..N.
 
@@ -320,7 +335,7 @@ class Scenario:
         return 2.0 * np.pi * k / self.num_vehicles
 
     @property
-    def pattern_gains(self):
+    def pattern_gains(self) -> tuple[float, ...]:
         """Return the moment gains (K_1, K_2, ...) (rad/s) of the pattern; () for none."""
         if self.pattern == 'splay':
             return (self.pattern_gain,) * (self.num_vehicles // 2)
@@ -329,39 +344,39 @@ class Scenario:
         return ()
 
     @property
-    def informed_mask(self):
+    def informed_mask(self) -> RealArray:
         """Return a_k0 of (7.17), (N,) floats over vehicles 1..N: 1 for the informed ones."""
         mask = np.zeros(self.num_vehicles)
         mask[[k - 1 for k in self.informed]] = 1.0
         return mask
 
     @property
-    def substeps(self):
+    def substeps(self) -> int:
         """Integration steps in one control period, ``dt_control / dt_integration``."""
         return int(round(self.dt_control / self.dt_integration))
 
     @property
-    def command_lead(self):
+    def command_lead(self) -> float:
         """How far ahead of its sample a command's state is predicted (s): half a period or 0."""
         return 0.5 * self.dt_control if self.hold_prediction == 'midpoint' else 0.0
 
     @property
-    def periods(self):
+    def periods(self) -> int:
         """Control periods in the run, ``duration / dt_control``."""
         return int(round(self.duration / self.dt_control))
 
     @property
-    def record_every(self):
+    def record_every(self) -> int:
         """Control periods between two recorded samples, ``record_dt / dt_control`` (>= 1)."""
         return max(1, int(round(self.record_dt / self.dt_control)))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the parameters as a dict of plain values (lists for the tuples)."""
         d = asdict(self)
         d.pop('warnings')
         return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
-    def to_json(self):
+    def to_json(self) -> str:
         """Return :meth:`to_dict` as JSON (``/formation/scenario``, the ``.npz`` params)."""
         return json.dumps(self.to_dict(), sort_keys=True)
 
@@ -375,11 +390,11 @@ RUNTIME = tuple(name for name, spec in PARAMETERS.items() if spec.runtime)
 _DEFAULTS = Scenario()
 
 
-def _fail(name, value, allowed):
+def _fail(name: str, value: object, allowed: str) -> NoReturn:
     raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: {allowed}")
 
 
-def _coerce(name, value):
+def _coerce(name: str, value: Any) -> Any:
     default = getattr(_DEFAULTS, name)
     if isinstance(default, bool):
         if not isinstance(value, bool):
@@ -412,19 +427,19 @@ def _coerce(name, value):
     return tuple(out)
 
 
-def _coerce_int_item(name, v):
+def _coerce_int_item(name: str, v: Any) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
         _fail(name, v, 'must be a list of vehicle ids (integers)' if name != 'graph_offsets'
               else 'must be a list of integers')
     return int(v)
 
 
-def _choice(sc, name):
+def _choice(sc: Scenario, name: str) -> None:
     if getattr(sc, name) not in CHOICES[name]:
         _fail(name, getattr(sc, name), f"allowed values: {' | '.join(CHOICES[name])}")
 
 
-def _bounds(spec):
+def _bounds(spec: Spec) -> str:
     """Return the range of a :class:`Spec` in words: '> 0', '>= 0 (0 = no limit)' or ''."""
     parts = []
     if spec.low is not None:
@@ -435,13 +450,13 @@ def _bounds(spec):
     return f'{text} (0 = {spec.zero})' if text and spec.zero else text
 
 
-def describe(name):
+def describe(name: str) -> str:
     """Return what parameter ``name`` is, with its unit: 'backstepping gain kappa ... [1/s]'."""
     spec = PARAMETERS[name]
     return f'{spec.text} [{spec.unit}]' if spec.unit else spec.text
 
 
-def allowed(name):
+def allowed(name: str) -> str:
     """Return the values parameter ``name`` may take, in words ('' when any value goes)."""
     spec = PARAMETERS[name]
     parts = [' | '.join(spec.choices)] if spec.choices else []
@@ -454,7 +469,7 @@ def allowed(name):
     return '; '.join(parts)
 
 
-def _shown(name):
+def _shown(name: str) -> str:
     """Return the default of parameter ``name`` as the docs show it."""
     spec, value = PARAMETERS[name], getattr(_DEFAULTS, name)
     if spec.shown_default:
@@ -485,8 +500,6 @@ parameter. A *run time* parameter can be changed on a running node (`ros2 param 
 /vehicle_1 kappa 3.0`); a change that would make the scenario invalid is refused with the
 reason.
 
-| parameter | default | unit | allowed | run time | meaning |
-|---|---|---|---|---|---|
 """
 
 MARKDOWN_TAIL = """
@@ -501,7 +514,7 @@ Checks across parameters, for rigid bodies (see [errata.md](errata.md), "Rigid-b
 """
 
 
-def markdown():
+def markdown() -> str:
     """
     Return docs/parameters.md: the parameter table of :data:`PARAMETERS` in Markdown.
 
@@ -511,18 +524,37 @@ def markdown():
         The whole page, as ``formation-control params`` prints it.
 
     """
-    def cell(text):
-        return text.replace('|', '\\|')
-
-    rows = []
-    for name, spec in PARAMETERS.items():
-        cells = (f'`{name}`', _shown(name), spec.unit, allowed(name),
-                 'yes' if spec.runtime else '', spec.text)
-        rows.append('| ' + ' | '.join(cell(c) for c in cells) + ' |')
-    return MARKDOWN_HEAD + '\n'.join(rows) + '\n' + MARKDOWN_TAIL
+    rows = [(f'`{name}`', _shown(name), spec.unit, allowed(name), 'yes' if spec.runtime else '',
+             spec.text) for name, spec in PARAMETERS.items()]
+    table = markdown_table(('parameter', 'default', 'unit', 'allowed', 'run time', 'meaning'),
+                           rows)
+    return MARKDOWN_HEAD + '\n'.join(table) + '\n' + MARKDOWN_TAIL
 
 
-def _check_range(sc, name):
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
+    """
+    Return the lines of a Markdown table.
+
+    Parameters
+    ----------
+    header : sequence of str
+        The column titles.
+    rows : iterable of sequence of str
+        The cells of each row, as many as titles; a ``|`` in a cell is escaped.
+
+    Returns
+    -------
+    list of str
+        The title line, the rule and one line per row.
+
+    """
+    def line(cells: Iterable[str]) -> str:
+        return '| ' + ' | '.join(c.replace('|', '\\|') for c in cells) + ' |'
+
+    return [line(header), '|' + '---|' * len(header)] + [line(r) for r in rows]
+
+
+def _check_range(sc: Scenario, name: str) -> None:
     """Refuse a value outside the range of its :class:`Spec` (for the models it applies to)."""
     spec, value = PARAMETERS[name], getattr(sc, name)
     if sc.model not in spec.models:
@@ -533,7 +565,7 @@ def _check_range(sc, name):
         _fail(name, value, f'must be {_bounds(replace(spec, low=None))}')
 
 
-def _check_structure(sc):
+def _check_structure(sc: Scenario) -> None:
     for name in CHOICES:
         _choice(sc, name)
     _check_range(sc, 'num_vehicles')
@@ -560,7 +592,7 @@ def _check_structure(sc):
         raise ScenarioError(str(err)) from None
 
 
-def _check_gains(sc):
+def _check_gains(sc: Scenario) -> None:
     if sc.formation == 'parallel' and not sc.K < 0:
         _fail('K', sc.K, 'formation parallel needs K < 0 (1.12), (3.7)')
     if sc.formation == 'circular':
@@ -583,7 +615,7 @@ def _check_gains(sc):
     _check_flow(sc)
 
 
-def flowfield(sc):
+def flowfield(sc: Scenario) -> Flowfield:
     """Return the :class:`flowfields.Flowfield` of a scenario (ScenarioError if it cannot)."""
     try:
         return Flowfield(sc)
@@ -591,7 +623,7 @@ def flowfield(sc):
         raise ScenarioError(str(err)) from None
 
 
-def _check_flow(sc):
+def _check_flow(sc: Scenario) -> None:
     """Refuse a flowfield whose speed reaches the vehicles' (the laws need |f| < speed)."""
     speed = flowfield(sc).max_speed
     where = 'flow' if sc.flow_model == 'uniform' else 'flow_model'
@@ -604,7 +636,7 @@ def _check_flow(sc):
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
 
 
-def _check_pattern(sc):
+def _check_pattern(sc: Scenario) -> None:
     """Refuse a symmetric pattern that cannot exist or that the laws do not reach."""
     if sc.pattern == 'none':
         return
@@ -626,7 +658,7 @@ def _check_pattern(sc):
               'limited graph their Laplacian form converges only locally; use slots (or auto)')
 
 
-def rhp_zero(sc):
+def rhp_zero(sc: Scenario) -> float:
     """
     Return the right-half-plane zero of tail steering, from the force F to the course.
 
@@ -645,12 +677,7 @@ def rhp_zero(sc):
     return sc.u0 * math.sqrt(sc.h * sc.l / sc.I0)
 
 
-def steering_bandwidth(sc):
-    """Return the gain that sets how fast the steering loop acts: kappa, K_p or K_P (1/s)."""
-    return {'backstepping': sc.kappa, 'proportional': sc.K_p, 'pi': sc.K_P}[sc.controller]
-
-
-def uses_held_force(sc):
+def uses_held_force(sc: Scenario) -> bool:
     """
     Return whether the steering law reads the course rate from the model with the held force.
 
@@ -660,7 +687,7 @@ def uses_held_force(sc):
     return sc.controller == 'pi' or sc.law_variant == 'full'
 
 
-def held_force_loop_gain(sc):
+def held_force_loop_gain(sc: Scenario) -> float:
     """
     Return the gain of the one-sample loop F -> beta' -> F of tail steering with the full law.
 
@@ -680,7 +707,7 @@ def held_force_loop_gain(sc):
     return steering_bandwidth(sc) * sc.I0 / (sc.l * sc.m0 * sc.u0)
 
 
-def _check_physics(sc):
+def _check_physics(sc: Scenario) -> tuple[str, ...]:
     """Check the conditions the rigid-body laws need (errata); return the warnings."""
     notes = []
     if sc.model in ('rigid', 'rigid_cop'):
@@ -709,7 +736,7 @@ def _check_physics(sc):
     return tuple(notes)
 
 
-def resolve(params):
+def resolve(params: Mapping[str, Any]) -> Scenario:
     """
     Build a validated scenario from parameter values.
 
@@ -739,14 +766,14 @@ def resolve(params):
     values = {k: _coerce(k, v) for k, v in params.items()}
     sc = replace(_DEFAULTS, **values)
     if 'K' not in values:
-        sc = replace(sc, K=-1.0 if sc.formation == 'parallel' else 1.0)
+        sc = replace(sc, K=default_K(sc.formation))
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
     return replace(sc, warnings=tuple(_check_physics(sc)) + tuple(step_warnings(sc)))
 
 
-def parse_override(text):
+def parse_override(text: str) -> tuple[str, Any]:
     """Parse ``name:=value`` (value in YAML syntax, as ``ros2 run -p`` takes it)."""
     if ':=' not in text:
         raise ScenarioError(f'override {text!r} must read name:=value')
@@ -757,24 +784,24 @@ def parse_override(text):
         raise ScenarioError(f'override {text!r}: value is not valid YAML ({err})') from None
 
 
-def read_params(path):
+def read_params(path: str | PathLike[str]) -> dict[str, Any]:
     """Return the ``/**: ros__parameters`` mapping of a ROS 2 parameter file."""
     try:
         with open(path, encoding='utf-8') as f:
             doc = yaml.load(f, Loader=_Loader)
     except (OSError, yaml.YAMLError) as err:
-        raise ScenarioError(f'{path}: cannot read the scenario ({err})') from None
+        raise UsageError(f'{path}: cannot read the scenario ({err})') from None
     try:
         params = doc['/**']['ros__parameters'] or {}
     except (TypeError, KeyError):
         params = None
     if not isinstance(params, dict):
-        raise ScenarioError(f'{path}: a scenario is a ROS 2 parameter file with a '
-                            f"'/**: ros__parameters:' section mapping parameter names to values")
+        raise UsageError(f'{path}: a scenario is a ROS 2 parameter file with a '
+                         f"'/**: ros__parameters:' section mapping parameter names to values")
     return params
 
 
-def load(path, overrides=(), **values):
+def load(path: str | PathLike[str], overrides: Iterable[str] = (), **values: Any) -> Scenario:
     """
     Read, override and validate a scenario.
 
@@ -794,8 +821,10 @@ def load(path, overrides=(), **values):
 
     Raises
     ------
+    UsageError
+        The file cannot be read or is not a parameter file.
     ScenarioError
-        The file cannot be read or is not a parameter file, or :func:`resolve` refuses it.
+        :func:`resolve` refuses it.
 
     """
     params = read_params(path)
@@ -804,7 +833,7 @@ def load(path, overrides=(), **values):
     return resolve(params)
 
 
-def initial_state(sc):
+def initial_state(sc: Scenario) -> RealArray:
     """
     Return the initial state of the fleet.
 
@@ -842,7 +871,7 @@ PLANT_ONLY = ('seed', 'duration', 'record_dt', 'dt_integration', 'init_box') + I
 record): a vehicle may differ there (``formation-control doctor`` notes it)."""
 
 
-def differences(mine, theirs):
+def differences(mine: Scenario, theirs: Scenario) -> list[tuple[str, Any, Any]]:
     """
     Return the parameters on which a vehicle's scenario differs from the plant's.
 
@@ -862,7 +891,7 @@ def differences(mine, theirs):
             if name not in PLANT_ONLY and getattr(mine, name) != getattr(theirs, name)]
 
 
-def find(name):
+def find(name: str | PathLike[str]) -> Path:
     """Return the path of a scenario: a path, or the name of a file in the package's config/."""
     path = Path(name)
     if path.exists():
@@ -878,4 +907,4 @@ def find(name):
         candidate = None
     if candidate is not None and candidate.exists():
         return candidate
-    raise ScenarioError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')
+    raise UsageError(f'scenario {name!r} not found (a path, or one of config/*.yaml)')

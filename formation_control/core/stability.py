@@ -25,9 +25,17 @@ K_P (8.24), ``|K|`` of the first-order laws) and the thrust gain K_f (7.1). :fun
 warns about a step beyond half its limit, :func:`diverging` finds the vehicles whose state is
 no longer finite or has exploded, :func:`divergence` names the likely cause.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from formation_control.core.errors import ScenarioError
+from formation_control.core.geometry import BoolArray, RealArray
 from formation_control.core.models import RIGID_MODELS, ROW_OMEGA
 import numpy as np
+
+if TYPE_CHECKING:
+    from formation_control.core.scenario import Scenario
 
 RK4_LIMIT = 2.785
 """Classical RK4 is stable on the negative real axis for ``a dt <= 2.785``."""
@@ -35,13 +43,25 @@ HOLD_LIMIT = 2.0
 """A first-order loop with its command held over T is stable for ``g T < 2``."""
 EXPLODING = 1e6
 """A turn rate (rad/s) or a speed (m/s) beyond this has exploded."""
+Mode = tuple[str, str, float, str, float, float]
+"""A fast mode: name, formula, rate (1/s), step parameter, step (s), limit of rate * step."""
+
+
+STEERING_GAINS = {'first_order': 'K', 'backstepping': 'kappa', 'proportional': 'K_p',
+                  'pi': 'K_P'}
+"""The gain of each controller whose modulus is its steering bandwidth (1/s)."""
 
 
 class DivergenceError(ScenarioError):
     """The integration of a run diverged (non-finite or exploding state)."""
 
 
-def modes(sc):
+def steering_bandwidth(sc: Scenario) -> float:
+    """Return how fast the steering loop acts (1/s): kappa, K_p, K_P or |K| by controller."""
+    return abs(getattr(sc, STEERING_GAINS[sc.controller]))
+
+
+def modes(sc: Scenario) -> list[Mode]:
     """
     Return the fast modes of a scenario and the step each must be resolved by.
 
@@ -51,10 +71,10 @@ def modes(sc):
         ``(name, formula, rate (1/s), step parameter, step (s), stability limit of rate * step)``.
 
     """
-    gains = {'backstepping': ('kappa', sc.kappa), 'proportional': ('K_p', sc.K_p),
-             'pi': ('K_P', sc.K_P), 'first_order': ('|K|', abs(sc.K))}
-    name, gain = gains.get(sc.controller, ('|K|', abs(sc.K)))
-    out = [('steering loop', name, gain, 'dt_control', sc.dt_control, HOLD_LIMIT)]
+    name = STEERING_GAINS[sc.controller]
+    formula = f'|{name}|' if name == 'K' else name
+    out = [('steering loop', formula, steering_bandwidth(sc), 'dt_control', sc.dt_control,
+            HOLD_LIMIT)]
     if sc.model in RIGID_MODELS:
         out += [('surge drag', '2 h u0 / m0', 2.0 * sc.h * sc.u0 / sc.m0, 'dt_integration',
                  sc.dt_integration, RK4_LIMIT),
@@ -62,20 +82,20 @@ def modes(sc):
     return out
 
 
-def _text(mode):
+def _text(mode: Mode) -> str:
     name, formula, rate, step, dt, limit = mode
     return (f'{step} = {dt:g} s against the {name} {formula} = {rate:.3g} 1/s: {formula} * '
             f'{step} = {rate * dt:.3g} (stable below {limit:g}; {step} <= {limit / rate:.3g} s)')
 
 
-def step_warnings(sc):
+def step_warnings(sc: Scenario) -> list[str]:
     """Return a warning for each mode whose rate times its step exceeds half its limit."""
     return [f'{_text(m)}: ' + ('the run will diverge' if m[2] * m[4] >= m[5] else
                                'the run may oscillate or diverge')
             for m in modes(sc) if m[2] > 0 and m[2] * m[4] > 0.5 * m[5]]
 
 
-def diverging(X):
+def diverging(X: RealArray) -> BoolArray:
     """
     Return the vehicles whose state diverged.
 
@@ -94,13 +114,13 @@ def diverging(X):
         return ~np.all(np.isfinite(X), axis=0) | np.any(abs(X[ROW_OMEGA:]) > EXPLODING, axis=0)
 
 
-def likely_cause(sc):
+def likely_cause(sc: Scenario) -> str:
     """Return the text of the mode nearest to (or beyond) its stability limit."""
     worst = max(modes(sc), key=lambda m: m[2] * m[4] / m[5])
     return _text(worst)
 
 
-def divergence(sc, t, i, X):
+def divergence(sc: Scenario, t: float, i: int, X: RealArray) -> DivergenceError:
     """
     Return the :class:`DivergenceError` of vehicle index ``i`` diverged by time ``t`` (s).
 

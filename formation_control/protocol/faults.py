@@ -23,12 +23,17 @@ are fleet (simulated) seconds. :func:`schedule` parses and checks a script again
 scenario; :class:`Schedule` hands the faults out as fleet time passes. The swarm runner
 applies them.
 """
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 import re
 
 from formation_control.core.control import Controller
-from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.errors import UsageError
+from formation_control.core.scenario import resolve, Scenario
 from formation_control.sim import metrics
+from formation_control.sim.simulator import Run
 
 PROCESS_KINDS = ('kill', 'restart', 'stop', 'cont')
 LINK_KINDS = ('cut', 'mend')
@@ -59,18 +64,18 @@ class Fault:
     """
 
     kind: str
-    vehicles: tuple
+    vehicles: tuple[int, ...]
     time: float
     text: str
 
-    def describe(self):
+    def describe(self) -> str:
         """Return a one-line description, e.g. ``kill vehicle 3`` or ``cut link 1-2``."""
         if self.kind in LINK_KINDS:
             return f'{self.kind} link {self.vehicles[0]}-{self.vehicles[1]}'
         return f'{self.kind} vehicle {self.vehicles[0]}'
 
 
-def parse(text):
+def parse(text: str) -> list[Fault]:
     """
     Parse one script entry.
 
@@ -86,7 +91,7 @@ def parse(text):
 
     Raises
     ------
-    ScenarioError
+    UsageError
         If the entry does not follow ``SYNTAX`` or a cut ends before it starts.
 
     """
@@ -96,28 +101,28 @@ def parse(text):
         return [Fault(m[1], (int(m[2]),), float(m[3]), entry)]
     m = _CUT.match(entry)
     if not m:
-        raise ScenarioError(f'--fault {text!r} is invalid: expected {SYNTAX}')
+        raise UsageError(f'--fault {text!r} is invalid: expected {SYNTAX}')
     pair, start, end = (int(m[1]), int(m[2])), float(m[3]), float(m[4])
     if not start < end:
-        raise ScenarioError(f'--fault {text!r} is invalid: the cut must end after it starts '
-                            f'({start:g} .. {end:g} s)')
+        raise UsageError(f'--fault {text!r} is invalid: the cut must end after it starts '
+                         f'({start:g} .. {end:g} s)')
     return [Fault('cut', pair, start, entry), Fault('mend', pair, end, entry)]
 
 
-def _check_ids(fault, sc):
+def _check_ids(fault: Fault, sc: Scenario) -> None:
     n = sc.num_vehicles
     bad = [k for k in fault.vehicles if not 1 <= k <= n]
     if bad:
-        raise ScenarioError(f'--fault {fault.text!r} is invalid: vehicle ids must lie in '
-                            f'1..num_vehicles = {n}')
+        raise UsageError(f'--fault {fault.text!r} is invalid: vehicle ids must lie in '
+                         f'1..num_vehicles = {n}')
     if not fault.time <= sc.duration:
-        raise ScenarioError(f'--fault {fault.text!r} is invalid: {fault.time:g} s is after the '
-                            f'end of the run (duration {sc.duration:g} s)')
+        raise UsageError(f'--fault {fault.text!r} is invalid: {fault.time:g} s is after the '
+                         f'end of the run (duration {sc.duration:g} s)')
     if fault.kind == 'cut':
         i, j = fault.vehicles
         if i == j or j not in sc.comm_graph.neighbours(i):
-            raise ScenarioError(f'--fault {fault.text!r} is invalid: vehicles {i} and {j} are '
-                                f'not neighbours in the communication graph ({sc.graph})')
+            raise UsageError(f'--fault {fault.text!r} is invalid: vehicles {i} and {j} are '
+                             f'not neighbours in the communication graph ({sc.graph})')
 
 
 _STATES = {'kill': ('running', 'stopped'), 'stop': ('running',), 'cont': ('stopped',),
@@ -125,7 +130,7 @@ _STATES = {'kill': ('running', 'stopped'), 'stop': ('running',), 'cont': ('stopp
 _AFTER = {'kill': 'killed', 'stop': 'stopped', 'cont': 'running', 'restart': 'running'}
 
 
-def schedule(texts, sc):
+def schedule(texts: Iterable[str], sc: Scenario) -> Schedule:
     """
     Parse and check a fault script against scenario ``sc``.
 
@@ -139,26 +144,26 @@ def schedule(texts, sc):
 
     Raises
     ------
-    ScenarioError
+    UsageError
         Naming the entry and what is wrong with it.
 
     """
     faults = [f for text in texts for f in parse(text)]
     state = dict.fromkeys(range(1, sc.num_vehicles + 1), 'running')
-    down = set()
+    down: set[frozenset[int]] = set()
     for f in sorted(faults, key=lambda f: f.time):
         _check_ids(f, sc)
         if f.kind in PROCESS_KINDS:
             k = f.vehicles[0]
             if state[k] not in _STATES[f.kind]:
-                raise ScenarioError(f'--fault {f.text!r} is invalid: vehicle {k} is {state[k]} '
-                                    f'at {f.time:g} s')
+                raise UsageError(f'--fault {f.text!r} is invalid: vehicle {k} is {state[k]} '
+                                 f'at {f.time:g} s')
             state[k] = _AFTER[f.kind]
         else:
             link = frozenset(f.vehicles)
             if (f.kind == 'cut') == (link in down):
-                raise ScenarioError(f'--fault {f.text!r} is invalid: it overlaps another cut of '
-                                    f'link {f.vehicles[0]}-{f.vehicles[1]}')
+                raise UsageError(f'--fault {f.text!r} is invalid: it overlaps another cut of '
+                                 f'link {f.vehicles[0]}-{f.vehicles[1]}')
             (down.add if f.kind == 'cut' else down.discard)(link)
     return Schedule(faults)
 
@@ -174,20 +179,20 @@ class Schedule:
 
     """
 
-    def __init__(self, faults):
+    def __init__(self, faults: Iterable[Fault]) -> None:
         self.pending = sorted(faults, key=lambda f: f.time)
-        self.down = set()
+        self.down: set[frozenset[int]] = set()
 
-    def __bool__(self):
+    def __bool__(self) -> bool:
         return bool(self.pending)
 
-    def due(self, t):
+    def due(self, t: float) -> list[Fault]:
         """Return the faults whose time has come at fleet time ``t`` (s), in time order, once."""
         count = next((i for i, f in enumerate(self.pending) if f.time > t), len(self.pending))
         out, self.pending = self.pending[:count], self.pending[count:]
         return out
 
-    def cut_links(self, fault):
+    def cut_links(self, fault: Fault) -> dict[int, tuple[int, ...]]:
         """
         Apply a link fault; return ``{vehicle: cut_links}`` for its two ends.
 
@@ -199,7 +204,8 @@ class Schedule:
                 for k in fault.vehicles}
 
 
-def survivors_converged(run, members):
+def survivors_converged(run: Run,
+                        members: Sequence[int]) -> tuple[bool, float | None] | tuple[None, None]:
     """
     Return whether, and from when, the vehicles ``members`` reach the formation in ``run``.
 
@@ -227,6 +233,6 @@ def survivors_converged(run, members):
                    'pattern_form': 'auto', 'init_x': [], 'init_y': [], 'init_theta': [],
                    'init_omega': [], 'init_u': [], 'init_v': []})
     ctrl = Controller(sub)
-    flags = [metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows]))
+    flags = [bool(metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows])))
              for X, U in zip(run.X, run.U)]
     return bool(flags[-1]), metrics.convergence_time(run.t, flags)

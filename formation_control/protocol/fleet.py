@@ -21,9 +21,16 @@ over the integration steps (:class:`simulator.Stepper`), records every ``record_
 last finite state, zero command, no more odometry; the others go on.
 :func:`stability.likely_cause` names why.
 """
+from __future__ import annotations
+
+from typing import Any
+
 from formation_control.core import stability
-from formation_control.sim.simulator import Recorder, Stepper
+from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
+from formation_control.core.scenario import Scenario
+from formation_control.sim.simulator import Recorder, Run, Stepper
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 class FleetPlant:
@@ -48,30 +55,30 @@ class FleetPlant:
 
     """
 
-    def __init__(self, sc):
+    def __init__(self, sc: Scenario) -> None:
         self.sc = sc
         self.stepper = Stepper(sc)
         self.recorder = Recorder(sc)
         self.n = 0
         self.pending = np.zeros((2, sc.num_vehicles))
         self.stopped = np.zeros(sc.num_vehicles, bool)
-        self.estimates = {}
+        self.estimates: dict[int, ComplexArray] = {}
 
     @property
-    def X(self):
+    def X(self) -> RealArray:
         """(6, N) state of the fleet."""
         return self.stepper.X
 
     @property
-    def time(self):
+    def time(self) -> float:
         """Return the simulated time of the period under way (s)."""
         return self.n * self.sc.dt_control
 
-    def set_command(self, i, u):
+    def set_command(self, i: int, u: ArrayLike) -> None:
         """Hold ``u`` (2,) as vehicle index ``i``'s command from the next step on."""
         self.pending[:, i] = u
 
-    def hold(self, off, boundary):
+    def hold(self, off: BoolArray, boundary: bool) -> bool:
         """
         Hold the pending commands (zero for the vehicles ``off`` and the stopped ones).
 
@@ -92,7 +99,7 @@ class FleetPlant:
                 return False
         return True
 
-    def integrate(self, steps=None):
+    def integrate(self, steps: int | None = None) -> IntArray:
         """
         Integrate one control period (or ``steps`` integration steps) with the held commands.
 
@@ -112,13 +119,13 @@ class FleetPlant:
         after[:, self.stopped] = before[:, self.stopped]
         return np.flatnonzero(bad)
 
-    def estimate(self, i, n, value):
+    def estimate(self, i: int, n: int, value: complex) -> None:
         """Keep the flow a vehicle estimates at step n (complex m/s); ``i`` is its index."""
         if self.recorder.keeps(n):
             blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
             self.estimates.setdefault(n, blank)[i] = value
 
-    def run(self, meta):
+    def run(self, meta: dict[str, Any]) -> Run:
         """
         Return the recorded :class:`simulator.Run`, with ``meta`` (mode, wall time, ...).
 

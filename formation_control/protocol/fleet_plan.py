@@ -21,10 +21,14 @@ which of them take the scenario's parameter file, which follow the fleet's ``/cl
 (``use_sim_time`` in lockstep) and the member of a TLS fleet each runs as. ``swarm`` turns it
 into command lines, ``fleet.launch.py`` into launch Nodes.
 """
+from __future__ import annotations
+
+from os import PathLike
 from pathlib import Path
 from typing import NamedTuple
 
 from formation_control.core.errors import ScenarioError
+from formation_control.core.scenario import Scenario
 from formation_control.protocol import names
 import yaml
 
@@ -39,7 +43,8 @@ RECORDED_TOPICS = ('odom', 'formation_state', 'cmd')
 """The per-vehicle topics whose writers keep :data:`RECORDED_DEPTH` samples under a bag."""
 
 
-def write_params(sc, path, recorded=False, namespace='/'):
+def write_params(sc: Scenario, path: str | PathLike[str], recorded: bool = False,
+                 namespace: str = '/') -> str:
     """
     Write the resolved scenario as a ROS 2 parameter file at ``path``; return the path.
 

@@ -18,13 +18,20 @@ Links between vehicles: who is alive, and the faults a study injects on what a v
 Node parameters (not scenario parameters: the offline simulator has no links), with their
 defaults, units and allowed ranges in :data:`PARAMETERS`.
 """
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 import heapq
 import itertools
 import math
+from typing import Any, TypeVar
 
+from formation_control.core.geometry import BoolArray
 from formation_control.core.scenario import ScenarioError, Spec
 import numpy as np
+
+M = TypeVar('M', bound=Mapping[str, Any])
 
 PARAMETERS = {
     'neighbor_timeout': (1.0, Spec('s', 'wall seconds of silence after which a neighbour leaves '
@@ -54,7 +61,7 @@ PARAMETERS = {
 parameters: the offline simulator has no links)."""
 
 
-def check(values, n, own):
+def check(values: M, n: int, own: int) -> M:
     """Validate link parameters of vehicle ``own`` in a fleet of n; returns the values."""
     for name, value in values.items():
         low, high = PARAMETERS[name][1].low, PARAMETERS[name][1].high
@@ -82,21 +89,23 @@ class Liveness:
     step began, when that is later, and only for the peers not ``answered`` yet.
     """
 
-    def __init__(self, n, timeout):
+    def __init__(self, n: int, timeout: float) -> None:
         self.timeout = timeout
         self.last = np.full(n, np.nan)
         self.out = np.zeros(n, bool)
 
-    def heard(self, i, now):
+    def heard(self, i: int, now: float) -> None:
         self.last[i] = now
         self.out[i] = False
 
-    def gone(self, now, since=-np.inf, answered=False):
+    def gone(self, now: float, since: float = -np.inf,
+             answered: bool | BoolArray = False) -> BoolArray:
         silent = (now - np.fmax(self.last, since)) > self.timeout
         self.out |= ~np.isnan(self.last) & silent & ~np.asarray(answered)
         return self.out.copy()
 
-    def alive(self, now, since=-np.inf, answered=False):
+    def alive(self, now: float, since: float = -np.inf,
+              answered: bool | BoolArray = False) -> BoolArray:
         return ~self.gone(now, since, answered) & ~np.isnan(self.last)
 
 
@@ -108,27 +117,27 @@ class Faults:
     delay: float = 0.0
     delay_jitter: float = 0.0
     comm_range: float = 0.0
-    fault_links: tuple = ()
+    fault_links: tuple[int, ...] = ()
     fault_seed: int = 0
-    cut_links: tuple = ()
+    cut_links: tuple[int, ...] = ()
     vehicle_id: int = 1
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.rng = np.random.default_rng([self.fault_seed, self.vehicle_id])
         self.links = set(self.fault_links)
         self.cut = set(self.cut_links)
 
     @property
-    def active(self):
+    def active(self) -> bool:
         return bool(self.drop_probability or self.delay or self.delay_jitter or self.comm_range)
 
-    def applies(self, j):
+    def applies(self, j: int) -> bool:
         return not self.links or j in self.links
 
-    def out_of_range(self, j, own_r, their_r):
+    def out_of_range(self, j: int, own_r: complex, their_r: complex) -> bool:
         return self.comm_range > 0 and self.applies(j) and abs(their_r - own_r) > self.comm_range
 
-    def admit(self, j):
+    def admit(self, j: int) -> float | None:
         """None: the message from j is dropped; else the delay (s) before it is delivered."""
         if j in self.cut:
             return None
@@ -161,15 +170,15 @@ class Inbox:
 
     """
 
-    def __init__(self, faults, clock):
+    def __init__(self, faults: Faults, clock: Callable[[], float]) -> None:
         self.faults = faults
         self.clock = clock
-        self.queue = []
+        self.queue: list[tuple[float, int, int, Any]] = []
         self.arrivals = itertools.count()
         self.counts = dict.fromkeys((OUT_OF_RANGE, DROPPED, DELAYED), 0)
         self.delay_total = 0.0
 
-    def receive(self, j, message, own_r, their_r):
+    def receive(self, j: int, message: object, own_r: complex, their_r: complex) -> str:
         """
         Route ``message`` of neighbour ``j`` (positions ``own_r``, ``their_r``, complex, m).
 
@@ -195,7 +204,7 @@ class Inbox:
         self.counts[outcome] += 1
         return outcome
 
-    def due(self):
+    def due(self) -> list[tuple[int, Any]]:
         """Release the delayed ``(j, message)`` whose time has come, in the order they fall due."""
         now, out = self.clock(), []
         while self.queue and self.queue[0][0] <= now:

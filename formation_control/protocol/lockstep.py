@@ -26,8 +26,12 @@ Real time: the plant integrates the steps the wall clock has reached (:class:`Pa
 samples vehicle k's odometry at integration step (k - 1) mod substeps of each period
 (:func:`sample_slots`).
 """
+from __future__ import annotations
+
+from collections.abc import Callable
 import math
 
+from formation_control.core.geometry import BoolArray, IntArray
 from formation_control.protocol.links import Liveness
 import numpy as np
 
@@ -56,13 +60,14 @@ class CommandGate:
 
     """
 
-    def __init__(self, n, command_timeout, clock, lockstep=True):
+    def __init__(self, n: int, command_timeout: float, clock: Callable[[], float],
+                 lockstep: bool = True) -> None:
         self.clock = clock
         self.lockstep = lockstep
         self.liveness = Liveness(n, command_timeout)
         self.got = np.zeros(n, bool)
         self.cmd_ns = np.full(n, -1, np.int64)
-        self.step_ns = None
+        self.step_ns: int | None = None
         self.since = math.inf if lockstep else -math.inf
         self.last_length = 0.0
         self.nudged = -math.inf
@@ -70,7 +75,7 @@ class CommandGate:
         self.nudges = 0
         self.repeated = 0
 
-    def begin(self, step_ns):
+    def begin(self, step_ns: int) -> None:
         """
         Start waiting for the commands of the step stamped ``step_ns`` (ns).
 
@@ -87,7 +92,7 @@ class CommandGate:
         self.step_ns = step_ns
         self.got[:] = False
 
-    def command(self, i, ns):
+    def command(self, i: int, ns: int) -> str:
         """
         Note a well-formed command of vehicle index ``i`` (0-based) stamped ``ns``.
 
@@ -110,28 +115,28 @@ class CommandGate:
         self.got[i], self.cmd_ns[i] = True, ns
         return FRESH
 
-    def close(self):
+    def close(self) -> None:
         """End the run: every later command is stale."""
         self.step_ns = None
 
-    def gone(self):
+    def gone(self) -> BoolArray:
         """(n,) bool: vehicles no longer waited for (heard, then silent; see :class:`Liveness`)."""
         return self.liveness.gone(self.clock(), self.since, self.got)
 
-    def waited(self, stopped):
+    def waited(self, stopped: BoolArray) -> BoolArray:
         """(n,) bool: vehicles the step waits for: neither gone nor ``stopped``."""
         return ~self.gone() & ~np.asarray(stopped)
 
-    def ready(self, stopped):
+    def ready(self, stopped: BoolArray) -> bool:
         """Whether every vehicle waited for has answered (and at least one is waited for)."""
         waited = self.waited(stopped)
         return bool(waited.any() and np.all(self.got[waited]))
 
-    def missing(self, stopped):
+    def missing(self, stopped: BoolArray) -> BoolArray:
         """(n,) bool: vehicles waited for that have not answered this step."""
         return self.waited(stopped) & ~self.got
 
-    def nudge(self, stopped):
+    def nudge(self, stopped: BoolArray) -> BoolArray | None:
         """
         Return the vehicles to ask again for this step, or None when it is not time yet.
 
@@ -148,7 +153,7 @@ class CommandGate:
         self.step_nudges += 1
         return self.missing(stopped)
 
-    def waiting_for(self):
+    def waiting_for(self) -> float:
         """Wall seconds the step under way has lasted (0 before the first step)."""
         return self.clock() - self.since if math.isfinite(self.since) else 0.0
 
@@ -168,13 +173,13 @@ class Pacer:
 
     """
 
-    def __init__(self, tick_rate, substeps, t0_wall):
+    def __init__(self, tick_rate: float, substeps: int, t0_wall: float) -> None:
         self.tick_rate = tick_rate
         self.substeps = substeps
         self.t0_wall = t0_wall
         self.tick = 0
 
-    def due(self, now):
+    def due(self, now: float) -> int:
         """
         Integration steps to take at wall time ``now`` (s) to catch up with the clock.
 
@@ -189,18 +194,18 @@ class Pacer:
             due -= behind
         return max(0, due - self.tick)
 
-    def advance(self):
+    def advance(self) -> int:
         """Count one integration step taken; returns the new tick."""
         self.tick += 1
         return self.tick
 
     @property
-    def boundary(self):
+    def boundary(self) -> bool:
         """Whether the next step starts a control period."""
         return self.tick % self.substeps == 0
 
 
-def sample_slots(n, substeps):
+def sample_slots(n: int, substeps: int) -> IntArray:
     """
     (n,) int: the integration step of each period at which vehicle k's odometry is sampled.
 

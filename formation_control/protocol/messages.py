@@ -21,14 +21,21 @@ the values of its formation_state (:func:`state_names`) and their canonical CDR 
 (:class:`StateWire`), and stamps. The functions taking a message read and write attributes
 only, so they serve rclpy messages and those a bag reader builds alike.
 """
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 import math
 from operator import attrgetter
 import struct
+from typing import Any, TypeVar
 
+from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
                                            ROW_THETA)
-from formation_control.protocol.names import DEFAULT_FRAMES
+from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 import numpy as np
+
+M = TypeVar('M')
 
 
 METRIC_DOC = {
@@ -66,7 +73,7 @@ ESTIMATE_FIELDS = ('flow_hat_x', 'flow_hat_y')
 """formation_state of an estimating vehicle: its flow estimate (m/s, world frame)."""
 
 
-def state_names(hears=(), estimates=False):
+def state_names(hears: Iterable[int] = (), estimates: bool = False) -> tuple[str, ...]:
     """
     Return the names of a formation_state.
 
@@ -76,21 +83,21 @@ def state_names(hears=(), estimates=False):
             + (ESTIMATE_FIELDS if estimates else ()))
 
 
-def quaternion_zw(theta):
+def quaternion_zw(theta: float) -> tuple[float, float]:
     """Return (z, w) of the quaternion of a yaw ``theta`` (rad, CCW about z; x = y = 0)."""
     return math.sin(0.5 * theta), math.cos(0.5 * theta)
 
 
-def yaw_quaternion(orientation, theta):
+def yaw_quaternion(orientation: Any, theta: float) -> None:
     """Write the quaternion of a yaw ``theta`` (rad, CCW about z) into ``orientation``."""
     orientation.z, orientation.w = quaternion_zw(theta)
 
 
-def stamp_ns(stamp):
+def stamp_ns(stamp: Any) -> int:
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
-def set_stamp(header, ns):
+def set_stamp(header: Any, ns: int) -> None:
     header.stamp.sec, header.stamp.nanosec = divmod(int(ns), 1_000_000_000)
 
 
@@ -104,18 +111,18 @@ CMD_FIELDS = ('wrench.force.x', 'wrench.force.y', 'wrench.torque.z')
 """The fields of a WrenchStamped command (the others stay zero)."""
 
 
-def get_fields(msg, fields):
+def get_fields(msg: Any, fields: Iterable[str]) -> tuple[Any, ...]:
     return tuple(attrgetter(name)(msg) for name in fields)
 
 
-def set_fields(msg, fields, values):
+def set_fields(msg: M, fields: Iterable[str], values: Iterable[float]) -> M:
     for name, value in zip(fields, values):
         owner, _, attr = name.rpartition('.')
         setattr(attrgetter(owner)(msg), attr, float(value))
     return msg
 
 
-def odom_values(X, flow):
+def odom_values(X: RealArray, flow: complex | ComplexArray) -> tuple[float, ...]:
     """
     Return the :data:`ODOM_FIELDS` of a vehicle's state column X (6,) in a flow (m/s).
 
@@ -127,7 +134,7 @@ def odom_values(X, flow):
     return (r.real, r.imag, *quaternion_zw(theta), body.real, body.imag, float(X[ROW_OMEGA]))
 
 
-def state_from_odom_values(values, flow, model):
+def state_from_odom_values(values: Sequence[float], flow: complex, model: str) -> RealArray:
     """Return the state column (6,) of a vehicle from its :data:`ODOM_FIELDS` and the flow."""
     x, y, qz, qw, vx, vy, yaw_rate = values
     theta = 2.0 * math.atan2(qz, qw)
@@ -137,42 +144,43 @@ def state_from_odom_values(values, flow, model):
     return np.array([x, y, theta, yaw_rate, rel.real, rel.imag])
 
 
-def ground_velocity_of(values):
+def ground_velocity_of(values: Sequence[float]) -> complex:
     """Return the ground velocity (complex m/s, world frame) of :data:`ODOM_FIELDS` values."""
     _, _, qz, qw, vx, vy, _ = values
     theta = 2.0 * math.atan2(qz, qw)
     return complex(vx, vy) * complex(math.cos(theta), math.sin(theta))
 
 
-def cmd_values(u, model):
+def cmd_values(u: Sequence[float] | RealArray, model: str) -> tuple[float, float, float]:
     """Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,)."""
     if model in PARTICLE_MODELS:
         return 0.0, 0.0, float(u[1])
     return float(u[0]), float(u[1]), 0.0
 
 
-def input_from_cmd_values(values, model):
+def input_from_cmd_values(values: Sequence[float], model: str) -> tuple[float, float]:
     """Return the input column (2,) of the :data:`CMD_FIELDS` of a command."""
     fx, fy, tz = values
     return (0.0, tz) if model in PARTICLE_MODELS else (fx, fy)
 
 
-def odom_values_of(msg):
+def odom_values_of(msg: Any) -> tuple[float, ...]:
     """Return the :data:`ODOM_FIELDS` of an Odometry."""
     return get_fields(msg, ODOM_FIELDS)
 
 
-def state_from_odom(msg, flow, model):
+def state_from_odom(msg: Any, flow: complex, model: str) -> RealArray:
     """Return the state column (6,) of a vehicle from its Odometry and the flow it measures."""
     return state_from_odom_values(odom_values_of(msg), flow, model)
 
 
-def input_from_cmd(msg, model):
+def input_from_cmd(msg: Any, model: str) -> tuple[float, float]:
     """Return the input column (2,) of a WrenchStamped command."""
     return input_from_cmd_values(get_fields(msg, CMD_FIELDS), model)
 
 
-def state_values(X, view_row, hearing=(), flow_hat=None):
+def state_values(X: RealArray, view_row: Sequence[Any], hearing: Iterable[float] = (),
+                 flow_hat: complex | None = None) -> tuple[float, ...]:
     """
     Return the values of one vehicle's formation_state (:func:`state_names` order).
 
@@ -198,11 +206,12 @@ class StateWire:
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
-    def __init__(self, k, hears=(), frames=DEFAULT_FRAMES, estimates=False):
+    def __init__(self, k: int, hears: Iterable[int] = (), frames: Frames = DEFAULT_FRAMES,
+                 estimates: bool = False) -> None:
         self.names = state_names(hears, estimates)
         body = bytearray()
 
-        def put(raw, align=4):
+        def put(raw: bytes, align: int = 4) -> None:
             body.extend(bytes(-(8 + len(body)) % align) + raw)  # body starts at 12 = 8 past origin
         put(_cdr_string(frames.base(k)))
         put(struct.pack('<I', len(self.names)))
@@ -215,13 +224,13 @@ class StateWire:
         self.values = struct.Struct(f'<{len(self.names)}d')
         self.tail = bytes(8)                              # velocity and effort: empty
 
-    def encode(self, ns, values):
+    def encode(self, ns: int, values: Iterable[float]) -> bytes:
         """Return the bytes of a formation_state stamped ``ns`` (ns) with ``values``."""
         sec, nanosec = divmod(ns, 1_000_000_000)
         return b''.join((self.HEADER, struct.pack('<iI', sec, nanosec), self.middle,
                          self.values.pack(*values), self.tail))
 
-    def decode(self, data):
+    def decode(self, data: bytes) -> tuple[int, tuple[float, ...]] | None:
         """(stamp in ns, the values) of canonical bytes, else None."""
         if (len(data) < self.values_at + self.values.size or data[:4] != self.HEADER
                 or data[12:self.values_at] != self.middle):
@@ -230,6 +239,6 @@ class StateWire:
         return sec * 1_000_000_000 + nanosec, self.values.unpack_from(data, self.values_at)
 
 
-def _cdr_string(text):
+def _cdr_string(text: str) -> bytes:
     raw = text.encode() + b'\x00'
     return struct.pack('<I', len(raw)) + raw

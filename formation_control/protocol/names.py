@@ -19,6 +19,7 @@ Topic names are relative, so a fleet lives in the namespace of its nodes (``-r
 __ns:=/fleet_a``); only ``DIAGNOSTICS_TOPIC`` is absolute. Frames follow REP-105: the
 ``world`` frame (default ``map``) and one base frame per vehicle (``vehicle_{id}/base_link``).
 """
+from __future__ import annotations
 
 WORLD_FRAME = 'map'
 BASE_FRAME = 'vehicle_{id}/base_link'
@@ -39,7 +40,7 @@ VEHICLE_TOPICS = ('odom', 'flow', 'water_velocity', 'formation_state', 'cmd')
 """The topics of each vehicle k, ``vehicle_k/<name>`` (:func:`topic`)."""
 
 
-def namespace_prefix(namespace):
+def namespace_prefix(namespace: str) -> str:
     """
     Return the topic prefix of a fleet's namespace.
 
@@ -48,22 +49,22 @@ def namespace_prefix(namespace):
     return '/' + ''.join(f'{part}/' for part in namespace.split('/') if part)
 
 
-def namespace_of(namespace):
+def namespace_of(namespace: str) -> str:
     """Return the normalised namespace: ``'/'`` or ``'/fleet_a'`` (no trailing slash)."""
     return namespace_prefix(namespace).rstrip('/') or '/'
 
 
-def resolve(namespace, name):
+def resolve(namespace: str, name: str) -> str:
     """Return the absolute name of a relative ``name`` in ``namespace`` (absolute kept)."""
     return name if name.startswith('/') else namespace_prefix(namespace) + name
 
 
-def topic(k, name):
+def topic(k: int, name: str) -> str:
     """Return the relative name of vehicle k's topic ``name`` (in the node's namespace)."""
     return f'vehicle_{k}/{name}'
 
 
-def base_frame(template, k):
+def base_frame(template: str, k: int) -> str:
     """Return vehicle k's base frame: ``template`` with ``{id}`` replaced by k."""
     return template.replace('{id}', str(k))
 
@@ -76,13 +77,13 @@ class Frames:
     in :meth:`base` of their vehicle.
     """
 
-    def __init__(self, world=WORLD_FRAME, base=BASE_FRAME):
+    def __init__(self, world: str = WORLD_FRAME, base: str = BASE_FRAME) -> None:
         self.world, self.template = world, base
 
-    def base(self, k):
+    def base(self, k: int) -> str:
         return base_frame(self.template, k)
 
-    def vehicle_of(self, frame):
+    def vehicle_of(self, frame: str) -> int | None:
         """Return the id k whose base frame is ``frame``, else None."""
         head, _, tail = self.template.partition('{id}')
         middle = frame[len(head):len(frame) - len(tail)]

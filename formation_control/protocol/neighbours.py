@@ -30,8 +30,12 @@ On a communication graph other than the complete one, each formation state also 
 its sender's graph neighbours the sender hears; a neighbour is in the Laplacian sums only while
 the link is mutual (it hears this vehicle too), so the sums stay symmetric however links drop.
 """
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
 import math
 
+from formation_control.core.geometry import BoolArray
 from formation_control.core.laws import View
 from formation_control.protocol.links import Liveness
 from formation_control.protocol.lockstep import FRESH, REPEATED, STALE
@@ -73,7 +77,9 @@ class NeighbourTable:
 
     """
 
-    def __init__(self, n, own, timeout, clock, lockstep=True, neighbours=None, carry=True):
+    def __init__(self, n: int, own: int, timeout: float, clock: Callable[[], float],
+                 lockstep: bool = True, neighbours: Iterable[int] | None = None,
+                 carry: bool = True) -> None:
         self.own = own - 1
         self.carry = carry
         self.linked = np.ones(n, bool)
@@ -92,7 +98,7 @@ class NeighbourTable:
         self.odom_ns = -1
         self.commanded_ns = -1
 
-    def odometry(self, ns):
+    def odometry(self, ns: int) -> str:
         """
         Note this vehicle's odometry stamped ``ns`` (ns).
 
@@ -113,7 +119,7 @@ class NeighbourTable:
         self.odom_ns = ns
         return FRESH
 
-    def store(self, j, ns, row):
+    def store(self, j: int, ns: int, row: Sequence[float]) -> None:
         """
         Keep the state of vehicle ``j`` (1-based) stamped ``ns``.
 
@@ -133,7 +139,7 @@ class NeighbourTable:
         self.table[:, i] = row[1:]
         self.stamp[i] = ns
 
-    def hear(self, j, ns, row, hears_me=True):
+    def hear(self, j: int, ns: int, row: Sequence[float], hears_me: bool = True) -> bool:
         """
         Keep a neighbour's state and mark ``j`` live, unless the state is older than the last.
 
@@ -152,29 +158,29 @@ class NeighbourTable:
         self.hears_me[j - 1] = hears_me
         return True
 
-    def answered(self):
+    def answered(self) -> BoolArray:
         """(n,) bool: vehicles whose state answers the step under way."""
         return self.stamp == self.odom_ns
 
-    def _step(self):
+    def _step(self) -> tuple[float, bool | BoolArray]:
         """Lockstep: silence counts from the step's start and only for who has not answered."""
         if self.lockstep:
             return self.since, self.answered()
         return -math.inf, False
 
-    def gone(self):
+    def gone(self) -> BoolArray:
         """(n,) bool: neighbours out of the formation sums (heard, then silent)."""
         gone = self.liveness.gone(self.clock(), *self._step())
         gone[self.own] = False
         return gone
 
-    def live(self):
+    def live(self) -> BoolArray:
         """(n,) bool: the live neighbours, and the vehicle itself."""
         live = self.liveness.alive(self.clock(), *self._step())
         live[self.own] = True
         return live
 
-    def hearing(self):
+    def hearing(self) -> BoolArray:
         """
         (n,) bool: the vehicles this one says it hears.
 
@@ -183,11 +189,11 @@ class NeighbourTable:
         """
         return ~self.gone() if self.lockstep else self.live()
 
-    def waiting(self):
+    def waiting(self) -> BoolArray:
         """(n,) bool: lockstep, the vehicles whose state of the step under way is still awaited."""
         return ~self.gone() & ~self.answered() & self.linked
 
-    def ready(self):
+    def ready(self) -> BoolArray | None:
         """
         Members of the command now due, or None.
 
@@ -204,11 +210,11 @@ class NeighbourTable:
             return None
         return self.answered() & self.hears_me
 
-    def commanded(self):
+    def commanded(self) -> None:
         """Note that the command of the step under way was sent."""
         self.commanded_ns = self.odom_ns
 
-    def view(self, members, speed_dot):
+    def view(self, members: BoolArray, speed_dot: float) -> tuple[View, int]:
         """
         Return the particle view of the vehicles ``members`` and this vehicle's index in it.
 

@@ -19,9 +19,13 @@ Each entry is ``name -> (default, scenario.Spec)``; the same table declares the 
 parameters (descriptor with unit and range, read-only) and writes the node section of
 ``docs/parameters.md`` (:func:`markdown`). The offline simulator has none of these.
 """
-import re
+from __future__ import annotations
 
-from formation_control.core.scenario import ScenarioError, Spec
+from collections.abc import Mapping
+import re
+from typing import Any
+
+from formation_control.core.scenario import markdown_table, ScenarioError, Spec
 from formation_control.protocol.links import PARAMETERS as LINKS
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
 
@@ -39,7 +43,7 @@ FRAMES = {
 """The frames every node of a fleet is given alike."""
 
 
-def check_frames(values, per_vehicle=True):
+def check_frames(values: Mapping[str, Any], per_vehicle: bool = True) -> None:
     """
     Refuse frame parameters that are not tf2 frame ids or that would be shared.
 
@@ -125,12 +129,12 @@ MONITOR = {
 NODES = {'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR}
 
 
-def _number(x):
+def _number(x: float) -> str:
     return str(x) if isinstance(x, int) else f'{x:g}'
 
 
-def _range(spec):
-    parts = [' \\| '.join(spec.choices)] if spec.choices else []
+def _range(spec: Spec) -> str:
+    parts = [' | '.join(spec.choices)] if spec.choices else []
     if spec.low is not None:
         parts.append(f'[{_number(spec.low)}, {_number(spec.high)}]' if spec.high is not None
                      else f'>= {_number(spec.low)}')
@@ -139,7 +143,7 @@ def _range(spec):
     return '; '.join(parts)
 
 
-def _shown(value):
+def _shown(value: object) -> str:
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, str):
@@ -147,7 +151,7 @@ def _shown(value):
     return str(list(value)) if isinstance(value, tuple) else str(value)
 
 
-def markdown():
+def markdown() -> str:
     """
     Return the node section of docs/parameters.md: one table per node.
 
@@ -161,10 +165,8 @@ def markdown():
            'Set per node (`--ros-args -p name:=value`, or `swarm ... -p name:=value`), not in '
            'the scenario;', 'all but `cut_links` are read-only once the node runs.', '']
     for node, table in NODES.items():
-        out += [f'## `{node}`', '', '| name | default | unit | allowed | meaning |',
-                '|---|---|---|---|---|']
-        for name, (default, spec) in table.items():
-            out.append(f'| `{name}` | {_shown(default)} | {spec.unit} | {_range(spec)} | '
-                       f'{spec.text} |')
-        out.append('')
+        rows = [(f'`{name}`', _shown(default), spec.unit, _range(spec), spec.text)
+                for name, (default, spec) in table.items()]
+        out += [f'## `{node}`', '', *markdown_table(
+            ('name', 'default', 'unit', 'allowed', 'meaning'), rows), '']
     return '\n'.join(out)

@@ -22,13 +22,20 @@ estimate (:class:`estimation.FlowEstimator`, ``estimated``). A measurement that 
 topic (the local flow, the through-water velocity) is paired with the odometry of the same
 stamp (:class:`Pairing`).
 """
+from __future__ import annotations
+
+from typing import Any
+
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator
+from formation_control.core.geometry import BoolArray, RealArray
+from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS
+from formation_control.core.scenario import Scenario
 import numpy as np
 
 
-def needs_second_sensor(sc):
+def needs_second_sensor(sc: Scenario) -> str | None:
     """
     Return which per-step message a vehicle pairs with its odometry: 'flow', 'water' or None.
 
@@ -48,20 +55,21 @@ class Pairing:
     Either may come first (two topics); a newer stamp on either side drops the older one.
     """
 
-    def __init__(self):
-        self.odom = self.other = None
+    def __init__(self) -> None:
+        self.odom: tuple[int, Any] | None = None
+        self.other: tuple[int, Any] | None = None
 
-    def add_odometry(self, ns, values):
+    def add_odometry(self, ns: int, values: Any) -> tuple[int, Any, Any] | None:
         """Hold odometry ``values`` of stamp ns; return (ns, values, other) once paired."""
         self.odom = (ns, values)
         return self._pair()
 
-    def add_other(self, ns, value):
+    def add_other(self, ns: int, value: Any) -> tuple[int, Any, Any] | None:
         """Hold the second sensor's ``value`` of stamp ns; return the pair once paired."""
         self.other = (ns, value)
         return self._pair()
 
-    def _pair(self):
+    def _pair(self) -> tuple[int, Any, Any] | None:
         if self.odom is None or self.other is None or self.odom[0] != self.other[0]:
             return None
         pair = (*self.odom, self.other[1])
@@ -90,15 +98,15 @@ class Onboard:
 
     """
 
-    def __init__(self, sc):
+    def __init__(self, sc: Scenario) -> None:
         self.ctrl = Controller(sc)
-        self.X = None
-        self.U_held = np.zeros((2, 1))
+        self.X: RealArray | None = None
+        self.U_held: RealArray = np.zeros((2, 1))
         self.speed_dot = 0.0
         self.flow = np.full(1, complex(sc.flow_c))
         self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
 
-    def retune(self, sc):
+    def retune(self, sc: Scenario) -> None:
         """Take the gains of ``sc`` (changed at run time); the PI integrator carries on."""
         integral = self.ctrl.integral
         self.ctrl = Controller(sc)
@@ -106,7 +114,8 @@ class Onboard:
         if self.estimator is not None:
             self.estimator.retune(sc)
 
-    def observe(self, X, flow=None, v_ground=None, delay=0.0):
+    def observe(self, X: RealArray, flow: complex | None = None, v_ground: complex | None = None,
+                delay: float = 0.0) -> tuple[complex, float, float, float]:
         """
         Note the vehicle's sampled state and return what it tells its neighbours.
 
@@ -139,7 +148,7 @@ class Onboard:
         self.speed_dot = float(view.speed_dot[0])
         return view.r[0], view.phase[0], view.rate[0], view.speed[0]
 
-    def command(self, view, own, members):
+    def command(self, view: View, own: int, members: BoolArray) -> tuple[RealArray, bool]:
         """
         Compute the vehicle's input from the view of the ``members`` it hears.
 
@@ -159,6 +168,8 @@ class Onboard:
             limit.
 
         """
+        if self.X is None:
+            raise RuntimeError('observe a state before commanding')
         U = self.ctrl.command(view, self.X, [own], members=members, flow=self.flow)
         self.U_held = U.copy()
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

@@ -138,7 +138,7 @@ class FleetRecorder(BagRecorder):
 
 def main(args=None):
     """Record a fleet: ``recorder --ros-args -p bag:=DIR -p num_vehicles:=N``."""
-    from formation_control.core.scenario import ScenarioError
+    from formation_control.core.errors import UsageError
     from formation_control.protocol import names
     from formation_control.ros.runner import run
 
@@ -153,9 +153,9 @@ def main(args=None):
         finally:
             probe.destroy_node()
         if not bag or n < 1:
-            raise ScenarioError("give the bag directory and the fleet's size: -p bag:=DIR -p "
-                                'num_vehicles:=N')
+            raise UsageError("give the bag directory and the fleet's size: -p bag:=DIR -p "
+                             'num_vehicles:=N')
         if Path(bag).exists():
-            raise ScenarioError(f'parameter {"bag"!r} = {bag!r} is invalid: it exists already')
+            raise UsageError(f'parameter {"bag"!r} = {bag!r} is invalid: it exists already')
         return FleetRecorder(bag, n, prefix, monitor, context=context)
     return run(make, args)

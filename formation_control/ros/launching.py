@@ -25,6 +25,7 @@ from pathlib import Path
 import tempfile
 
 from formation_control.core import scenario
+from formation_control.core.errors import UsageError
 from formation_control.ops import security
 from formation_control.protocol.fleet_plan import FleetPlan, LAUNCH_LABELS, write_params
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
@@ -83,7 +84,7 @@ def _scenario(a, recorded=False):
     files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
     if a['params_file']:
         if not Path(a['params_file']).is_file():
-            raise scenario.ScenarioError(f"params_file {a['params_file']!r} not found")
+            raise UsageError(f"params_file {a['params_file']!r} not found")
         files.append(a['params_file'])
     return sc, files
 

@@ -28,7 +28,7 @@ Channels, named as the monitor resolves its topics (absolute: a fleet in ``/flee
 ``formation-control layout --namespace NS --world-frame F`` prints the layout of these names.
 Each message is logged at the fleet time of the state it shows (ns).
 """
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
 from formation_control.protocol.names import WORLD_FRAME
 from formation_control.view import scene
@@ -69,8 +69,8 @@ class LiveView:
             self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
                                                 host=host, port=port, context=self.context)
         except RuntimeError as err:          # FoxgloveError: Failed to bind port: ...
-            raise ScenarioError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
-                                f'{host}:{port} ({err})') from None
+            raise UsageError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
+                             f'{host}:{port} ({err})') from None
         self.scene = SceneUpdateChannel(node.resolve_topic_name(names.SCENE_TOPIC),
                                         context=self.context)
         self.metrics = foxglove.Channel(node.resolve_topic_name(names.METRICS_TOPIC),

@@ -112,7 +112,7 @@ def declare(node, defaults=Scenario(), runtime=True):
             d.read_only = True
             d.description += PLANT_NOTE
         if name == 'K':
-            value = -1.0 if node.get_parameter('formation').value == 'parallel' else 1.0
+            value = scenario.default_K(node.get_parameter('formation').value)
         if value == []:
             declare_empty(node, name, EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY), d)
         else:

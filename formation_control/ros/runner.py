@@ -21,7 +21,7 @@ import signal
 import sys
 import tempfile
 
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.ops.security import check_environment
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -106,7 +106,8 @@ def run(make_node, args=None):
                and not any(getattr(node, 'done', False) for node in nodes)):
             executor.spin_once(timeout_sec=0.1)
         code = max(getattr(node, 'exit_code', 0) for node in nodes)
-    except (ScenarioError, InvalidParameterTypeException, InvalidParameterValueException) as err:
+    except (ScenarioError, UsageError, InvalidParameterTypeException,
+            InvalidParameterValueException) as err:
         print(f'error: {err}', file=sys.stderr)
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -18,11 +18,21 @@ Formation metrics of the thesis' analysis, and the convergence test.
 Order parameter ``|p|``, circle centres, potentials, composite Lyapunov values, centre spread,
 radius, crab angles; the steady states the analysis predicts for rigid bodies.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import Any, TYPE_CHECKING
 
 from formation_control.core import laws
+from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
+from formation_control.core.laws import Value
 from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from formation_control.core.control import Controller
+    from formation_control.core.scenario import Scenario
 
 ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
@@ -35,20 +45,20 @@ PHASE_ORDERS = 8         # patterns: |p_m| reported for m = 1..min(floor(N/2), P
 class Snapshot:
     """Formation quantities at one instant (SI units; nan where the scenario has no such value)."""
 
-    order: float           # |p| of the steered phase (1.10)
-    potential: float       # V of the formation (1.11), (1.14), (7.18)
-    lyapunov: float        # V_c = V + sum z^2 / 2 (2.10)
-    spread: float          # max_k |c_k - mean(c)| (m)
-    radius: float          # mean_k |r_k - mean(c)| (m)
-    max_rate: float        # max_k |phase rate| (rad/s)
-    centre: complex = complex(np.nan, np.nan)   # mean(c) (m)
-    speed_error: float = np.nan      # mean_k |u_k - u0| (m/s), rigid bodies (7.1)
-    crab: float = np.nan             # mean_k beta_k = atan2(v, u) (rad) (7.11)
-    crab_inertial: float = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
-    phase_orders: tuple = ()         # pattern: |p_m|, m = 1, 2, ... (Sepulchre et al. 2007)
-    min_separation: float = np.nan   # min_{j != k} |r_j - r_k| (m)
+    order: Value           # |p| of the steered phase (1.10)
+    potential: Value       # V of the formation (1.11), (1.14), (7.18)
+    lyapunov: Value        # V_c = V + sum z^2 / 2 (2.10)
+    spread: Value          # max_k |c_k - mean(c)| (m)
+    radius: Value          # mean_k |r_k - mean(c)| (m)
+    max_rate: Value        # max_k |phase rate| (rad/s)
+    centre: complex | ComplexArray = complex(np.nan, np.nan)   # mean(c) (m)
+    speed_error: Value = np.nan      # mean_k |u_k - u0| (m/s), rigid bodies (7.1)
+    crab: Value = np.nan             # mean_k beta_k = atan2(v, u) (rad) (7.11)
+    crab_inertial: Value = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
+    phase_orders: tuple[Value, ...] = ()  # pattern: |p_m|, m = 1, 2, ... (Sepulchre et al. 2007)
+    min_separation: Value = np.nan   # min_{j != k} |r_j - r_k| (m)
 
-    def values(self):
+    def values(self) -> dict[str, Any]:
         """
         Return the named values for messages and reports, without those that do not apply.
 
@@ -68,7 +78,8 @@ class Snapshot:
         return {k: float(v) for k, v in out.items() if not np.isnan(v)}
 
 
-def snapshot(ctrl, X, inputs, t=0.0, separation=True):
+def snapshot(ctrl: Controller, X: RealArray, inputs: RealArray,
+             t: float | RealArray = 0.0, separation: bool = True) -> Snapshot:
     """
     Return the formation metrics of the fleet at one instant.
 
@@ -103,7 +114,7 @@ def snapshot(ctrl, X, inputs, t=0.0, separation=True):
     view = ctrl.view(X, inputs[1], flow)
     f = ctrl.formation
     nan = np.full(np.shape(view.r)[:-1], np.nan)
-    extra = {'min_separation': min_separation(view.r) if separation else nan}
+    extra: dict[str, Any] = {'min_separation': min_separation(view.r) if separation else nan}
     if isinstance(f, laws.Circular):
         c = f.centres(view)
         mean_c = c.mean(axis=-1, keepdims=True)
@@ -122,11 +133,12 @@ def snapshot(ctrl, X, inputs, t=0.0, separation=True):
                  max_rate=np.max(abs(view.rate), axis=-1))
     if nan.ndim:
         return Snapshot(**extra)
-    return Snapshot(**{k: complex(v) if k == 'centre' else v if k == 'phase_orders'
-                       else float(v) for k, v in extra.items()})
+    one: dict[str, Any] = {k: complex(v) if k == 'centre' else v if k == 'phase_orders'
+                           else float(v) for k, v in extra.items()}
+    return Snapshot(**one)
 
 
-def min_separation(r):
+def min_separation(r: ComplexArray) -> Value:
     """
     Return the smallest distance between two vehicles of each fleet.
 
@@ -181,7 +193,7 @@ def _merge_level(p, x, best, size):
         np.minimum.at(best, fleet[shift:][same], abs(q[shift:] - q[:-shift])[same])
 
 
-def phase_orders(phase):
+def phase_orders(phase: RealArray) -> tuple[Value, ...]:
     """
     Return the moduli of the phase moments of a symmetric pattern.
 
@@ -202,7 +214,7 @@ def phase_orders(phase):
     return tuple(laws._fleet(x) for x in orders)
 
 
-def converged(sc, snap):
+def converged(sc: Scenario, snap: Snapshot) -> bool | BoolArray:
     """
     Return whether the formation of the scenario is reached.
 
@@ -223,11 +235,11 @@ def converged(sc, snap):
     """
     if sc.formation == 'parallel':
         return (snap.order > ORDER_TOL) & (snap.max_rate < RATE_TOL)
-    radius_error = abs(snap.radius * abs(sc.omega0) - 1.0)
-    return (snap.spread < SPREAD_TOL) & (radius_error < RADIUS_TOL)
+    radius_error = snap.radius * abs(sc.omega0) - 1.0
+    return (snap.spread < SPREAD_TOL) & (-RADIUS_TOL < radius_error) & (radius_error < RADIUS_TOL)
 
 
-def vehicles_converged(ctrl, view):
+def vehicles_converged(ctrl: Controller, view: laws.View) -> BoolArray:
     """
     Return whether each vehicle meets its own share of :func:`converged`.
 
@@ -255,7 +267,7 @@ def vehicles_converged(ctrl, view):
     return aligned & (abs(view.rate) < RATE_TOL)
 
 
-def convergence_time(t, flags):
+def convergence_time(t: ArrayLike, flags: ArrayLike) -> float | None:
     """
     Return the first time from which ``flags`` holds to the end.
 
@@ -278,7 +290,7 @@ def convergence_time(t, flags):
     return float(convergence_times(t, flags[:, None])[0])
 
 
-def convergence_times(t, flags):
+def convergence_times(t: ArrayLike, flags: ArrayLike) -> RealArray:
     """
     Return :func:`convergence_time` of each run of a batch.
 
@@ -302,7 +314,7 @@ def convergence_times(t, flags):
     return np.where(flags[-1], t[np.minimum(since, t.size - 1)], np.nan)
 
 
-def crab_angles(X, flow):
+def crab_angles(X: RealArray, flow: complex | ComplexArray) -> tuple[RealArray, RealArray]:
     """
     Return the crab angles of rigid bodies, relative to the flow and inertial.
 
@@ -325,7 +337,7 @@ def crab_angles(X, flow):
     return beta, beta_hat
 
 
-def steady_turn(sc):
+def steady_turn(sc: Scenario) -> tuple[float, float, float, float]:
     """
     Return the steady turn of a rigid body on radius 1/``|omega0|``, (7.9)-(7.10) corrected.
 
@@ -361,7 +373,7 @@ def steady_turn(sc):
     return v0, s0, float(np.arctan2(v0, sc.u0)), sc.omega0 * s0
 
 
-def parallel_flow_crab(sc, theta):
+def parallel_flow_crab(sc: Scenario, theta: RealArray) -> tuple[RealArray, RealArray]:
     """
     Return the steady inertial crab angle and ground speed of rigid parallel motion in flow.
 

@@ -19,17 +19,25 @@ Trajectories with heading (and ground-velocity) arrows; turning rate and speeds;
 the composite Lyapunov value on a log scale. They draw :func:`report.series`, so a run from the
 simulator, the plant's ``.npz`` or a bag looks the same.
 """
+from __future__ import annotations
+
+from os import PathLike
+
+from formation_control.core.geometry import ComplexArray
 from formation_control.core.models import RIGID_MODELS
-from formation_control.sim.report import series
+from formation_control.core.scenario import Scenario
+from formation_control.sim.report import Series, series
+from formation_control.sim.simulator import Run
 import matplotlib
 
 matplotlib.use('Agg')
+from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-def _arrows(ax, d, flow, length):
+def _arrows(ax: Axes, d: Series, flow: complex | ComplexArray, length: float) -> None:
     x, y, theta = d['x'][-1], d['y'][-1], d['theta'][-1]
     ax.quiver(x, y, np.cos(theta), np.sin(theta), color='k', angles='xy',
               scale_units='xy', scale=1.0 / length, width=0.005, label='heading')
@@ -39,7 +47,7 @@ def _arrows(ax, d, flow, length):
                   scale=1.0 / length, width=0.005, label='ground velocity')
 
 
-def _links(ax, d, sc):
+def _links(ax: Axes, d: Series, sc: Scenario) -> ComplexArray:
     """Draw the communication graph between the final positions; return its segments."""
     if sc.all_to_all:
         return np.zeros((0, 2), complex)
@@ -51,7 +59,7 @@ def _links(ax, d, sc):
     return segments
 
 
-def _phases(ax, d, sc):
+def _phases(ax: Axes, d: Series, sc: Scenario) -> ComplexArray:
     """Mark the final places on the common circle of a pattern; return them (N,) complex."""
     centre, radius = d['centre'][-1], 1.0 / abs(sc.omega0)
     ring = centre + radius * np.exp(1j * np.linspace(0.0, 2.0 * np.pi, 181))
@@ -66,7 +74,7 @@ def _phases(ax, d, sc):
     return r
 
 
-def _trajectories(ax, d, sc):
+def _trajectories(ax: Axes, d: Series, sc: Scenario) -> None:
     ax.plot(d['x'], d['y'], lw=0.8)
     ax.plot(d['x'][0], d['y'][0], 'o', color='0.5', ms=3, label='start')
     d['links'] = _links(ax, d, sc)
@@ -79,7 +87,7 @@ def _trajectories(ax, d, sc):
            title=f'{sc.model} {sc.formation}, {sc.controller}, N={sc.num_vehicles}')
 
 
-def _rates(ax, d, rigid):
+def _rates(ax: Axes, d: Series, rigid: bool) -> None:
     ax.plot(d['t'], d['omega'], lw=0.8)
     ax.set(xlabel='t (s)', ylabel='turning rate omega (rad/s)', title='turning rate')
     if rigid:
@@ -88,18 +96,18 @@ def _rates(ax, d, rigid):
                title='turning rate and speed')
 
 
-def _crab(ax, d):
+def _crab(ax: Axes, d: Series) -> None:
     ax.plot(d['t'], np.degrees(d['beta']), lw=0.8, color='tab:blue')
     ax.plot(d['t'], np.degrees(d['beta_hat']), lw=0.8, color='tab:red', ls='--')
     ax.set(xlabel='t (s)', ylabel='deg', title='crab angles beta (solid), beta_hat (dashed)')
 
 
-def _lyapunov(ax, d):
+def _lyapunov(ax: Axes, d: Series) -> None:
     ax.semilogy(d['t'], np.maximum(d['lyapunov'], 1e-300), lw=0.9, color='k')
     ax.set(xlabel='t (s)', ylabel='V_c', title='composite Lyapunov value (2.10)')
 
 
-def plot_run(run, path):
+def plot_run(run: Run, path: str | PathLike[str]) -> Series:
     """
     Write the figure of a run to a PNG file.
 

@@ -18,15 +18,28 @@ What a run shows, whatever recorded it (offline simulator, the plant's ``.npz``,
 The series the figures draw, and the final values next to the steady state the thesis
 predicts.
 """
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import Any, TypeAlias
+
 from formation_control.core.control import Controller
+from formation_control.core.geometry import RealArray
 from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
                                            ROW_U, ROW_X, ROW_Y)
+from formation_control.core.scenario import Scenario
 from formation_control.sim import metrics
-from formation_control.sim.simulator import summary
+from formation_control.sim.simulator import Run, summary
 import numpy as np
+from numpy.typing import NDArray
+
+Series: TypeAlias = dict[str, NDArray[Any]]
+"""The time series of a run by name (:func:`series`)."""
+Row: TypeAlias = tuple[str, float, float | None, str]
+"""A line of a report: the metric, its final value, the predicted one and its source."""
 
 
-def series(run):
+def series(run: Run) -> Series:
     """
     Return the per-sample data of the figures.
 
@@ -64,12 +77,12 @@ def series(run):
     return out
 
 
-def pattern_groups(sc):
+def pattern_groups(sc: Scenario) -> int | None:
     """Return the number of evenly spaced groups of the pattern: N (splay), M, or None."""
     return {'splay': sc.num_vehicles, 'symmetric': sc.pattern_M}.get(sc.pattern)
 
 
-def pattern_text(sc):
+def pattern_text(sc: Scenario) -> str | None:
     """
     Return the pattern the scenario predicts, in words.
 
@@ -97,7 +110,7 @@ def pattern_text(sc):
             f'{360.0 / groups:.4g} deg apart ({form})')
 
 
-def predictions(sc, X):
+def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
     """
     Return the steady-state values the thesis' analysis predicts.
 
@@ -152,7 +165,7 @@ def predictions(sc, X):
     return out
 
 
-def report(run):
+def report(run: Run) -> tuple[dict[str, Any], list[Row]]:
     """
     Return the report of a run.
 
@@ -180,7 +193,7 @@ def report(run):
     return out, rows
 
 
-def format_report(title, out, rows):
+def format_report(title: str, out: Mapping[str, Any], rows: Iterable[Row]) -> str:
     """Return the text ``formation-control report`` prints of a report (:func:`report`)."""
     time = out['convergence_time']
     lines = [title,

@@ -21,17 +21,24 @@ the plant over ``dt_control / dt_integration`` steps. Each vehicle commands with
 the local flow at its place (``flow_source: known``) or its estimate (``estimated``,
 :mod:`estimation`), from what it measures at the period's start.
 """
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 import json
+from os import PathLike
+from typing import Any, overload
 
 from formation_control.core import stability
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
+from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
                                            ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
-from formation_control.core.scenario import initial_state, resolve
+from formation_control.core.scenario import initial_state, resolve, Scenario
 from formation_control.sim import metrics
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 @dataclass
@@ -58,14 +65,14 @@ class Run:
 
     """
 
-    sc: object
-    t: np.ndarray
-    X: np.ndarray
-    U: np.ndarray
-    meta: dict = field(default_factory=dict)
-    flow_hat: np.ndarray = None
+    sc: Scenario
+    t: RealArray
+    X: RealArray
+    U: RealArray
+    meta: dict[str, Any] = field(default_factory=dict)
+    flow_hat: ComplexArray | None = None
 
-    def arrays(self):
+    def arrays(self) -> dict[str, Any]:
         """
         Return the arrays of the ``.npz`` layout.
 
@@ -89,12 +96,12 @@ class Run:
             out['flow_hat_x'], out['flow_hat_y'] = self.flow_hat.real, self.flow_hat.imag
         return out
 
-    def save(self, path):
+    def save(self, path: str | PathLike[str]) -> None:
         """Write :meth:`arrays` to ``path`` (a compressed ``.npz``)."""
         np.savez_compressed(path, **self.arrays())
 
 
-def load_run(path):
+def load_run(path: str | PathLike[str]) -> Run:
     """
     Read a run written by :meth:`Run.save` (the simulator or the plant node).
 
@@ -146,27 +153,27 @@ class Stepper:
 
     """
 
-    def __init__(self, sc, X0=None):
+    def __init__(self, sc: Scenario, X0: ArrayLike | None = None) -> None:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
         self.U = np.zeros((2,) + self.X.shape[1:])
         self.steps = 0
-        self.estimator = None
+        self.estimator: FlowEstimator | None = None
         if sc.flow_source == 'estimated':
             self.estimator = FlowEstimator(sc, self.X.shape[1:])
-        self.flow_hat = self.local_flow()
+        self.flow_hat: complex | ComplexArray = self.local_flow()
 
     @property
-    def t(self):
+    def t(self) -> float:
         """Return the time of the current state (s)."""
         return self.steps * self.sc.dt_integration
 
-    def local_flow(self):
+    def local_flow(self) -> ComplexArray:
         """Return the flow (N,) complex at each vehicle's place now (m/s)."""
         return self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
 
-    def vehicles_flow(self):
+    def vehicles_flow(self) -> complex | ComplexArray:
         """
         Return the flow (N,) complex each vehicle uses now: known, or its updated estimate.
 
@@ -184,7 +191,7 @@ class Stepper:
         near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
         return est.update(self.X, ground_velocity(self.X, flow), near).copy()
 
-    def hold(self, U):
+    def hold(self, U: ArrayLike) -> RealArray:
         """
         Hold the inputs ``U`` (2, N) over the next period; return them as held.
 
@@ -195,7 +202,7 @@ class Stepper:
             self.X[ROW_OMEGA] = self.U[1]
         return self.U
 
-    def command(self):
+    def command(self) -> RealArray:
         """
         Compute every vehicle's command, hold and return it (2, N).
 
@@ -208,7 +215,7 @@ class Stepper:
         view = self.ctrl.view(X, self.U[1], flow)
         return self.hold(self.ctrl.command(view, X, flow=flow))
 
-    def advance(self, steps=None):
+    def advance(self, steps: int | None = None) -> RealArray:
         """
         Integrate one control period with the held inputs; return the new state (6, N).
 
@@ -233,16 +240,20 @@ class Recorder:
     has ``sc.periods`` steps after step 0.
     """
 
-    def __init__(self, sc):
+    def __init__(self, sc: Scenario) -> None:
         self.sc = sc
         self.steps = sc.periods
-        self.t, self.X, self.U, self.flow_hat = [], [], [], []
+        self.t: list[float] = []
+        self.X: list[RealArray] = []
+        self.U: list[RealArray] = []
+        self.flow_hat: list[ComplexArray] = []
 
-    def keeps(self, n):
+    def keeps(self, n: int) -> bool:
         """Return whether step n is a recorded step."""
         return n % self.sc.record_every == 0 or n == self.steps
 
-    def record(self, n, X, U, flow_hat=None):
+    def record(self, n: int, X: RealArray, U: RealArray,
+               flow_hat: complex | ComplexArray | None = None) -> None:
         """Record the state X (6, N), inputs U (2, N) and flows used of step n if recorded."""
         if self.keeps(n):
             self.t.append(n * self.sc.dt_control)
@@ -251,7 +262,7 @@ class Recorder:
             if flow_hat is not None:
                 self.flow_hat.append(np.broadcast_to(flow_hat, X.shape[1:]).copy())
 
-    def run(self):
+    def run(self) -> Run:
         """Return what was recorded as a :class:`Run`."""
         flow_hat = np.array(self.flow_hat) if self.flow_hat else None
         return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U),
@@ -279,32 +290,34 @@ class Outcome:
 
     """
 
-    def __init__(self, sc):
+    def __init__(self, sc: Scenario) -> None:
         self.sc = sc
         self.steps = sc.periods
         self.ctrl = Controller(sc)
-        self.t, self.flags = [], []
+        self.times: list[float] = []
+        self.samples: list[BoolArray] = []
 
-    def record(self, n, X, U, flow_hat=None):
+    def record(self, n: int, X: RealArray, U: RealArray,
+               flow_hat: complex | ComplexArray | None = None) -> None:
         """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
         if n % self.sc.record_every == 0 or n == self.steps:
             t = n * self.sc.dt_control
             self.final = metrics.snapshot(self.ctrl, X, U, t, separation=n == self.steps)
-            self.t.append(t)
-            self.flags.append(metrics.converged(self.sc, self.final))
+            self.times.append(t)
+            self.samples.append(np.asarray(metrics.converged(self.sc, self.final)))
             self.X, self.U = X.copy(), U.copy()
 
-    def run(self):
+    def run(self) -> Outcome:
         """Return itself, with ``t`` and ``flags`` as arrays."""
-        self.t, self.flags = np.array(self.t), np.array(self.flags)
+        self.t, self.flags = np.array(self.times), np.array(self.samples)
         return self
 
-    def convergence_times(self):
+    def convergence_times(self) -> RealArray:
         """Return each fleet's :func:`metrics.convergence_times` (s; NaN if not), (B,)."""
         return metrics.convergence_times(self.t, self.flags)
 
 
-def initial_states(sc, seeds):
+def initial_states(sc: Scenario, seeds: Sequence[int]) -> RealArray:
     """
     Return the initial states of a batch of fleets, one per seed.
 
@@ -325,7 +338,17 @@ def initial_states(sc, seeds):
     return np.stack([initial_state(replace(sc, seed=int(s))) for s in seeds], axis=1)
 
 
-def simulate(sc, X0=None, recorder=None):
+@overload
+def simulate(sc: Scenario, X0: ArrayLike | None = None,
+             recorder: Recorder | None = None) -> Run: ...
+
+
+@overload
+def simulate(sc: Scenario, X0: ArrayLike | None, recorder: Outcome) -> Outcome: ...
+
+
+def simulate(sc: Scenario, X0: ArrayLike | None = None,
+             recorder: Recorder | Outcome | None = None) -> Run | Outcome:
     """
     Run a scenario in the offline simulator.
 
@@ -367,7 +390,7 @@ def simulate(sc, X0=None, recorder=None):
     return rec.run()
 
 
-def summary(run):
+def summary(run: Run) -> dict[str, Any]:
     """
     Return the convergence figures of a run.
 
@@ -388,7 +411,7 @@ def summary(run):
     """
     sc = run.sc
     ctrl = Controller(sc)
-    flags = []
+    flags: list[Any] = []
     for t, X, U in zip(run.t, run.X, run.U):
         final = metrics.snapshot(ctrl, X, U, t, separation=False)
         flags.append(metrics.converged(sc, final))

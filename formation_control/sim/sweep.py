@@ -23,21 +23,27 @@ run's result does not depend on the batch it is in, the batch size or the worker
 batch's rows are written to ``<out>.parts/`` as it completes, ``resume`` skips those already
 there, and the parts are merged into one ``.npz`` at the end.
 """
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 import itertools
 import json
 import math
+from os import PathLike
 from pathlib import Path
 import shutil
 import sys
 import time
+from typing import Any, TextIO, TypeAlias
 
 from formation_control.core import scenario
 from formation_control.core.models import ROW_THETA, ROW_X, ROW_Y
 from formation_control.sim import simulator
 import numpy as np
+from numpy.typing import NDArray
 
 FIXED = {'seed': 'the seeds are the runs: use --seeds',
          'duration': 'every run of a sweep has the same time axis: use --duration',
@@ -54,11 +60,22 @@ section 7)."""
 Z95 = 1.959963984540054
 
 
+Batch: TypeAlias = tuple[int, list[int]]
+"""A batch of runs: its grid point and seeds."""
+Rows: TypeAlias = dict[str, Any]
+"""The rows of a batch, one per run (:func:`run_batch`)."""
+Job: TypeAlias = tuple[int, tuple[Any, ...]]
+"""A batch to run: its index and the arguments of the task."""
+Task: TypeAlias = Callable[..., Rows]
+Done: TypeAlias = Callable[[int, Rows], None]
+Failed: TypeAlias = Callable[[int, str], None]
+
+
 class SweepError(ValueError):
     """A sweep cannot be planned or resumed: the message says which option or grid point."""
 
 
-def parse_grid(overrides):
+def parse_grid(overrides: Iterable[str]) -> tuple[dict[str, Any], dict[str, list[Any]]]:
     """
     Split ``name:=value`` overrides into fixed values and grid axes.
 
@@ -120,23 +137,23 @@ class Plan:
 
     """
 
-    points: list
-    axes: dict
-    seeds: list
-    batches: list
+    points: list[dict[str, Any]]
+    axes: dict[str, list[Any]]
+    seeds: list[int]
+    batches: list[Batch]
 
-    def manifest(self):
+    def manifest(self) -> dict[str, Any]:
         """Return the plan as JSON-able data: what ``--resume`` checks is the same sweep."""
         return {'points': self.points, 'axes': self.axes, 'seeds': self.seeds,
                 'batches': self.batches}
 
     @property
-    def runs(self):
+    def runs(self) -> int:
         """Return the number of runs, grid points times seeds."""
         return len(self.points) * len(self.seeds)
 
 
-def failure(err):
+def failure(err: BaseException) -> str:
     """Return the reason a batch failed with ``err``: an out-of-memory names what to lower."""
     if isinstance(err, MemoryError):
         return (f"out of memory ({str(err) or 'an allocation failed'}): lower --batch-size, "
@@ -144,12 +161,13 @@ def failure(err):
     return f'{type(err).__name__}: {err}'
 
 
-def point_label(axes, values):
+def point_label(axes: Iterable[str], values: Iterable[Any]) -> str:
     """Return 'K=0.5, kappa=2' for one grid point, or 'all runs' without axes."""
     return ', '.join(f'{n}={v}' for n, v in zip(axes, values)) or 'all runs'
 
 
-def plan(base, overrides, seeds, batch_size=None, workers=1):
+def plan(base: Mapping[str, Any], overrides: Iterable[str], seeds: Sequence[int],
+         batch_size: int | None = None, workers: int = 1) -> Plan:
     """
     Plan a sweep and validate every grid point before anything runs.
 
@@ -200,7 +218,7 @@ def plan(base, overrides, seeds, batch_size=None, workers=1):
     return Plan(points, axes, seeds, batches)
 
 
-def run_batch(params, seeds):
+def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     """
     Simulate one batch: a grid point's scenario from each seed, as one batch of fleets.
 
@@ -236,12 +254,12 @@ class Progress:
     Redrawn in place on a terminal; elsewhere (a log) one line per tenth of the runs.
     """
 
-    def __init__(self, total, stream=None):
+    def __init__(self, total: int, stream: TextIO | None = None) -> None:
         self.total, self.done, self.shown = total, 0, -1
         self.stream = sys.stderr if stream is None else stream
         self.start = time.monotonic()
 
-    def advance(self, runs):
+    def advance(self, runs: int) -> None:
         """Count ``runs`` more runs done and redraw the bar."""
         self.done += runs
         elapsed = time.monotonic() - self.start
@@ -257,25 +275,26 @@ class Progress:
         self.stream.flush()
 
 
-def part_name(batch):
+def part_name(batch: Batch) -> str:
     """Return the file name of a batch's rows: grid point and first seed."""
     point, seeds = batch
     return f'point{point:04d}_seed{seeds[0]:08d}.npz'
 
 
-def parts_dir(out):
+def parts_dir(out: str | PathLike[str]) -> Path:
     """Return the directory next to ``out`` that holds the rows of completed batches."""
     out = Path(out)
     return out.with_name(out.name + '.parts')
 
 
-def stored_batches(out):
+def stored_batches(out: str | PathLike[str]) -> list[Batch]:
     """Return the batches of the sweep whose parts are next to ``out`` (its manifest)."""
     stored = json.loads((parts_dir(out) / 'manifest.json').read_text())
     return [(point, seeds) for point, seeds in stored['batches']]
 
 
-def open_parts(out, the_plan, resume):
+def open_parts(out: str | PathLike[str], the_plan: Plan,
+               resume: bool) -> tuple[list[Batch], set[int]]:
     """
     Prepare the directory of parts; return the batches, and those already done (resume).
 
@@ -306,7 +325,7 @@ def open_parts(out, the_plan, resume):
     return the_plan.batches, set()
 
 
-def write_part(out, batch, point, rows):
+def write_part(out: str | PathLike[str], batch: Batch, point: int, rows: Rows) -> None:
     """Write a batch's rows, with its grid point index, atomically (a complete file or none)."""
     path = parts_dir(out) / part_name(batch)
     tmp = path.with_suffix('.tmp.npz')
@@ -317,11 +336,11 @@ def write_part(out, batch, point, rows):
 class _Local:
     """Run tasks in local worker processes; a task whose worker died is run once more, alone."""
 
-    def __init__(self, workers):
+    def __init__(self, workers: int) -> None:
         self.workers = workers
-        self.tries = {}
+        self.tries: dict[int, int] = {}
 
-    def run(self, task, jobs, done, failed):
+    def run(self, task: Task, jobs: Iterable[Job], done: Done, failed: Failed) -> None:
         """Run ``task(*args)`` of each (key, args) in ``jobs``; report to ``done``/``failed``."""
         if self.workers == 0:
             for key, args in jobs:
@@ -336,7 +355,8 @@ class _Local:
             for key, _ in died:
                 failed(key, 'its worker process died, twice')
 
-    def _failed(self, key, args, err, pending, failed):
+    def _failed(self, key: int, args: tuple[Any, ...], err: Exception, pending: list[Job],
+                failed: Failed) -> None:
         """Queue a task whose code raised for a second try, or report it."""
         self.tries[key] = self.tries.get(key, 0) + 1
         if self.tries[key] < 2:
@@ -344,7 +364,8 @@ class _Local:
         else:
             failed(key, failure(err))
 
-    def _inline(self, task, key, args, done, failed):
+    def _inline(self, task: Task, key: int, args: tuple[Any, ...], done: Done,
+                failed: Failed) -> None:
         pending = [(key, args)]
         while pending:
             pending.pop()
@@ -353,13 +374,15 @@ class _Local:
             except Exception as err:                   # noqa: B902 (retried, then reported)
                 self._failed(key, args, err, pending, failed)
 
-    def _pool(self, task, jobs, workers, done, failed):
+    def _pool(self, task: Task, jobs: Iterable[Job], workers: int, done: Done,
+              failed: Failed) -> tuple[list[Job], list[Job]]:
         """
         Run jobs, ``workers`` at a time, until done or a worker dies.
 
         Returns the jobs that were running when the pool broke and those not started.
         """
-        pending, running, died = list(jobs), {}, []
+        pending, died = list(jobs), list[Job]()
+        running: dict[Future[Rows], Job] = {}
         with ProcessPoolExecutor(workers) as pool:
             while pending or running:
                 while pending and len(running) < workers and not died:
@@ -384,7 +407,7 @@ class _Local:
 class _Dask:
     """Run tasks on a Dask distributed cluster; a failed task is resubmitted once."""
 
-    def __init__(self, address):
+    def __init__(self, address: str) -> None:
         try:
             from distributed import Client
         except ImportError:
@@ -395,7 +418,7 @@ class _Dask:
         except (OSError, TimeoutError) as err:
             raise SweepError(f'--scheduler {address}: cannot connect ({err})') from None
 
-    def run(self, task, jobs, done, failed):
+    def run(self, task: Task, jobs: Iterable[Job], done: Done, failed: Failed) -> None:
         """Run ``task(*args)`` of each (key, args) in ``jobs``; report to ``done``/``failed``."""
         from distributed import as_completed
         futures = {self.client.submit(task, *args, pure=False): (key, args, 0)
@@ -415,8 +438,9 @@ class _Dask:
         self.client.close()
 
 
-def execute(the_plan, out, workers=1, scheduler=None, resume=False, task=run_batch,
-            progress=None):
+def execute(the_plan: Plan, out: str | PathLike[str], workers: int = 1,
+            scheduler: str | None = None, resume: bool = False, task: Task = run_batch,
+            progress: Progress | None = None) -> dict[int, str]:
     """
     Run the batches of a plan not done yet, writing each one's rows as it completes.
 
@@ -449,14 +473,14 @@ def execute(the_plan, out, workers=1, scheduler=None, resume=False, task=run_bat
         progress.advance(sum(len(batches[i][1]) for i in finished))
     jobs = [(i, (the_plan.points[p], seeds)) for i, (p, seeds) in enumerate(batches)
             if i not in finished]
-    failures = {}
+    failures: dict[int, str] = {}
 
-    def done(i, rows):
+    def done(i: int, rows: Rows) -> None:
         write_part(out, batches[i], batches[i][0], rows)
         if progress is not None:
             progress.advance(len(batches[i][1]))
 
-    def failed(i, reason):
+    def failed(i: int, reason: str) -> None:
         point, seeds = batches[i]
         failures[i] = f'grid point {point}, seeds {seeds[0]}-{seeds[-1]}: {reason}'
     engine = _Dask(scheduler) if scheduler else _Local(workers)
@@ -464,7 +488,7 @@ def execute(the_plan, out, workers=1, scheduler=None, resume=False, task=run_bat
     return failures
 
 
-def merge(the_plan, out):
+def merge(the_plan: Plan, out: str | PathLike[str]) -> dict[str, NDArray[Any]]:
     """
     Merge the parts of a finished sweep into ``out`` and remove them.
 
@@ -484,7 +508,7 @@ def merge(the_plan, out):
             parts.append({k: d[k] for k in d.files})
     width = max(p['final_x'].shape[1] for p in parts)
     names = list(dict.fromkeys(k for p in parts for k in p))
-    merged = {}
+    merged: dict[str, Any] = {}
     for name in names:
         cols = []
         for p in parts:
@@ -504,7 +528,7 @@ def merge(the_plan, out):
     return merged
 
 
-def wilson(successes, n, z=Z95):
+def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
     """
     Return the Wilson score interval of a binomial proportion.
 
@@ -531,7 +555,7 @@ def wilson(successes, n, z=Z95):
     return low, high
 
 
-def table(data):
+def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
     """
     Return the per-grid-point figures of a merged sweep.
 
@@ -564,7 +588,7 @@ def table(data):
     return rows
 
 
-def format_table(rows):
+def format_table(rows: Sequence[Mapping[str, Any]]) -> str:
     """Return the table of :func:`table` as text, one line per grid point."""
     width = max(len('grid point'), *(len(r['label']) for r in rows))
     lines = [f"{'grid point':{width}s}  {'runs':>5s}  {'converged':>9s}  {'95% CI':>13s}  "
@@ -576,7 +600,7 @@ def format_table(rows):
     return '\n'.join(lines)
 
 
-def plot(data, path, title=''):
+def plot(data: Mapping[str, NDArray[Any]], path: str | PathLike[str], title: str = '') -> None:
     """
     Draw a sweep: fraction converged with its 95 % interval, convergence-time distributions.
 

@@ -27,6 +27,7 @@ import socket
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control import cli
 from formation_control.core import scenario
+from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from formation_control.ros.monitor import MonitorNode
@@ -206,5 +207,5 @@ def test_foxglove_port_in_use_is_a_clear_error(nodes):
         busy.bind(('127.0.0.1', 0))
         busy.listen()
         port = busy.getsockname()[1]
-        with pytest.raises(scenario.ScenarioError, match=f'foxglove_port {port}'):
+        with pytest.raises(UsageError, match=f'foxglove_port {port}'):
             nodes.monitor(f'foxglove_port:={port}')

@@ -250,9 +250,9 @@ built in process."""
 
 
 @pytest.mark.parametrize('exe, params, named', [BAD_AT_START_UP[i] for i in AS_PROCESSES])
-def test_bad_parameter_at_start_up_exits_non_zero_naming_it(ros, exe, params, named):
+def test_bad_parameter_at_start_up_exits_with_code_2_naming_it(ros, exe, params, named):
     result = ros.procs.run(exe, *_args(CONFIG / 'first_order_parallel.yaml', *params))
-    assert result.returncode != 0
+    assert result.returncode == 2, result.stderr
     assert named in result.stderr + result.stdout
 
 

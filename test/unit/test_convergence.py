@@ -35,6 +35,7 @@ def _cases(names):
         (n, 1, 'estimated') for n in names if n.endswith('_flow')]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, seed, source', _cases(PARALLEL))
 def test_parallel_scenarios_synchronise(name, seed, source):
     run = run_of(name, seed, SOURCES[source])
@@ -46,6 +47,7 @@ def test_parallel_scenarios_synchronise(name, seed, source):
     assert abs(vs[0].e.mean()) < 0.9                          # it did have work to do
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, seed, source', _cases(CIRCULAR))
 def test_circular_scenarios_share_one_circle(name, seed, source):
     run = run_of(name, seed, SOURCES[source])
@@ -59,6 +61,7 @@ def test_circular_scenarios_share_one_circle(name, seed, source):
     assert np.max(abs(c0 - c0.mean())) > 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', [(s, 'known') for s in SEEDS] + [(1, 'estimated')])
 def test_circular_in_flow_moves_at_the_inertial_speed(seed, source):
     """(1.6): on the common circle the inertial speed varies with gamma, s = |e^{i theta} + f|."""
@@ -71,6 +74,7 @@ def test_circular_in_flow_moves_at_the_inertial_speed(seed, source):
     assert np.ptp(final.speed) > 0.5                           # spread round the circle
 
 
+@pytest.mark.slow
 def test_backstepping_matches_first_order_speed_of_convergence():
     """Ch. 9: the second-order laws perform comparably to the first-order ones."""
     from formation_control.sim.simulator import summary

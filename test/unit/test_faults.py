@@ -14,6 +14,7 @@
 
 """Fault scripts of ``swarm --fault``: parsing, checks against the scenario, the schedule."""
 from formation_control.core import scenario
+from formation_control.core.errors import UsageError
 from formation_control.protocol import faults
 from formation_control.protocol.faults import Fault
 from formation_control.sim import simulator
@@ -38,19 +39,19 @@ def test_parse_every_kind():
     ('cut:2-2@1..2', 'not neighbours'), ('cont:1@3', 'vehicle 1 is running at 3 s'),
 ])
 def test_bad_entries_are_refused_naming_the_reason(text, reason):
-    with pytest.raises(scenario.ScenarioError, match=r'--fault .* is invalid: .*') as err:
+    with pytest.raises(UsageError, match=r'--fault .* is invalid: .*') as err:
         faults.schedule([text], SC)
     assert reason in str(err.value)
 
 
 def test_a_script_must_make_sense_in_time_order():
     faults.schedule(['cont:1@3', 'stop:1@2', 'kill:1@4', 'restart:1@5', 'stop:1@6'], SC)
-    with pytest.raises(scenario.ScenarioError, match='vehicle 2 is killed at 3 s'):
+    with pytest.raises(UsageError, match='vehicle 2 is killed at 3 s'):
         faults.schedule(['kill:2@1', 'stop:2@3'], SC)
-    with pytest.raises(scenario.ScenarioError, match='overlaps another cut of link 2-1'):
+    with pytest.raises(UsageError, match='overlaps another cut of link 2-1'):
         faults.schedule(['cut:1-2@1..5', 'cut:2-1@4..6'], SC)
     ring = scenario.resolve({'num_vehicles': 6, 'graph': 'circulant'})
-    with pytest.raises(scenario.ScenarioError, match='vehicles 1 and 3 are not neighbours'):
+    with pytest.raises(UsageError, match='vehicles 1 and 3 are not neighbours'):
         faults.schedule(['cut:1-3@1..2'], ring)
 
 

@@ -122,6 +122,7 @@ def test_estimate_error_decays_as_exp_minus_lambda_t_along_the_closed_loop(name)
     assert np.max(err[0]) > 0.1                                   # it did have to learn it
 
 
+@pytest.mark.slow
 def test_observer_from_the_position_only_learns_a_uniform_flow():
     """The position-only observer: error poles e^{s dt}, s^2 + l1 s + l2 = 0 (l1 = 2, l2 = 1)."""
     run = run_of('particle_parallel_flow', 1, ESTIMATED + ('flow_estimator:=observer',))
@@ -177,6 +178,7 @@ def test_run_record_holds_the_estimates(tmp_path):
 
 # --- a slowly turning flow: the bound from the estimator bandwidth -----------------------------
 
+@pytest.mark.slow
 def test_turning_flow_keeps_the_circle_within_the_bandwidth_bound():
     """
     In f = f0 + A e^{i w t} the estimation error settles at |e| = A w / sqrt(lambda_f^2 + w^2).
@@ -303,6 +305,7 @@ def robustness(name, field, source, seconds=20.0):
     return spread, abs(centres[-1] - centres[0]) / seconds, rate, speed
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, field, source', list(ROBUSTNESS))
 def test_robustness_in_shear_and_vortex_fields(name, field, source):
     """

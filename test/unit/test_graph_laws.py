@@ -98,6 +98,7 @@ def test_sigma_is_minus_the_gradient_of_the_potential(case, graph):
         assert sigma[k] == pytest.approx(-(potential(h) - potential(-h)) / (2 * h), abs=1e-7)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('graph', GRAPHS, ids=str)
 @pytest.mark.parametrize('case', PARTICLE_CASES[:4], ids=str)
 def test_composite_lyapunov_never_increases_on_a_fixed_graph(case, graph):
@@ -137,6 +138,7 @@ def _converged_from(name, seeds, **overrides):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, graph', [
     ('particle_circular_ring', {}), ('rigid_circular_ring', {}),
     ('particle_circular_ring', {'graph': 'random', 'graph_degree': 4})])
@@ -148,6 +150,7 @@ def test_circular_fleets_converge_on_rings_and_random_graphs(name, graph):
             assert s['radius'] == pytest.approx(s['radius_target'], rel=1e-2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('graph, seed', [({}, 1), ({'graph': 'random', 'graph_degree': 3}, 2)],
                          ids=str)
 def test_rigid_circle_on_a_graph_moves_onto_the_centre_two_vehicles_know(graph, seed):
@@ -160,12 +163,14 @@ def test_rigid_circle_on_a_graph_moves_onto_the_centre_two_vehicles_know(graph, 
     assert abs(snap.centre - (1.0 - 1.0j)) < 1e-2
 
 
+@pytest.mark.slow
 def test_parallel_fleets_converge_on_random_connected_graphs():
     for s in _converged_from('particle_parallel_random', (1, 2, 3)):
         assert s['converged'], s
         assert s['order_parameter'] > 0.999
 
 
+@pytest.mark.slow
 def test_a_fleet_converges_while_its_graph_switches_between_connected_graphs():
     """Every 2 s the fleet switches between a ring and a random connected graph."""
     sc = load(CONFIG / 'particle_circular_ring.yaml', ['duration:=60'], seed=4)
@@ -204,6 +209,7 @@ def test_a_graph_is_refused_with_the_reason_it_must_be_undirected():
         graphs.build(4, 'explicit', edges=[1, 2, 2, 1, 2, 3, 3, 4])
 
 
+@pytest.mark.slow
 def test_the_plot_draws_the_communication_graph(tmp_path):
     from formation_control.sim.plotting import plot_run
     sc = load(CONFIG / 'particle_circular_ring.yaml', ['duration:=1.0'])
@@ -217,6 +223,7 @@ def test_the_plot_draws_the_communication_graph(tmp_path):
     assert plot_run(complete, tmp_path / 'all.png')['links'].size == 0
 
 
+@pytest.mark.slow
 def test_a_parallel_ring_has_a_stable_twisted_state():
     """Documented pitfall: phases winding once around a ring of 12 are a stable equilibrium."""
     n = 12
@@ -231,6 +238,7 @@ def test_a_parallel_ring_has_a_stable_twisted_state():
     np.testing.assert_allclose(steps, 2 * np.pi / n, atol=1e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('formation', ['parallel', 'circular'])
 @pytest.mark.parametrize('flow', [[0.0, 0.0], [0.4, -0.2]])
 def test_potential_never_increases_first_order_on_a_ring(formation, flow):
@@ -247,6 +255,7 @@ def test_potential_never_increases_first_order_on_a_ring(formation, flow):
     assert np.max(np.diff(v)) <= 1e-7 * v[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name', ['first_order_circular', 'particle_parallel_proportional',
                                   'particle_circular_flow'])
 def test_first_order_proportional_and_flow_laws_converge_on_a_circulant_graph(name):

@@ -119,6 +119,7 @@ def _lyapunov_series(sc):
     return np.array(values)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('case', PARTICLE_CASES, ids=str)
 def test_composite_lyapunov_never_increases_backstepping(case):
     sc = _scenario(dt_control=0.002, dt_integration=0.002, duration=8.0, **case)
@@ -127,6 +128,7 @@ def test_composite_lyapunov_never_increases_backstepping(case):
     assert np.max(np.diff(v)) <= 1e-6 * v[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('formation', ['parallel', 'circular'])
 @pytest.mark.parametrize('flow', [[0.0, 0.0], [0.4, -0.2]])
 def test_potential_never_increases_first_order(formation, flow):
@@ -143,6 +145,7 @@ def test_potential_never_increases_first_order(formation, flow):
     assert np.max(np.diff(v)) <= 1e-7 * v[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('model', ['rigid', 'rigid_cop'])
 def test_rigid_parallel_lyapunov_exact(model):
     """(7.3) with (3.7), and (A.20) with the drag moment cancelled, give omega' = a exactly."""
@@ -153,6 +156,7 @@ def test_rigid_parallel_lyapunov_exact(model):
     assert np.max(np.diff(v)) <= 1e-6 * v[0]
 
 
+@pytest.mark.slow
 def test_drag_moment_uncancelled_breaks_lyapunov():
     sc = resolve({'num_vehicles': 5, 'model': 'rigid_cop', 'formation': 'parallel', 'l1': 0.3,
                   'cancel_drag_moment': False, 'seed': 5, 'dt_control': 0.002,

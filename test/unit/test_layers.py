@@ -44,10 +44,26 @@ def modules(package=PACKAGE):
     return found
 
 
+def _runtime_nodes(tree):
+    """Yield the nodes of a module but those under ``if TYPE_CHECKING:`` (never run)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        if isinstance(node, ast.If) and getattr(node.test, 'id', None) == 'TYPE_CHECKING':
+            todo.extend(node.orelse)
+        else:
+            todo.extend(ast.iter_child_nodes(node))
+
+
 def imports(path, known):
-    """Return the names a module imports: modules of the package, other packages by name."""
+    """
+    Return the names a module imports: modules of the package, other packages by name.
+
+    Imports for the type checker alone (``if TYPE_CHECKING:``) are left out: they never run.
+    """
     out = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in _runtime_nodes(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
             out.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module:
@@ -140,6 +156,18 @@ def test_the_checks_see_a_climb_and_a_circle(tmp_path):
     assert upward(edges) == [('formation_control.core.a', 'formation_control.ros.b')]
     assert circles(edges) == [['formation_control.core.a', 'formation_control.ros.b']]
     assert 'rclpy' in imports(known['formation_control.sim.c'], known)
+
+
+def test_an_import_for_the_type_checker_alone_is_no_edge(tmp_path):
+    pkg = tmp_path / 'formation_control'
+    (pkg / 'core').mkdir(parents=True)
+    (pkg / 'core' / 'a.py').write_text(
+        'from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n'
+        '    from formation_control.core import b\nelse:\n    import numpy\n')
+    (pkg / 'core' / 'b.py').write_text('from formation_control.core import a\n')
+    edges, known = graph(pkg)
+    assert circles(edges) == []
+    assert imports(known['formation_control.core.a'], known) == {'typing', 'numpy'}
 
 
 @pytest.mark.parametrize('name', FLOORS[:-2])

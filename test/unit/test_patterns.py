@@ -154,6 +154,7 @@ SPLAYS = [('particle_circular_splay', ()),
           ('rigid_circular_splay', ())]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name, overrides', SPLAYS)
 def test_splay_spaces_the_vehicles_evenly_on_one_circle(name, overrides, seed):
@@ -170,6 +171,7 @@ def test_splay_spaces_the_vehicles_evenly_on_one_circle(name, overrides, seed):
     assert first.min_separation < 0.8 * chord or first.phase_orders[0] > 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name, overrides', [
     ('particle_circular_splay', ()), ('particle_circular_symmetric', ()),
@@ -183,6 +185,7 @@ def test_composite_lyapunov_never_increases(name, overrides, seed):
     assert vc[-1] < 0.5 * vc[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 def test_symmetric_pattern_forms_equal_clusters(seed):
     run = splay_run('particle_circular_symmetric', seed)
@@ -193,6 +196,7 @@ def test_symmetric_pattern_forms_equal_clusters(seed):
     assert abs(p[2]) == pytest.approx(1 / 3, abs=1e-2)         # |p_M| = 1/M
 
 
+@pytest.mark.slow
 def test_a_large_clustering_gain_leaves_unequal_clusters():
     """The gain pitfall: K_3 = -0.2 leaves seed 2 of (3, 12) in a local minimum."""
     run = splay_run('first_order_circular', 2, (
@@ -203,6 +207,7 @@ def test_a_large_clustering_gain_leaves_unequal_clusters():
     assert abs(p[2]) < 1 / 3 - 0.05 or abs(p[0]) > 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('graph_seed', [1, 2])
 @pytest.mark.parametrize('pattern', ['splay', 'symmetric'])
 def test_slot_patterns_on_random_connected_graphs(pattern, graph_seed):
@@ -283,6 +288,7 @@ def run_without(sc, gone, X0, seconds):
     return st.X[:, members], members
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('form', ['moments', 'slots'])
 def test_a_vehicle_that_drops_out(form):
     """Moments: the others re-spread as a splay of N - 1; slots: they keep theirs, a gap stays."""
@@ -306,6 +312,7 @@ def test_a_vehicle_that_drops_out(form):
         assert gaps[-1] == pytest.approx(4 * np.pi / 12, abs=1e-3)   # the empty slot
 
 
+@pytest.mark.slow
 def test_report_states_the_predicted_pattern_and_the_plot_marks_the_places(tmp_path):
     from formation_control.sim import report
     from formation_control.sim.plotting import plot_run

@@ -33,6 +33,7 @@ CONVERGING = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('name, overrides', CONVERGING)
 def test_final_values_meet_every_prediction(name, overrides):
     run = run_of(name, 1, overrides)
@@ -73,6 +74,7 @@ def test_parallel_flow_crab_prediction_follows_the_heading():
     assert pred == pytest.approx(np.arctan2(f_body.imag, sc.u0 + f_body.real))
 
 
+@pytest.mark.slow
 def test_series_lyapunov_never_increases_under_backstepping():
     run = run_of('particle_circular', 1)
     d = report.series(run)
@@ -80,6 +82,7 @@ def test_series_lyapunov_never_increases_under_backstepping():
     assert d['x'].shape == d['theta'].shape == (len(run.t), run.sc.num_vehicles)
 
 
+@pytest.mark.slow
 def test_series_ground_speed_is_unit_speed_through_the_flow():
     run = run_of('particle_circular_flow', 1)
     d = report.series(run)
@@ -87,6 +90,7 @@ def test_series_ground_speed_is_unit_speed_through_the_flow():
     np.testing.assert_allclose(d['speed'], expected, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_vehicles_converged_agrees_with_the_fleet_test_at_the_end():
     for name in ('particle_circular', 'rigid_parallel'):
         run = run_of(name, 1)

@@ -38,6 +38,7 @@ def _late(run, seconds):
     return run.t >= run.t[-1] - seconds
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name', ['rigid_parallel', 'rigid_parallel_cop'])
 def test_rigid_parallel_without_flow(name, seed):
@@ -50,6 +51,7 @@ def test_rigid_parallel_without_flow(name, seed):
     np.testing.assert_allclose(X[3], 0.0, atol=1e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', FLOW_CASES)
 def test_rigid_parallel_in_flow_crab_angle_8_17(seed, source):
     """Theorem 8: common inertial heading, beta -> 0, beta_hat -> (8.17), s_hat -> (8.17)."""
@@ -66,6 +68,7 @@ def test_rigid_parallel_in_flow_crab_angle_8_17(seed, source):
     assert np.max(abs(beta_hat)) > 0.05 or abs(np.sin(X[2]).mean()) < 0.1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('name', ['rigid_circular', 'rigid_circular_center'])
 def test_rigid_circular_steady_turn(name, seed):
@@ -86,6 +89,7 @@ def test_rigid_circular_steady_turn(name, seed):
         assert abs(c.mean() - sc.c0_c) < 1e-2
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 def test_rigid_circular_center_moves_the_centre(seed):
     """Only vehicle 1 knows c0, yet the circle moves there; without c0 it settles elsewhere."""
@@ -94,6 +98,7 @@ def test_rigid_circular_center_moves_the_centre(seed):
     assert abs(ctrl.formation.centres(vs[-1]).mean()) > 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', SEEDS)
 def test_full_law_with_a_slower_loop_converges(seed):
     """The full (7.12) law (s', beta' from the model, beta'' omitted) with kappa = 2."""
@@ -117,6 +122,7 @@ def _pi_figures(run, seconds=50.0):
     return centres, spread, radius, error, drift
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', FLOW_CASES)
 def test_pi_in_flow_is_only_practically_stable(seed, source):
     """
@@ -135,6 +141,7 @@ def test_pi_in_flow_is_only_practically_stable(seed, source):
     assert 0.005 < drift < 0.03
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed, source', FLOW_CASES)
 def test_pi_in_flow_with_prescribed_centre_keeps_a_bounded_offset(seed, source):
     run = run_of('rigid_circular_flow_center', seed, SOURCES[source])
@@ -196,6 +203,7 @@ def _assert_close_per_row(new, ref, rtol=1e-12):
     assert np.all(abs(new - ref) <= rtol * scale), np.max(abs(new - ref) / scale, axis=1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('plain_below', [0, 10**9], ids=['blocks', 'plain'])
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
 @pytest.mark.parametrize('model', models.MODELS)

@@ -59,15 +59,18 @@ def speed_error(name, duration, window, **kw):
     return float(np.max(abs(run.X[last][:, ROW_U] - run.sc.u0)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('seed', [1, 2])
 def test_the_free_circle_centre_in_a_flow_stays_put_at_50_hz(seed):
     assert centre_drift(*FLOW_CIRCLE, seed=seed) < 1e-4
 
 
+@pytest.mark.slow
 def test_the_pi_thrust_holds_the_speed_in_a_flow_at_50_hz():
     assert speed_error(*FLOW_CIRCLE_PI) < 1e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('figure, case', [(centre_drift, FLOW_CIRCLE),
                                           (speed_error, FLOW_CIRCLE_PI)])
 def test_the_steady_state_error_is_second_order_in_the_period(figure, case):

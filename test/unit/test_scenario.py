@@ -24,6 +24,7 @@ import math
 from pathlib import Path
 
 from formation_control.core import scenario
+from formation_control.core.errors import UsageError
 from formation_control.core.scenario import (held_force_loop_gain, initial_state, load,
                                              PARAMETER_NAMES, parse_override, read_params, resolve,
                                              rhp_zero, Scenario, ScenarioError)
@@ -360,8 +361,8 @@ def test_override_without_assignment_is_refused():
                                   '/**:\n  parameters:\n    num_vehicles: 3\n', ''])
 def test_file_without_ros_parameters_section_is_refused(tmp_path, text):
     path = _write(tmp_path / 'bare.yaml', text)
-    with pytest.raises(ScenarioError, match=r'bare\.yaml: a scenario is a ROS 2 parameter file '
-                                            r"with a '/\*\*: ros__parameters:' section"):
+    with pytest.raises(UsageError, match=r'bare\.yaml: a scenario is a ROS 2 parameter file '
+                                         r"with a '/\*\*: ros__parameters:' section"):
         load(path)
 
 

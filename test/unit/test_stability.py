@@ -29,7 +29,10 @@ def test_the_limits_are_those_of_rk4_and_of_a_held_command():
     def rk4(z):
         return 1 + z + z ** 2 / 2 + z ** 3 / 6 + z ** 4 / 24
     assert abs(rk4(-stability.RK4_LIMIT + 0.005)) < 1 < abs(rk4(-stability.RK4_LIMIT - 0.005))
-    assert abs(1 - stability.HOLD_LIMIT) == 1
+
+    def held(gT):                              # e -> (1 - g T) e over one held period
+        return abs(1 - gT)
+    assert held(stability.HOLD_LIMIT - 0.005) < 1 < held(stability.HOLD_LIMIT + 0.005)
 
 
 def test_the_surge_drag_rate_is_the_linearised_model():

@@ -54,6 +54,7 @@ def reference(tmp_path_factory):
     return dict(sweep.merge(the_plan, out))
 
 
+@pytest.mark.slow
 def test_batched_runs_equal_single_runs(reference):
     d = reference
     assert d['seed'].tolist() == list(range(SEEDS)) * 2
@@ -86,6 +87,7 @@ def test_parallel_fleets_of_16_equal_single_runs():
         assert bool(out.flags[-1, b]) == want['converged']
 
 
+@pytest.mark.slow
 def test_results_do_not_depend_on_batch_size_or_workers(reference, tmp_path):
     out = tmp_path / 'w2.npz'
     the_plan = sweep.plan(rigid_base(), RIGID[1::2], range(SEEDS), batch_size=2)
@@ -96,6 +98,7 @@ def test_results_do_not_depend_on_batch_size_or_workers(reference, tmp_path):
     assert (d['converged'] == reference['converged']).all()
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_equals_local_sweep(reference, tmp_path, capsys):
     from distributed import LocalCluster                # the 'cluster' extra (make setup)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
@@ -134,6 +137,7 @@ def die_always(params, seeds):
     return sweep.run_batch(params, seeds)
 
 
+@pytest.mark.slow
 def test_failed_batches_are_reported_and_resume_completes(reference, tmp_path):
     out = tmp_path / 'resume.npz'
     the_plan = sweep.plan(rigid_base(), RIGID[1::2], range(SEEDS), batch_size=3)
@@ -161,6 +165,7 @@ def test_failed_batches_are_reported_and_resume_completes(reference, tmp_path):
     assert not sweep.parts_dir(out).exists()
 
 
+@pytest.mark.slow
 def test_a_dead_worker_is_retried_once_then_reported(reference, tmp_path, monkeypatch):
     monkeypatch.setenv('SWEEP_TEST_MARKER', str(tmp_path / 'marker'))
     the_plan = sweep.plan(rigid_base(), ['duration:=25.0', 'K:=1.0'], range(SEEDS),
