@@ -23,9 +23,10 @@ into command lines, ``fleet.launch.py`` into launch Nodes.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from os import PathLike
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from formation_control.core.errors import ScenarioError
 from formation_control.core.scenario import Scenario
@@ -92,18 +93,18 @@ class Process(NamedTuple):
 
     name: str
     executable: str
-    vehicles: tuple = ()
-    parameters: dict = {}
+    vehicles: tuple[int, ...] = ()
+    parameters: dict[str, Any] = {}
     fleet: bool = True
     clock: bool = False
 
     @property
-    def member(self):
+    def member(self) -> str:
         """Return the member of a TLS fleet the process runs as."""
         return 'swarm' if self.name == 'recorder' else self.name
 
 
-def _count(value, label):
+def _count(value: int | str, label: str) -> int:
     """Return ``value`` (an int or its digits) as an int >= 1."""
     number = int(value) if isinstance(value, str) and value.isdigit() else value
     if isinstance(number, bool) or not isinstance(number, int) or number < 1:
@@ -143,8 +144,10 @@ class FleetPlan:
 
     """
 
-    def __init__(self, num_vehicles, mode='lockstep', per_process=1, namespace='/',
-                 secure=False, recorded=False, labels=SWARM_LABELS, frames=None):
+    def __init__(self, num_vehicles: int, mode: str = 'lockstep', per_process: int | str = 1,
+                 namespace: str = '/', secure: bool = False, recorded: bool = False,
+                 labels: tuple[str, str] = SWARM_LABELS,
+                 frames: Mapping[str, str] | None = None) -> None:
         self.per_process = _count(per_process, labels[0])
         if secure and self.per_process != 1:
             raise ScenarioError(f'{labels[0]} {self.per_process} with {labels[1]}: a member of a '
@@ -158,16 +161,16 @@ class FleetPlan:
         """The parameters of every process that takes the fleet's file, after it."""
         self.sim_time = {'use_sim_time': mode == 'lockstep'}
 
-    def groups(self):
+    def groups(self) -> list[tuple[int, ...]]:
         """Return the vehicle ids of each vehicle process."""
         ids = list(range(1, self.num_vehicles + 1))
         return [tuple(ids[i:i + self.per_process]) for i in range(0, len(ids), self.per_process)]
 
-    def plant(self, **parameters):
+    def plant(self, **parameters: Any) -> Process:
         """Return the plant process; ``parameters`` come before ``wait_for_start``."""
         return Process('plant', 'plant', (), {**parameters, 'wait_for_start': self.recorded})
 
-    def vehicles(self):
+    def vehicles(self) -> list[Process]:
         """Return the vehicle processes."""
         if self.per_process == 1:
             return [Process(f'vehicle_{k}', 'vehicle', (k,), {'vehicle_id': k})
@@ -175,20 +178,20 @@ class FleetPlan:
         return [Process(f'vehicles_{g[0]}-{g[-1]}', 'vehicles', g, {'vehicle_ids': list(g)})
                 for g in self.groups()]
 
-    def monitor(self, **parameters):
+    def monitor(self, **parameters: Any) -> Process:
         """Return the monitor: the world frame and the fleet's time, not the fleet's file."""
         world = {k: v for k, v in self.frames.items() if k == 'world_frame'}
         return Process('monitor', 'monitor', (), {**world, **parameters, **self.sim_time},
                        fleet=False, clock=True)
 
-    def recorder(self, bag, monitor):
+    def recorder(self, bag: str, monitor: bool) -> Process:
         """Return the bag recorder of ``bag`` (recording the monitor's topics if ``monitor``)."""
         return Process('recorder', 'recorder', (), {
             'bag': bag, 'num_vehicles': self.num_vehicles, 'monitor': monitor,
             **self.sim_time}, fleet=False, clock=True)
 
 
-def ros_arguments(parameters):
+def ros_arguments(parameters: Mapping[str, Any]) -> list[str]:
     """Return ``parameters`` as ``-p NAME:=VALUE`` arguments (booleans ``true``/``false``)."""
     return [a for name, value in parameters.items() for a in (
         '-p', f'{name}:={str(value).lower() if isinstance(value, bool) else value}')]

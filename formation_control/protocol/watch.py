@@ -21,21 +21,35 @@ the formation, the marker trails and the gains it follows.
 :class:`Watch` holds one fleet's latest odometry and commands and is driven by the monitor's
 callbacks; ``clock`` (wall seconds) dates what it hears, so a fake clock tests it.
 """
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable, Mapping
+from typing import Any, TypeAlias
+
 from formation_control.core import graphs, laws
 from formation_control.core.control import Controller
+from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
-from formation_control.core.scenario import resolve, RUNTIME
+from formation_control.core.scenario import resolve, RUNTIME, Scenario
 from formation_control.protocol import names
 from formation_control.sim import metrics
 import numpy as np
+from numpy.typing import ArrayLike
 
 OK, WARN, ERROR = 0, 1, 2
 """Status levels (those of diagnostic_msgs/DiagnosticStatus)."""
 STREAMS = {'odom': 'odom', 'cmd': 'cmd', 'state': 'formation_state'}
 """The streams heard of each vehicle, with the topic each is named by in a status."""
+StatusValue: TypeAlias = 'str | float | bool'
+"""A value of a status (a diagnostic key/value pair shows its ``str``)."""
+Status: TypeAlias = 'tuple[str, int, str, dict[str, StatusValue]]'
+"""A status: (name, level, message, values)."""
+Picture: TypeAlias = ('tuple[RealArray, int, ComplexArray, ComplexArray | None, '
+                      'ComplexArray | None, complex | None]')
+"""What a sample shows (:meth:`Watch.picture`)."""
 
 
-def _hashable(value):
+def _hashable(value: Any) -> Hashable:
     return tuple(value) if isinstance(value, (list, tuple)) else value
 
 
@@ -55,13 +69,14 @@ class GainAgreement:
 
     """
 
-    def __init__(self, sc, namespace='/'):
+    def __init__(self, sc: Scenario, namespace: str = '/') -> None:
         self.sc = sc
         prefix = names.namespace_prefix(namespace)
         self.vehicle_of = {f'{prefix}vehicle_{k}': k for k in range(1, sc.num_vehicles + 1)}
         self.held = {name: [_hashable(getattr(sc, name))] * sc.num_vehicles for name in RUNTIME}
 
-    def announce(self, node, changed, convert=None):
+    def announce(self, node: str, changed: Mapping[str, Any],
+                 convert: Callable[[Any], Any] | None = None) -> dict[str, Hashable]:
         """
         Note the parameters ``node`` announced ({name: value}); return those the fleet agrees on.
 
@@ -78,7 +93,7 @@ class GainAgreement:
         return {name: values[0] for name, values in self.held.items()
                 if len(set(values)) == 1 and values[0] != _hashable(getattr(self.sc, name))}
 
-    def take(self, agreed):
+    def take(self, agreed: Mapping[str, Hashable]) -> Scenario:
         """Return the scenario with the ``agreed`` values, now the current one (ScenarioError)."""
         self.sc = resolve({**self.sc.to_dict(), **{
             name: list(v) if isinstance(v, tuple) else v for name, v in agreed.items()}})
@@ -98,14 +113,15 @@ class Sampling:
 
     """
 
-    def __init__(self, n, period):
+    def __init__(self, n: int, period: float) -> None:
         self.period_ns = int(round(period * 1e9))
         self.odom_ns = np.full(n, -1, np.int64)
-        self.t0_ns = self.next_ns = None
+        self.t0_ns: int | None = None
+        self.next_ns: int | None = None
         self.t = 0.0
         """Fleet seconds of the last sample from the first (0 before any)."""
 
-    def odom(self, i, ns):
+    def odom(self, i: int, ns: int) -> bool:
         """Note vehicle ``i``'s (0-based) odometry stamped ``ns``; return whether to sample now."""
         self.odom_ns[i] = ns
         oldest = self.odom_ns.min()
@@ -121,14 +137,14 @@ class Sampling:
 class Latch:
     """The convergence latch: :attr:`since` is when the formation last became converged."""
 
-    def __init__(self):
-        self.since = None
+    def __init__(self) -> None:
+        self.since: float | None = None
 
     @property
-    def converged(self):
+    def converged(self) -> bool:
         return self.since is not None
 
-    def update(self, converged, t):
+    def update(self, converged: bool, t: float) -> bool:
         """Note whether the formation is converged at ``t``; return whether that changed."""
         was = self.converged
         if not converged:
@@ -141,22 +157,23 @@ class Latch:
 class Trails:
     """The last ``length`` sampled positions of each of ``n`` vehicles (a ring)."""
 
-    def __init__(self, length, n):
+    def __init__(self, length: int, n: int) -> None:
         self.ring = np.full((length, n), np.nan, complex)
         self.count = 0
 
-    def add(self, positions):
+    def add(self, positions: ComplexArray) -> None:
         self.ring[self.count % len(self.ring)] = positions
         self.count += 1
 
-    def ordered(self):
+    def ordered(self) -> ComplexArray:
         """Return the trails, shape (N, count), each vehicle's oldest position first."""
         count = min(self.count, len(self.ring))
         order = (np.arange(count) + self.count - count) % len(self.ring)
         return self.ring[order].T
 
 
-def vehicle_level(ages, stale, saturated, lagging=None):
+def vehicle_level(ages: Mapping[str, float], stale: float, saturated: bool,
+                  lagging: float | None = None) -> tuple[int, list[str]]:
     """
     Return the status level and reasons of one vehicle.
 
@@ -187,7 +204,7 @@ def vehicle_level(ages, stale, saturated, lagging=None):
     return level, reasons
 
 
-def formation_level(t, since, converge_within):
+def formation_level(t: float, since: float | None, converge_within: float) -> tuple[int, str]:
     """Return the formation's status level and message at fleet time ``t``."""
     if since is not None:
         return OK, f'converged in {since:.2f} s'
@@ -215,8 +232,8 @@ class Watch:
 
     """
 
-    def __init__(self, sc, namespace, period, stale_timeout, converge_within, trail_length,
-                 clock):
+    def __init__(self, sc: Scenario, namespace: str, period: float, stale_timeout: float,
+                 converge_within: float, trail_length: int, clock: Callable[[], float]) -> None:
         n = sc.num_vehicles
         self.gains = GainAgreement(sc, namespace)
         self.ctrl = Controller(sc)
@@ -230,48 +247,48 @@ class Watch:
         self.trails = Trails(trail_length, n)
         self.vehicle_ok = np.zeros(n, bool)
         self.saturated = np.zeros(n, bool)
-        self.values = {}
+        self.values: dict[str, float] = {}
         self.hearing = np.ones((n, n), bool)
-        self.shown = None
+        self.shown: tuple[int, float, RealArray, RealArray] | None = None
 
     @property
-    def sc(self):
+    def sc(self) -> Scenario:
         return self.gains.sc
 
     @property
-    def t(self):
+    def t(self) -> float:
         return self.sampling.t
 
-    def take(self, agreed):
+    def take(self, agreed: Mapping[str, Hashable]) -> None:
         """Follow the gains the fleet agreed on (:meth:`GainAgreement.announce`; ScenarioError)."""
         self.ctrl = Controller(self.gains.take(agreed))
 
-    def flow(self, x, y):
+    def flow(self, x: RealArray, y: RealArray) -> ComplexArray:
         """Return the flow at (x, y) at the time of the last sample."""
         return self.ctrl.plant.flow(self.t, x, y)
 
-    def odom(self, k, x, ns):
+    def odom(self, k: int, x: ArrayLike, ns: int) -> bool:
         """Note vehicle k's state ``x`` stamped ``ns``; return whether to sample now."""
         self.X[:, k - 1] = x
         self.heard['odom'][k - 1] = self.clock()
         return self.sampling.odom(k - 1, ns)
 
-    def cmd(self, k, u):
+    def cmd(self, k: int, u: ArrayLike) -> None:
         self.U[:, k - 1] = u
         self.heard['cmd'][k - 1] = self.clock()
 
-    def state(self, k, hears):
+    def state(self, k: int, hears: Mapping[int, bool]) -> None:
         """Note vehicle k's formation state: ``hears`` {neighbour id: heard} (from ``hears_j``)."""
         for j, heard in hears.items():
             self.hearing[k - 1, j - 1] = heard
         self.heard['state'][k - 1] = self.clock()
 
-    def live_graph(self):
+    def live_graph(self) -> tuple[BoolArray, IntArray]:
         """Return the live vehicles (N,) bool and the live links (L, 2), 0-based."""
         fresh = self.clock() - self.heard['state'] <= self.stale
         return fresh, graphs.live_edges(self.sc.comm_graph, self.hearing, fresh)
 
-    def sample(self, ns):
+    def sample(self, ns: int) -> tuple[dict[str, float], bool]:
         """
         Take the sample stamped ``ns`` (after :meth:`odom` said so): return its metrics.
 
@@ -291,9 +308,9 @@ class Watch:
         self.vehicle_ok = metrics.vehicles_converged(self.ctrl,
                                                      self.ctrl.view(self.X, self.U[1], flow))
         self.saturated = self.ctrl.saturated(self.U)
-        return self.values, self.latch.update(metrics.converged(self.sc, snap), self.t)
+        return self.values, self.latch.update(bool(metrics.converged(self.sc, snap)), self.t)
 
-    def vehicle_status(self, i):
+    def vehicle_status(self, i: int) -> Status:
         """Return vehicle i's (0-based) status: (name, level, message, values)."""
         now = self.clock()
         ages = {s: now - (h[i] if np.isfinite(h[i]) else self.started)
@@ -301,7 +318,7 @@ class Watch:
         late = self.t > self.converge_within and not self.latch.converged
         lagging = self.t if late and not self.vehicle_ok[i] else None
         level, reasons = vehicle_level(ages, self.stale, self.saturated[i], lagging)
-        values = {f'{s}_age': f'{a:.3f}' for s, a in ages.items()}
+        values: dict[str, StatusValue] = {f'{s}_age': f'{a:.3f}' for s, a in ages.items()}
         if self.ctrl.rigid:
             values.update(thrust=self.U[0, i], steering_force=self.U[1, i])
         else:
@@ -309,21 +326,22 @@ class Watch:
         values['converged'] = bool(self.vehicle_ok[i])
         return f'vehicle_{i + 1}', level, '; '.join(reasons) or 'ok', values
 
-    def formation_status(self, rejected):
+    def formation_status(self, rejected: int) -> Status:
         """Return the formation's status: (name, level, message, values)."""
-        values = {'time': f'{self.t:.3f}', 'rejected_messages': rejected}
+        values: dict[str, StatusValue] = {'time': f'{self.t:.3f}',
+                                          'rejected_messages': rejected}
         values.update({k: f'{v:.6g}' for k, v in self.values.items()})
         if self.latch.converged:
             values['convergence_time'] = f'{self.latch.since:.3f}'
         level, message = formation_level(self.t, self.latch.since, self.converge_within)
         return 'formation', level, message, values
 
-    def statuses(self, rejected):
+    def statuses(self, rejected: int) -> list[Status]:
         """Return the formation's status, then every vehicle's."""
         return [self.formation_status(rejected)] + [
             self.vehicle_status(i) for i in range(self.sc.num_vehicles)]
 
-    def picture(self):
+    def picture(self) -> Picture | None:
         """
         Return what the last sample shows (None before any).
 
@@ -339,7 +357,8 @@ class Watch:
         ns, t, X, U = self.shown
         flow = self.ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
         ground = ground_velocity(X, flow) if np.any(flow != 0) else None
-        centres = target = None
+        centres: ComplexArray | None = None
+        target: complex | None = None
         if isinstance(self.ctrl.formation, laws.Circular):
             centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1], flow))
             target = self.sc.c0_c if self.sc.informed else None

@@ -175,7 +175,7 @@ def min_separation(r: ComplexArray) -> Value:
     return best.reshape(r.shape[:-1])[()]
 
 
-def _merge_level(p, x, best, size):
+def _merge_level(p: ComplexArray, x: RealArray, best: RealArray, size: int) -> None:
     """Lower ``best`` (M,) by the pairs across the block boundaries of one level, in place."""
     n = p.shape[-1]
     block = np.arange(n) // (2 * size)
