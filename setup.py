@@ -53,10 +53,11 @@ msgs_build_requires = [
 cluster_requires = ['dask[distributed]']   # formation-control sweep --scheduler tcp://...
 test_requires = [
     'pytest',
-    'websockets',                        # test/test_live.py: a Foxglove WebSocket client
-    'protobuf',                          # test/test_live.py: decodes foxglove.SceneUpdate
+    'pytest-xdist',                      # make test: two workers (-n), one file each
+    'websockets',                        # test/integration/test_live.py: a Foxglove client
+    'protobuf',                          # test/integration/test_live.py: foxglove.SceneUpdate
     'ros-jazzy-domain-coordinator',      # domain_coordinator (test/rosutil.py)
-    'colcon-common-extensions',          # test/test_colcon.py
+    'colcon-common-extensions',          # test/integration/test_colcon.py
     # ament_flake8 and ament_pep257 declare no Python dependencies in their wheels; these are
     # the ones their package.xml names (python3-flake8, its plugins, pydocstyle).
     'ros-jazzy-ament-flake8',
