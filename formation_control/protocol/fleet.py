@@ -67,6 +67,18 @@ class FleetPlant:
         """Return the simulated time of the period under way (s)."""
         return self.n * self.sc.dt_control
 
+    def local_flow(self):
+        """Return the flow at each vehicle now, (N,) complex (m/s, world frame)."""
+        return self.stepper.local_flow()
+
+    def next_period(self):
+        """Go on to the next control period (lockstep, once one is integrated)."""
+        self.n += 1
+
+    def reach_tick(self, tick):
+        """Real time: the period under way is the one of integration step ``tick``."""
+        self.n = tick // self.sc.substeps
+
     def set_command(self, i, u):
         """Hold ``u`` (2,) as vehicle index ``i``'s command from the next step on."""
         self.pending[:, i] = u
