@@ -42,7 +42,7 @@ from formation_control.core import graphs, laws
 from formation_control.core.control import Controller
 from formation_control.core.models import ground_velocity, position, ROW_THETA, ROW_X, ROW_Y
 from formation_control.core.scenario import resolve, RUNTIME, ScenarioError
-from formation_control.protocol import messages, names
+from formation_control.protocol import intake, messages, names
 from formation_control.protocol.node_parameters import MONITOR
 from formation_control.ros import common, interface as itf, markers, parameters
 from formation_control.sim import metrics
@@ -53,7 +53,7 @@ from rcl_interfaces.msg import ParameterEvent
 from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import qos_profile_parameter_events
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -148,17 +148,13 @@ class MonitorNode(Node):
         self.values = {}
         self.graph = sc.comm_graph
         self.hearing = np.ones((n, n), bool)
-        self.wires = {k: messages.StateWire(k, () if sc.all_to_all else self.graph.neighbours(k),
-                                            estimates=sc.flow_source == 'estimated')
-                      for k in range(1, n + 1)}
         for k in range(1, n + 1):
-            self.create_subscription(Odometry, names.topic(k, 'odom'),
-                                     lambda m, k=k: self._on_odom(k, m), **itf.state_qos_kwargs())
-            self.create_subscription(WrenchStamped, names.topic(k, 'cmd'),
-                                     lambda m, k=k: self._on_cmd(k, m), **itf.state_qos_kwargs())
-            self.create_subscription(JointState, names.topic(k, 'formation_state'),
-                                     lambda data, k=k: self._on_state(k, data), raw=True,
-                                     **itf.state_qos_kwargs())
+            self._subscribe(Odometry, k, 'odom', intake.odometry(
+                itf.odom_wire(k), k, self.p['world_frame']), self._on_odom)
+            self._subscribe(WrenchStamped, k, 'cmd', intake.command(itf.cmd_wire(k), k),
+                            self._on_cmd)
+            self._subscribe(JointState, k, 'formation_state', intake.formation_state(
+                messages.StateWire.of(sc, k)), self._on_state)
         self.metrics_pub = self.create_publisher(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, names.MARKERS_TOPIC, itf.STREAM_QOS)
         self.create_timer(self.p['markers_period'], self.publish_markers, clock=self.wall)
@@ -167,23 +163,21 @@ class MonitorNode(Node):
     def _heard(self, stream, k):
         self.heard[stream][k - 1] = self.now()
 
-    def _on_state(self, k, data):
+    def _subscribe(self, msg_type, k, name, rule, take):
+        """Subscribe to vehicle k's topic ``name``: its bytes through ``rule``, then ``take``."""
+        decode = common.Decoder(rule, msg_type, self.reject)
+
+        def on_bytes(data):
+            got = decode(data)
+            if got is not None:
+                take(k, got)
+        self.create_subscription(msg_type, names.topic(k, name), on_bytes, raw=True,
+                                 **itf.state_qos_kwargs())
+
+    def _on_state(self, k, state):
         """Note a vehicle's formation state and which of its graph neighbours it hears."""
-        wire = self.wires[k]
-        got = wire.decode(data)
-        if got is None:
-            try:
-                msg = deserialize_message(data, JointState)
-            except Exception:
-                return self.reject('malformed', f'undecodable formation_state of vehicle {k}')
-            if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
-                return self.reject('malformed', f'a malformed formation_state of vehicle {k}')
-            got = messages.stamp_ns(msg.header.stamp), tuple(msg.position)
-        first = len(messages.STATE_FIELDS)
-        hears = [name for name in wire.names[first:] if name.startswith('hears_')]
-        if hears:
-            heard = np.array(got[1][first:first + len(hears)]) > 0.5
-            self.hearing[k - 1, [int(name.split('_')[1]) - 1 for name in hears]] = heard
+        for j, hears in state.hears.items():
+            self.hearing[k - 1, j - 1] = hears
         self._heard('state', k)
 
     def live_graph(self):
@@ -191,24 +185,19 @@ class MonitorNode(Node):
         fresh = self.now() - self.heard['state'] <= self.p['stale_timeout']
         return fresh, graphs.live_edges(self.graph, self.hearing, fresh)
 
-    def _on_cmd(self, k, msg):
-        u = np.array(messages.input_from_cmd(msg, self.sc.model))
+    def _on_cmd(self, k, got):
+        u = np.array(messages.input_from_cmd_values(got[1], self.sc.model))
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')
         self.U[:, k - 1] = u
         self._heard('cmd', k)
 
-    def _on_odom(self, k, msg):
-        if msg.header.frame_id != self.p['world_frame']:
-            return self.reject('wrong_frame', f'an odometry of vehicle {k} in frame '
-                               f'{msg.header.frame_id!r} (world_frame is '
-                               f"{self.p['world_frame']!r})")
-        pos = msg.pose.pose.position
-        flow = complex(self.ctrl.plant.flow(self.t, pos.x, pos.y))
-        x = messages.state_from_odom(msg, flow, self.sc.model)
+    def _on_odom(self, k, got):
+        ns, values = got
+        flow = complex(self.ctrl.plant.flow(self.t, values[0], values[1]))
+        x = messages.state_from_odom_values(values, flow, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
-        ns = messages.stamp_ns(msg.header.stamp)
         self.X[:, k - 1] = x
         self.odom_ns[k - 1] = ns
         self._heard('odom', k)
