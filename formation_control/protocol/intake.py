@@ -83,13 +83,14 @@ def odometry(wire, k: int, world: str, base: Optional[str] = None) -> Intake:
     Its frame must be ``world`` and, given, its child frame ``base``.
     """
     def check(msg):
-        frames = msg.header.frame_id, msg.child_frame_id
-        if frames[0] != world:
-            return Rejection(WRONG_FRAME, f'an odometry of vehicle {k} in frame {frames[0]!r} '
+        frame, child = msg.header.frame_id, msg.child_frame_id
+        if base is not None and (frame, child) != (world, base):
+            return Rejection(WRONG_FRAME, f'an odometry in frames {frame!r} -> {child!r} '
+                                          f'(expected {world!r} -> {base!r}: world_frame, '
+                                          f'base_frame)')
+        if frame != world:
+            return Rejection(WRONG_FRAME, f'an odometry of vehicle {k} in frame {frame!r} '
                                           f'(world_frame is {world!r})')
-        if base is not None and frames[1] != base:
-            return Rejection(WRONG_FRAME, f'an odometry of vehicle {k} of child frame '
-                                          f'{frames[1]!r} (base_frame is {base!r})')
         return None
     return Intake(wire, lambda msg: (stamp_ns(msg.header.stamp), get_fields(msg, ODOM_FIELDS)),
                   check, f'odometry of vehicle {k}')

@@ -22,11 +22,11 @@ CDR bytes (:class:`StateWire`), and stamps (:func:`stamp_ns`, :func:`set_stamp`)
 functions taking a message read and write attributes only, so they serve rclpy messages and
 those a bag reader builds alike.
 """
-from dataclasses import dataclass, field
 import math
 from operator import attrgetter
 import struct
-from typing import Mapping, Optional
+from types import MappingProxyType
+from typing import Mapping, NamedTuple, Optional
 
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
                                            ROW_THETA)
@@ -65,6 +65,7 @@ neighbour j of the sender: 1 while it hears j, else 0; with ``flow_source: estim
 :data:`ESTIMATE_FIELDS` come last (:func:`state_names`)."""
 
 
+_FIRST = len(STATE_FIELDS)
 ESTIMATE_FIELDS = ('flow_hat_x', 'flow_hat_y')
 """formation_state of an estimating vehicle: its flow estimate (m/s, world frame)."""
 
@@ -187,8 +188,7 @@ def input_from_cmd(msg, model):
     return input_from_cmd_values(get_fields(msg, CMD_FIELDS), model)
 
 
-@dataclass(frozen=True)
-class FormationState:
+class FormationState(NamedTuple):
     """
     One vehicle's formation_state as named values: what it tells its neighbours each step.
 
@@ -206,7 +206,7 @@ class FormationState:
     phase: float
     phase_rate: float
     speed: float
-    hears: Mapping[int, bool] = field(default_factory=dict)
+    hears: Mapping[int, bool] = MappingProxyType({})
     flow_hat: Optional[complex] = None
 
     @classmethod
@@ -257,14 +257,13 @@ class FormationState:
         estimates = names[-len(ESTIMATE_FIELDS):] == ESTIMATE_FIELDS
         if len(values) != len(names) or names != state_names(hears, estimates):
             raise ValueError(f'not the names of a formation_state: {list(names)}')
-        return cls.of_layout(ns, hears, estimates, values)
+        return cls.of_layout(int(ns), hears, estimates, tuple(map(float, values)))
 
     @classmethod
     def of_layout(cls, ns, hears, estimates, values):
-        """Return the state of the values of the layout :func:`state_names` (hears, estimates)."""
-        flags = values[len(STATE_FIELDS):len(STATE_FIELDS) + len(hears)]
-        return cls(int(ns), *map(float, values[:len(STATE_FIELDS)]),
-                   {j: v > 0.5 for j, v in zip(hears, flags)},
+        """Return the state of float ``values`` laid out by :func:`state_names`."""
+        flags = values[_FIRST:_FIRST + len(hears)]
+        return cls(ns, *values[:_FIRST], dict(zip(hears, [v > 0.5 for v in flags])),
                    complex(values[-2], values[-1]) if estimates else None)
 
     def finite(self) -> bool:

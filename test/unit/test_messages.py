@@ -13,7 +13,6 @@
 # limitations under the License.
 
 """The formation_state record, the decode-or-check path, the delay and hears-me (no DDS)."""
-from dataclasses import replace
 import hashlib
 from types import SimpleNamespace
 
@@ -24,7 +23,9 @@ from formation_control.protocol.lockstep import REPEATED
 from formation_control.protocol.messages import FormationState, StateWire
 from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 from formation_control.protocol.onboard import Delay
+from formation_control.protocol.plant import Plant
 from formation_control.protocol.vehicle import Vehicle
+from formation_control.sim import simulator
 import numpy as np
 import pytest
 from runs import CONFIG
@@ -213,8 +214,43 @@ def test_a_vehicle_counts_a_neighbour_only_while_it_hears_it_back():
     assert due is not None and due[0] == 0 and due[2]
     assert list(me.known.hears_me) == [True, False, True, True]
     assert me.command() is None                     # the step is commanded
-    assert me.heard(2, replace(deaf, stamp=20)) is True
+    assert me.heard(2, deaf._replace(stamp=20)) is True
     assert me.heard(2, deaf).kind == 'stale'
     gone, text, values = me.status({'stale': 1})
     assert (gone, text) == ([], '2 neighbours live')
     assert values['stale'] == 1 and values['live_neighbours'] == 2
+
+
+@pytest.mark.parametrize('name', ['particle_parallel_flow', 'rigid_circular_flow_center',
+                                  'first_order_circular'])
+def test_the_plant_and_vehicle_protocols_without_dds_fly_the_offline_simulator(name):
+    """Odometry values, state bytes and command values as the nodes pass them, one step each."""
+    sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=4', 'duration:=0.4',
+                                                 'graph:=ring', 'informed:=[1, 3]'], seed=3)
+    clock = FakeClock()
+    plant = Plant(sc, True, 2.0, clock)
+    vehicles = [Vehicle(sc, k, True, LINK, clock) for k in (1, 2, 3, 4)]
+    wires = {k: StateWire.of(sc, k) for k in (1, 2, 3, 4)}
+    assert wires[1].hears == (2, 4)
+    due = np.ones(4, bool), plant.begin(), True
+    while due is not None:
+        which, ns, step = due
+        assert step and which.all()
+        X, flow = plant.fleet.X, plant.fleet.local_flow()
+        sent = {}
+        for v in vehicles:
+            got = v.odometry(ns, messages.odom_values(X[:, v.k - 1], flow[v.k - 1]))
+            if v.second == 'flow':
+                got = v.flow_heard(ns, flow[v.k - 1], 'map')
+            sent[v.k] = wires[v.k].encode(got)
+        for v in vehicles:
+            for j in sc.comm_graph.neighbours(v.k):
+                assert v.heard(j, wires[j].decode(sent[j])) is True
+        for v in vehicles:
+            ns_u, u, _ = v.command()
+            assert plant.command(v.k, ns_u, messages.cmd_values(u, sc.model)) is True
+        due = plant.advance()
+    assert plant.finished and not plant.failed and not plant.errors
+    run, ref = plant.fleet.run({}), simulator.simulate(sc)
+    np.testing.assert_allclose(run.X, ref.X, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(run.U, ref.U, rtol=0, atol=1e-9)
