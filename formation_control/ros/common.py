@@ -86,6 +86,23 @@ class Decoder:
         return got
 
 
+def subscribe(node, msg_type, topic, rule, reject, take):
+    """
+    Subscribe ``node`` to the bytes of a state ``topic``: each through ``rule``, then ``take``.
+
+    ``rule`` is an :class:`~formation_control.protocol.intake.Intake`; ``take`` is called with
+    the value of the bytes it does not reject (counted by ``reject``, a :class:`Rejections`).
+    """
+    decode = Decoder(rule, msg_type, reject)
+
+    def on_bytes(data):
+        got = decode(data)
+        if got is not None:
+            take(got)
+    return node.create_subscription(msg_type, topic, on_bytes, raw=True,
+                                    **itf.state_qos_kwargs())
+
+
 def status(name, level, message, values, hardware_id=''):
     """Build a DiagnosticStatus with ``values`` (dict) as its key/value pairs."""
     return DiagnosticStatus(level=level, name=name, message=message, hardware_id=hardware_id,

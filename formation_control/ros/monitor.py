@@ -164,15 +164,8 @@ class MonitorNode(Node):
         self.heard[stream][k - 1] = self.now()
 
     def _subscribe(self, msg_type, k, name, rule, take):
-        """Subscribe to vehicle k's topic ``name``: its bytes through ``rule``, then ``take``."""
-        decode = common.Decoder(rule, msg_type, self.reject)
-
-        def on_bytes(data):
-            got = decode(data)
-            if got is not None:
-                take(k, got)
-        self.create_subscription(msg_type, names.topic(k, name), on_bytes, raw=True,
-                                 **itf.state_qos_kwargs())
+        common.subscribe(self, msg_type, names.topic(k, name), rule, self.reject,
+                         lambda got: take(k, got))
 
     def _on_state(self, k, state):
         """Note a vehicle's formation state and which of its graph neighbours it hears."""

@@ -127,15 +127,8 @@ class PlantNode(Node):
                 for k in range(1, self.sc.num_vehicles + 1)]
 
     def _subscribe(self, msg_type, k, name, rule, take):
-        """Subscribe to vehicle k's topic ``name``: its bytes through ``rule``, then ``take``."""
-        decode = common.Decoder(rule, msg_type, self.reject)
-
-        def on_bytes(data):
-            got = decode(data)
-            if got is not None:
-                take(k, got)
-        return self.create_subscription(msg_type, names.topic(k, name), on_bytes, raw=True,
-                                        **itf.state_qos_kwargs())
+        return common.subscribe(self, msg_type, names.topic(k, name), rule, self.reject,
+                                lambda got: take(k, got))
 
     def _start(self, _msg=None):
         if self.plant.started or self.fleet_timer is not None:

@@ -94,10 +94,10 @@ class VehicleNode(Node):
                                                **qos())
         self.cmd_pub = self.create_publisher(WrenchStamped, names.topic(k, 'cmd'), **qos())
         self.cmd_wire = itf.cmd_wire(k, frames)
-        odometry = common.Decoder(intake.odometry(itf.odom_wire(k, frames), k, frames.world,
-                                                  frames.base(k)), Odometry, self.reject)
-        self.create_subscription(Odometry, names.topic(k, 'odom'),
-                                 lambda data: self._on_odom(odometry(data)), raw=True, **qos())
+        self.odometry = common.Decoder(intake.odometry(itf.odom_wire(k, frames), k, frames.world,
+                                                       frames.base(k)), Odometry, self.reject)
+        self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
+                                 **qos())
         if sc.flow_source == 'known':
             self.create_subscription(Vector3Stamped, names.topic(k, 'flow'), lambda msg: (
                 self._measured(self.me.flow_heard(messages.stamp_ns(msg.header.stamp), complex(
@@ -108,11 +108,9 @@ class VehicleNode(Node):
                     msg.twist.linear.x, msg.twist.linear.y), msg.header.frame_id))), **qos())
         self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
         for j in sc.comm_graph.neighbours(k):
-            state = common.Decoder(intake.formation_state(messages.StateWire.of(sc, j, frames),
-                                                          frames), JointState, self.reject)
-            self.create_subscription(JointState, names.topic(j, 'formation_state'),
-                                     lambda data, j=j, s=state: self._on_state(j, s(data)),
-                                     raw=True, **qos())
+            common.subscribe(self, JointState, names.topic(j, 'formation_state'),
+                             intake.formation_state(messages.StateWire.of(sc, j, frames), frames),
+                             self.reject, lambda state, j=j: self._heard(self.me.heard(j, state)))
         self.diag_pub = common.diagnostics_publisher(self)
 
     def _apply_parameters(self, params):
@@ -134,8 +132,9 @@ class VehicleNode(Node):
                                     f'{listed}')
             self.done, self.exit_code = True, 2
 
-    def _on_odom(self, got):
+    def _on_odom(self, data):
         self.odom_in = time.perf_counter_ns()
+        got = self.odometry(data)
         if got is not None:
             self._measured(self.me.odometry(*got))
 
@@ -160,10 +159,6 @@ class VehicleNode(Node):
             self.reject(got.kind, got.what)
             return True
         return False
-
-    def _on_state(self, j, state):
-        if state is not None:
-            self._heard(self.me.heard(j, state))
 
     def _deliver(self):
         for j, state in self.me.inbox.due():
