@@ -88,6 +88,11 @@ class VehicleNode(Node):
         self.get_logger().info(f'vehicle {k}/{sc.num_vehicles}: {sc.model} {sc.formation} '
                                f'({sc.controller}), {self.mode}')
 
+    @property
+    def sc(self):
+        """The scenario this vehicle flies (its run-time parameters applied)."""
+        return self.me.sc
+
     def _create_topics(self, sc):
         k, qos, frames = self.k, itf.state_qos_kwargs, self.frames
         self.state_pub = self.create_publisher(JointState, names.topic(k, 'formation_state'),
@@ -123,7 +128,7 @@ class VehicleNode(Node):
     def _on_scenario(self, msg):
         """Refuse to fly when the plant's latched scenario differs from this vehicle's."""
         try:
-            listed = plant_differences(self.me.sc, msg.data)
+            listed = plant_differences(self.sc, msg.data)
         except ScenarioError as err:
             return self.reject('malformed', f'an unreadable plant scenario ({err})')
         if listed:
@@ -175,7 +180,7 @@ class VehicleNode(Node):
         ns, u, first = due
         if first:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
-        self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.me.sc.model))
+        self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
         if self.mode == 'realtime':
             own = time.perf_counter_ns() - self.odom_in
