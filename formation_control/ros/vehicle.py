@@ -90,7 +90,7 @@ class VehicleNode(Node):
 
     @property
     def sc(self):
-        """The scenario this vehicle flies (its run-time parameters applied)."""
+        """Return the scenario this vehicle flies (its run-time parameters applied)."""
         return self.me.sc
 
     def _create_topics(self, sc):
