@@ -254,3 +254,27 @@ def test_the_plant_and_vehicle_protocols_without_dds_fly_the_offline_simulator(n
     run, ref = plant.fleet.run({}), simulator.simulate(sc)
     np.testing.assert_allclose(run.X, ref.X, rtol=0, atol=1e-9)
     np.testing.assert_allclose(run.U, ref.U, rtol=0, atol=1e-9)
+
+
+def test_the_plant_protocol_refuses_bad_commands_and_reports_who_it_waits_for():
+    sc = scenario.load(CONFIG / 'particle_parallel.yaml', ['num_vehicles:=2'])
+    clock = FakeClock()
+    plant = Plant(sc, True, 2.0, clock)
+    assert plant.advance() is None                  # not started
+    ns = plant.begin()
+    assert plant.command(1, ns, (0.0, 0.0, float('nan'))) == Rejection(
+        'non_finite', 'a non-finite command of vehicle 1')
+    assert plant.command(1, ns + 1, (0.0, 0.0, 0.1)) == Rejection(
+        'stale', 'a command of vehicle 1 for another step')
+    assert plant.command(1, ns, (0.0, 0.0, 0.1)) is True
+    assert plant.command(1, ns, (0.0, 0.0, 0.1)) is False      # the step answered again
+    assert plant.advance() is None                  # vehicle 2 still awaited
+    clock.t += 5.0
+    assert plant.stalled(3.0) == (pytest.approx(5.0), [2])
+    level, text, values = plant.status({'stale': 1})
+    assert (level, values['step'], values['stale'], values['repeated_commands']) == (
+        'ok', 0, 1, 1)
+    assert plant.command(2, ns, (0.0, 0.0, -0.1)) is True
+    which, ns1, step = plant.advance()
+    assert which.all() and step and ns1 == round(sc.dt_control * 1e9)
+    assert plant.fleet.pending[1].tolist() == [0.1, -0.1]
