@@ -74,7 +74,7 @@ class Endpoint:
 
 @dataclass
 class Stream:
-    """What the doctor heard on one topic: the message count, the last hears_j flags."""
+    """What the doctor heard on one topic: the message count, the last hears flags (j: bool)."""
 
     count: int = 0
     hears: dict = field(default_factory=dict)

@@ -74,6 +74,18 @@ class FleetPlant:
         """Return the simulated time of the period under way (s)."""
         return self.n * self.sc.dt_control
 
+    def local_flow(self) -> ComplexArray:
+        """Return the flow at each vehicle now, (N,) complex (m/s, world frame)."""
+        return self.stepper.local_flow()
+
+    def next_period(self) -> None:
+        """Go on to the next control period (lockstep, once one is integrated)."""
+        self.n += 1
+
+    def reach_tick(self, tick: int) -> None:
+        """Real time: the period under way is the one of integration step ``tick``."""
+        self.n = tick // self.sc.substeps
+
     def set_command(self, i: int, u: ArrayLike) -> None:
         """Hold ``u`` (2,) as vehicle index ``i``'s command from the next step on."""
         self.pending[:, i] = u

@@ -17,9 +17,10 @@ What the fleet's messages carry, as plain values: the pure side of every convers
 
 A vehicle's state column X (6,) and input column u (2,) (:mod:`formation_control.core.models`)
 to and from the fields of its odometry (:data:`ODOM_FIELDS`) and command (:data:`CMD_FIELDS`),
-the values of its formation_state (:func:`state_names`) and their canonical CDR bytes
-(:class:`StateWire`), and stamps. The functions taking a message read and write attributes
-only, so they serve rclpy messages and those a bag reader builds alike.
+its formation_state as a record of named values (:class:`FormationState`) and its canonical
+CDR bytes (:class:`StateWire`), and stamps (:func:`stamp_ns`, :func:`set_stamp`). The
+functions taking a message read and write attributes only, so they serve rclpy messages and
+those a bag reader builds alike.
 """
 from __future__ import annotations
 
@@ -27,12 +28,13 @@ from collections.abc import Iterable, Sequence
 import math
 from operator import attrgetter
 import struct
-from typing import Any, TypeVar
+from types import MappingProxyType
+from typing import Any, Mapping, NamedTuple, Optional, TypeVar
 
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
                                            ROW_THETA)
-from formation_control.protocol.names import DEFAULT_FRAMES, Frames
+from formation_control.protocol.names import DEFAULT_FRAMES
 import numpy as np
 
 M = TypeVar('M')
@@ -69,6 +71,7 @@ neighbour j of the sender: 1 while it hears j, else 0; with ``flow_source: estim
 :data:`ESTIMATE_FIELDS` come last (:func:`state_names`)."""
 
 
+_FIRST = len(STATE_FIELDS)
 ESTIMATE_FIELDS = ('flow_hat_x', 'flow_hat_y')
 """formation_state of an estimating vehicle: its flow estimate (m/s, world frame)."""
 
@@ -93,12 +96,24 @@ def yaw_quaternion(orientation: Any, theta: float) -> None:
     orientation.z, orientation.w = quaternion_zw(theta)
 
 
-def stamp_ns(stamp: Any) -> int:
+def stamp_parts(ns: int) -> tuple:
+    """Return (sec, nanosec) of a time in ns: the fields of a builtin_interfaces/Time."""
+    return divmod(int(ns), 1_000_000_000)
+
+
+def stamp_ns(stamp) -> int:
+    """Return the time in ns of a builtin_interfaces/Time (``sec``, ``nanosec``)."""
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
-def set_stamp(header: Any, ns: int) -> None:
-    header.stamp.sec, header.stamp.nanosec = divmod(int(ns), 1_000_000_000)
+def set_time(time, ns: int):
+    """Write a time in ns into a builtin_interfaces/Time (``sec``, ``nanosec``)."""
+    time.sec, time.nanosec = stamp_parts(ns)
+
+
+def set_stamp(header, ns: int):
+    """Stamp a std_msgs/Header with a time in ns."""
+    set_time(header.stamp, ns)
 
 
 ODOM_FIELDS = ('pose.pose.position.x', 'pose.pose.position.y', 'pose.pose.orientation.z',
@@ -179,17 +194,98 @@ def input_from_cmd(msg: Any, model: str) -> tuple[float, float]:
     return input_from_cmd_values(get_fields(msg, CMD_FIELDS), model)
 
 
-def state_values(X: RealArray, view_row: Sequence[Any], hearing: Iterable[float] = (),
-                 flow_hat: complex | None = None) -> tuple[float, ...]:
+class FormationState(NamedTuple):
     """
-    Return the values of one vehicle's formation_state (:func:`state_names` order).
+    One vehicle's formation_state as named values: what it tells its neighbours each step.
 
-    ``flow_hat``: its flow estimate (complex m/s), for an estimating vehicle.
+    ``hears`` maps each graph neighbour j of the sender to whether it hears j (empty on the
+    complete graph); ``flow_hat`` is its flow estimate (m/s, world frame) if it estimates the
+    flow. :meth:`names` and :meth:`values` are the JointState ``name`` and ``position`` arrays,
+    :meth:`from_joint` reads them back, and :class:`StateWire` is the same as CDR bytes.
     """
-    r, phase, rate, speed = view_row
-    extra = () if flow_hat is None else (flow_hat.real, flow_hat.imag)
-    return (r.real, r.imag, float(X[ROW_THETA]), float(X[ROW_OMEGA]), phase, rate, speed,
-            *(float(h) for h in hearing), *extra)
+
+    stamp: int
+    x: float
+    y: float
+    heading: float
+    yaw_rate: float
+    phase: float
+    phase_rate: float
+    speed: float
+    hears: Mapping[int, bool] = MappingProxyType({})
+    flow_hat: Optional[complex] = None
+
+    @classmethod
+    def of_vehicle(cls, ns: int, X, view_row, hears: Optional[Mapping[int, bool]] = None,
+                   flow_hat: Optional[complex] = None) -> 'FormationState':
+        """
+        Return the state of stamp ``ns`` of a vehicle's state column X (6,).
+
+        ``view_row`` is its (r, phase, rate, speed) of the law's particle view.
+        """
+        r, phase, rate, speed = view_row
+        return cls(int(ns), float(r.real), float(r.imag), float(X[ROW_THETA]),
+                   float(X[ROW_OMEGA]), float(phase), float(rate), float(speed),
+                   {j: bool(h) for j, h in (hears or {}).items()},
+                   None if flow_hat is None else complex(flow_hat))
+
+    @property
+    def r(self) -> complex:
+        """Position (complex m, world frame)."""
+        return complex(self.x, self.y)
+
+    @property
+    def row(self) -> tuple:
+        """(r, phase, phase_rate, speed): the sender's row of the law's particle view."""
+        return self.r, self.phase, self.phase_rate, self.speed
+
+    def names(self) -> tuple:
+        """Return the JointState ``name`` array (:func:`state_names`)."""
+        return state_names(tuple(self.hears), self.flow_hat is not None)
+
+    def values(self) -> tuple:
+        """Return the JointState ``position`` array, in :meth:`names` order."""
+        extra = () if self.flow_hat is None else (self.flow_hat.real, self.flow_hat.imag)
+        return (self.x, self.y, self.heading, self.yaw_rate, self.phase, self.phase_rate,
+                self.speed, *(1.0 if h else 0.0 for h in self.hears.values()), *extra)
+
+    @classmethod
+    def from_joint(cls, ns: int, names, values) -> 'FormationState':
+        """
+        Return the state of the JointState ``name`` and ``position`` arrays of stamp ``ns``.
+
+        A ``hears_j`` flag is true above 0.5. Raises ValueError unless ``names`` are those of
+        :func:`state_names` for some neighbours, one value each.
+        """
+        names, values = tuple(names), tuple(values)
+        hears = tuple(_hears_id(name) for name in names[len(STATE_FIELDS):]
+                      if name.startswith('hears_'))
+        estimates = names[-len(ESTIMATE_FIELDS):] == ESTIMATE_FIELDS
+        if len(values) != len(names) or names != state_names(hears, estimates):
+            raise ValueError(f'not the names of a formation_state: {list(names)}')
+        return cls.of_layout(int(ns), hears, estimates, tuple(map(float, values)))
+
+    @classmethod
+    def of_layout(cls, ns, hears, estimates, values):
+        """Return the state of float ``values`` laid out by :func:`state_names`."""
+        flags = values[_FIRST:_FIRST + len(hears)]
+        return cls(ns, *values[:_FIRST], dict(zip(hears, [v > 0.5 for v in flags])),
+                   complex(values[-2], values[-1]) if estimates else None)
+
+    def finite(self) -> bool:
+        """Return whether every value is finite."""
+        return all(map(math.isfinite, self.values()))
+
+    def hears_vehicle(self, k: int) -> bool:
+        """Return whether the sender hears vehicle k (always, k not a flagged neighbour)."""
+        return self.hears.get(k, True)
+
+
+def _hears_id(name):
+    try:
+        return int(name[len('hears_'):])
+    except ValueError:
+        raise ValueError(f'not a hears_j name: {name!r}') from None
 
 
 class StateWire:
@@ -197,23 +293,24 @@ class StateWire:
     Vehicle k's formation_state as serialized bytes, without message objects.
 
     sensor_msgs/JointState in little-endian CDR: every vehicle sends one and hears one from
-    each neighbour every step. ``encode`` writes the canonical layout (zero padding, empty
-    velocity and effort) of the names :func:`state_names` gives for the graph neighbours
-    ``hears`` (and the flow estimate, ``estimates``), which ``decode`` reads in place; it
-    returns None for any other bytes, which the caller then deserializes and checks as a
-    message.
+    each neighbour every step. ``encode`` writes a :class:`FormationState` in the canonical
+    layout (zero padding, empty velocity and effort) of the names :func:`state_names` gives for
+    the graph neighbours ``hears`` (and the flow estimate, ``estimates``), which ``decode``
+    reads in place; it returns None for any other bytes, which the caller then deserializes
+    and checks as a message (:mod:`formation_control.protocol.intake`).
     """
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
-    def __init__(self, k: int, hears: Iterable[int] = (), frames: Frames = DEFAULT_FRAMES,
-                 estimates: bool = False) -> None:
-        self.names = state_names(hears, estimates)
+    def __init__(self, k, hears=(), frames=DEFAULT_FRAMES, estimates=False):
+        self.k, self.hears, self.frame = k, tuple(hears), frames.base(k)
+        self.estimates = estimates
+        self.names = state_names(self.hears, estimates)
         body = bytearray()
 
         def put(raw: bytes, align: int = 4) -> None:
             body.extend(bytes(-(8 + len(body)) % align) + raw)  # body starts at 12 = 8 past origin
-        put(_cdr_string(frames.base(k)))
+        put(_cdr_string(self.frame))
         put(struct.pack('<I', len(self.names)))
         for name in self.names:
             put(_cdr_string(name))
@@ -224,19 +321,26 @@ class StateWire:
         self.values = struct.Struct(f'<{len(self.names)}d')
         self.tail = bytes(8)                              # velocity and effort: empty
 
-    def encode(self, ns: int, values: Iterable[float]) -> bytes:
-        """Return the bytes of a formation_state stamped ``ns`` (ns) with ``values``."""
-        sec, nanosec = divmod(ns, 1_000_000_000)
-        return b''.join((self.HEADER, struct.pack('<iI', sec, nanosec), self.middle,
-                         self.values.pack(*values), self.tail))
+    @classmethod
+    def of(cls, sc, k, frames=DEFAULT_FRAMES):
+        """Return vehicle k's wire in scenario ``sc`` (its graph neighbours, its estimate)."""
+        hears = () if sc.all_to_all else tuple(sc.comm_graph.neighbours(k))
+        return cls(k, hears, frames, sc.flow_source == 'estimated')
 
-    def decode(self, data: bytes) -> tuple[int, tuple[float, ...]] | None:
-        """(stamp in ns, the values) of canonical bytes, else None."""
+    def encode(self, state):
+        """Return the bytes of a :class:`FormationState` in this layout."""
+        return b''.join((self.HEADER, struct.pack('<iI', *stamp_parts(state.stamp)),
+                         self.middle, self.values.pack(*state.values()), self.tail))
+
+    def decode(self, data):
+        """Return the :class:`FormationState` of canonical bytes, else None."""
         if (len(data) < self.values_at + self.values.size or data[:4] != self.HEADER
                 or data[12:self.values_at] != self.middle):
             return None
         sec, nanosec = struct.unpack_from('<iI', data, 4)
-        return sec * 1_000_000_000 + nanosec, self.values.unpack_from(data, self.values_at)
+        return FormationState.of_layout(sec * 1_000_000_000 + nanosec, self.hears,
+                                        self.estimates,
+                                        self.values.unpack_from(data, self.values_at))
 
 
 def _cdr_string(text: str) -> bytes:

@@ -189,6 +189,11 @@ class NeighbourTable:
         """
         return ~self.gone() if self.lockstep else self.live()
 
+    def hears(self, ids: Iterable[int]) -> dict[int, bool]:
+        """Return {j: whether this vehicle says it hears j} for each j of ``ids``."""
+        hearing = self.hearing()
+        return {j: bool(hearing[j - 1]) for j in ids}
+
     def waiting(self) -> BoolArray:
         """(n,) bool: lockstep, the vehicles whose state of the step under way is still awaited."""
         return ~self.gone() & ~self.answered() & self.linked

@@ -22,9 +22,11 @@ parameters (descriptor with unit and range, read-only) and writes the node secti
 from __future__ import annotations
 
 from collections.abc import Mapping
+import json
 import re
 from typing import Any
 
+from formation_control.core import scenario
 from formation_control.core.scenario import markdown_table, ScenarioError, Spec
 from formation_control.protocol.links import PARAMETERS as LINKS
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
@@ -72,6 +74,42 @@ def check_frames(values: Mapping[str, Any], per_vehicle: bool = True) -> None:
     if base_frame(values['base_frame'], 1) == values['world_frame']:
         raise ScenarioError(f"parameter 'base_frame' = {values['base_frame']!r} is invalid: "
                             f"must differ from world_frame {values['world_frame']!r}")
+
+
+def plant_differences(sc, text):
+    """
+    Return how a vehicle's scenario ``sc`` differs from the plant's (JSON ``text``), or ''.
+
+    ``name = mine here, theirs at the plant`` for each parameter of
+    :func:`scenario.differences`, joined by ``; ``. Raises ScenarioError for an unreadable
+    plant scenario.
+    """
+    try:
+        theirs = scenario.resolve(json.loads(text))
+    except (ValueError, TypeError) as err:
+        raise ScenarioError(str(err)) from None
+    return '; '.join(f'{name} = {mine!r} here, {plant!r} at the plant'
+                     for name, mine, plant in scenario.differences(sc, theirs))
+
+
+def check_vehicle(sc, vehicle_id):
+    """
+    Refuse a vehicle node of id ``vehicle_id`` in scenario ``sc``.
+
+    Raises
+    ------
+    ScenarioError
+        The id is not in 1..num_vehicles, or the scenario runs flow consensus (the
+        formation_state does not carry the flow estimates).
+
+    """
+    if not 1 <= vehicle_id <= sc.num_vehicles:
+        raise ScenarioError(f"parameter 'vehicle_id' = {vehicle_id} is invalid: must lie in "
+                            f'1..num_vehicles = {sc.num_vehicles}')
+    if sc.flow_consensus > 0:
+        raise ScenarioError(f"parameter 'flow_consensus' = {sc.flow_consensus} is invalid "
+                            f'for a vehicle node: the formation_state does not carry the '
+                            f'flow estimates; use 0 (the offline simulator runs consensus)')
 
 
 _MODE = Spec('', 'time mode: lockstep (the plant owns /clock and waits for every command) or '

@@ -20,7 +20,8 @@ commands itself with an :class:`Onboard`, which calls the same controller on the
 vehicles it hears. It commands with the flow it has: told (``flow_source: known``) or its own
 estimate (:class:`estimation.FlowEstimator`, ``estimated``). A measurement that comes on a second
 topic (the local flow, the through-water velocity) is paired with the odometry of the same
-stamp (:class:`Pairing`).
+stamp (:class:`Pairing`). In real time it predicts its state over its measured delay
+(:class:`Delay`).
 """
 from __future__ import annotations
 
@@ -30,9 +31,42 @@ from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator
 from formation_control.core.geometry import BoolArray, RealArray
 from formation_control.core.laws import View
-from formation_control.core.models import RIGID_MODELS
+from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
 from formation_control.core.scenario import Scenario
+from formation_control.protocol.messages import state_from_odom_values
 import numpy as np
+
+
+DELAY_GAIN = 0.1
+"""Real time: the weight of each new delay, odometry handed to the node -> command sent (at most
+a period), in the running mean the vehicle predicts its state over, with half a period and half
+an integration step (the plant applies a command from its next step), before it computes its
+command. The stamp -> command latency is not used: a simulated plant that slips behind the wall
+clock makes it grow without being a delay in simulated time."""
+
+
+class Delay:
+    """
+    How far ahead a vehicle predicts its sampled state: its measured delay and the plant's wait.
+
+    Real time only: each command adds the node's own delay (odometry in -> command out) to a
+    running mean (:data:`DELAY_GAIN`), a delay clipped to the control ``period``; ``wait`` is
+    added (half an integration step: the plant applies a command from its next step). In
+    lockstep nothing is added and :attr:`ahead` stays 0.
+    """
+
+    def __init__(self, period: float, wait: float = 0.0, gain: float = DELAY_GAIN) -> None:
+        self.period, self.wait, self.gain = period, wait, gain
+        self.mean = 0.0
+
+    def add(self, seconds: float) -> None:
+        """Take one measured delay (s) into the running mean."""
+        self.mean += self.gain * (min(seconds, self.period) - self.mean)
+
+    @property
+    def ahead(self) -> float:
+        """Return the seconds from the sample to the time its command acts."""
+        return self.mean + self.wait
 
 
 def needs_second_sensor(sc: Scenario) -> str | None:
@@ -46,6 +80,21 @@ def needs_second_sensor(sc: Scenario) -> str | None:
     if sc.flow_source == 'known':
         return None if sc.flow_model == 'uniform' else 'flow'
     return 'water' if sc.model in RIGID_MODELS else None
+
+
+def sampled_state(second, values, other, flow, model):
+    """
+    Return the state column (6,) of an odometry's ODOM_FIELDS ``values``, and its flow.
+
+    ``second`` is :func:`needs_second_sensor`'s answer; ``other`` the second sensor's value:
+    the local flow ('flow') or the through-water velocity (u, v) ('water'); ``flow`` the
+    flow the vehicle knows otherwise.
+    """
+    flow = other if second == 'flow' else flow
+    X = state_from_odom_values(values, flow, model)
+    if second == 'water':
+        X[ROW_U], X[ROW_V] = other
+    return X, flow
 
 
 class Pairing:

@@ -12,15 +12,17 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""What every node of the package does alike: wall time, dropped input, diagnostics."""
+"""What every node of the package does alike: wall time, incoming bytes, dropped input, status."""
 import collections
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from formation_control.protocol import names
+from formation_control.protocol.intake import Rejection
 from formation_control.ros import interface as itf
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from rclpy.serialization import deserialize_message
 
 
 def wall_clock():
@@ -63,6 +65,42 @@ class Rejections:
     @property
     def total(self):
         return sum(self.counts.values())
+
+
+class Decoder:
+    """
+    The rclpy side of an :class:`~formation_control.protocol.intake.Intake`.
+
+    Calling it with a subscription's raw bytes returns their value, or None once they are
+    rejected (counted and logged by ``reject``, a :class:`Rejections`).
+    """
+
+    def __init__(self, intake, msg_type, reject):
+        self.intake, self.reject = intake, reject
+        self.deserialize = lambda data: deserialize_message(data, msg_type)
+
+    def __call__(self, data):
+        got = self.intake(data, self.deserialize)
+        if isinstance(got, Rejection):
+            return self.reject(got.kind, got.what)
+        return got
+
+
+def subscribe(node, msg_type, topic, rule, reject, take):
+    """
+    Subscribe ``node`` to the bytes of a state ``topic``: each through ``rule``, then ``take``.
+
+    ``rule`` is an :class:`~formation_control.protocol.intake.Intake`; ``take`` is called with
+    the value of the bytes it does not reject (counted by ``reject``, a :class:`Rejections`).
+    """
+    decode = Decoder(rule, msg_type, reject)
+
+    def on_bytes(data):
+        got = decode(data)
+        if got is not None:
+            take(got)
+    return node.create_subscription(msg_type, topic, on_bytes, raw=True,
+                                    **itf.state_qos_kwargs())
 
 
 def status(name, level, message, values, hardware_id=''):

@@ -144,8 +144,11 @@ class Gatherer:
         except Exception:
             return
         stream.count += 1
-        stream.hears = {name: value > 0.5 for name, value in zip(msg.name, msg.position)
-                        if name.startswith('hears_')}
+        try:
+            state = messages.FormationState.from_joint(0, msg.name, msg.position)
+        except ValueError:
+            return
+        stream.hears = dict(state.hears)
 
     def _graph(self, facts, scenario_topic):
         node = self.node

@@ -59,8 +59,9 @@ import copy
 import struct
 
 from formation_control.core.models import ROW_U, ROW_V
-from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, ODOM_FIELDS, odom_values,
-                                                 set_fields, set_stamp, state_names, state_values)
+from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, FormationState,
+                                                 ODOM_FIELDS, odom_values, set_fields, set_stamp,
+                                                 stamp_parts)
 from formation_control.protocol.names import DEFAULT_FRAMES, WORLD_FRAME
 from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry
@@ -192,7 +193,7 @@ class MessageWire:
     def encode(self, ns, values):
         """Return the bytes of the message stamped ``ns`` (ns) with the field ``values``."""
         buf = bytearray(self.template)
-        struct.pack_into('<iI', buf, 4, *divmod(ns, 1_000_000_000))
+        struct.pack_into('<iI', buf, 4, *stamp_parts(ns))
         for offset, value in zip(self.offsets, values):
             struct.pack_into('<d', buf, offset, value)
         return bytes(buf)
@@ -213,11 +214,17 @@ def state_msg(k, ns, X, view_row, hears=(), hearing=(), frames=DEFAULT_FRAMES):
 
     ``hears`` are its graph neighbours' ids and ``hearing`` whether it hears each (bool).
     """
+    return formation_state_msg(k, FormationState.of_vehicle(ns, X, view_row,
+                                                            dict(zip(hears, hearing))), frames)
+
+
+def formation_state_msg(k, state, frames=DEFAULT_FRAMES):
+    """Return the JointState of vehicle k's :class:`FormationState` ``state``."""
     msg = JointState()
-    set_stamp(msg.header, ns)
+    set_stamp(msg.header, state.stamp)
     msg.header.frame_id = frames.base(k)
-    msg.name = list(state_names(hears))
-    msg.position = list(state_values(X, view_row, hearing))
+    msg.name = list(state.names())
+    msg.position = list(state.values())
     return msg
 
 

@@ -39,7 +39,7 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core.scenario import resolve, ScenarioError
-from formation_control.protocol import messages, names
+from formation_control.protocol import intake, messages, names
 from formation_control.protocol.node_parameters import MONITOR
 from formation_control.protocol.watch import WARN, Watch
 from formation_control.ros import common, interface as itf, markers, parameters
@@ -51,7 +51,7 @@ from rcl_interfaces.msg import ParameterEvent
 from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import qos_profile_parameter_events
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -127,56 +127,38 @@ class MonitorNode(Node):
         p = self.p
         self.watch = Watch(sc, self.get_namespace(), p['period'], p['stale_timeout'],
                            p['converge_within'], p['trail_length'], self.now)
-        graph = sc.comm_graph
-        self.wires = {k: messages.StateWire(k, () if sc.all_to_all else graph.neighbours(k),
-                                            estimates=sc.flow_source == 'estimated')
-                      for k in range(1, sc.num_vehicles + 1)}
         for k in range(1, sc.num_vehicles + 1):
-            self.create_subscription(Odometry, names.topic(k, 'odom'),
-                                     lambda m, k=k: self._on_odom(k, m), **itf.state_qos_kwargs())
-            self.create_subscription(WrenchStamped, names.topic(k, 'cmd'),
-                                     lambda m, k=k: self._on_cmd(k, m), **itf.state_qos_kwargs())
-            self.create_subscription(JointState, names.topic(k, 'formation_state'),
-                                     lambda data, k=k: self._on_state(k, data), raw=True,
-                                     **itf.state_qos_kwargs())
+            self._subscribe(Odometry, k, 'odom', intake.odometry(
+                itf.odom_wire(k), k, p['world_frame']), self._on_odom)
+            self._subscribe(WrenchStamped, k, 'cmd', intake.command(itf.cmd_wire(k), k),
+                            self._on_cmd)
+            self._subscribe(JointState, k, 'formation_state', intake.formation_state(
+                messages.StateWire.of(sc, k)), self._on_state)
         self.metrics_pub = self.create_publisher(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, names.MARKERS_TOPIC, itf.STREAM_QOS)
         self.create_timer(p['markers_period'], self.publish_markers, clock=self.wall)
         self.get_logger().info(f'monitoring {sc.num_vehicles} x {sc.model}, {sc.formation}')
 
-    def _on_state(self, k, data):
-        """Note a vehicle's formation state and which of its graph neighbours it hears."""
-        wire = self.wires[k]
-        got = wire.decode(data)
-        if got is None:
-            try:
-                msg = deserialize_message(data, JointState)
-            except Exception:
-                return self.reject('malformed', f'undecodable formation_state of vehicle {k}')
-            if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
-                return self.reject('malformed', f'a malformed formation_state of vehicle {k}')
-            got = messages.stamp_ns(msg.header.stamp), tuple(msg.position)
-        first = len(messages.STATE_FIELDS)
-        hears = [name for name in wire.names[first:] if name.startswith('hears_')]
-        self.watch.state(k, {int(name.split('_')[1]): value > 0.5
-                             for name, value in zip(hears, got[1][first:])})
+    def _subscribe(self, msg_type, k, name, rule, take):
+        common.subscribe(self, msg_type, names.topic(k, name), rule, self.reject,
+                         lambda got: take(k, got))
 
-    def _on_cmd(self, k, msg):
-        u = np.array(messages.input_from_cmd(msg, self.sc.model))
+    def _on_state(self, k, state):
+        """Note a vehicle's formation state and which of its graph neighbours it hears."""
+        self.watch.state(k, dict(state.hears))
+
+    def _on_cmd(self, k, got):
+        u = np.array(messages.input_from_cmd_values(got[1], self.sc.model))
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')
         self.watch.cmd(k, u)
 
-    def _on_odom(self, k, msg):
-        if msg.header.frame_id != self.p['world_frame']:
-            return self.reject('wrong_frame', f'an odometry of vehicle {k} in frame '
-                               f'{msg.header.frame_id!r} (world_frame is '
-                               f"{self.p['world_frame']!r})")
-        pos = msg.pose.pose.position
-        x = messages.state_from_odom(msg, complex(self.watch.flow(pos.x, pos.y)), self.sc.model)
+    def _on_odom(self, k, got):
+        ns, values = got
+        flow = complex(self.watch.flow(values[0], values[1]))
+        x = messages.state_from_odom_values(values, flow, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
-        ns = messages.stamp_ns(msg.header.stamp)
         if self.watch.odom(k, x, ns):
             self._sample(ns)
 

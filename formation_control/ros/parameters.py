@@ -149,11 +149,18 @@ def choice(node, name, allowed):
     return value
 
 
-def validator(node):
-    """Return an on-set callback that accepts a change only if the scenario stays valid."""
+def validator(node, check=None):
+    """
+    Return an on-set callback that accepts a change only if the scenario stays valid.
+
+    ``check``, given, is called with the parameters too, and refuses them by raising
+    ScenarioError.
+    """
     def on_set(params):
         try:
             scenario.resolve(_values(node, params))
+            if check is not None:
+                check(params)
         except ScenarioError as err:
             return SetParametersResult(successful=False, reason=str(err))
         return SetParametersResult(successful=True)

@@ -24,6 +24,7 @@ bag's own is then not replayed: ``playback.Bag(..., skip=[CLOCK_TOPIC], namespac
 import time
 
 from formation_control.bags import playback
+from formation_control.protocol import messages
 from formation_control.ros.bag import msg_class
 from rclpy.duration import Duration
 from rclpy.node import Node
@@ -91,7 +92,7 @@ class PlayerNode(Node):
         if self.clock is not None:
             msg = Clock()
             ns = min(self.schedule.now(wall), self.bag.end)
-            msg.clock.sec, msg.clock.nanosec = divmod(ns, 1_000_000_000)
+            messages.set_time(msg.clock, ns)
             self.clock.publish(msg)
         sent = set()
         try:

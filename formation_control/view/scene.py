@@ -25,6 +25,7 @@ of the graph).
 import cmath
 import math
 
+from formation_control.protocol.messages import stamp_parts
 from formation_control.protocol.names import WORLD_FRAME
 from formation_control.view import palette, picture
 from foxglove.messages import (ArrowPrimitive, Color, CylinderPrimitive, KeyValuePair,
@@ -40,8 +41,7 @@ HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
 
 def stamp(ns):
     """Return the foxglove Timestamp of a time in ns."""
-    sec, nsec = divmod(int(ns), 1_000_000_000)
-    return Timestamp(sec, nsec)
+    return Timestamp(*stamp_parts(ns))
 
 
 def _pose(z, angle=0.0):
@@ -170,7 +170,7 @@ def metrics_schema(doc):
 
 def metrics_message(ns, values):
     """Return a metrics sample as JSON: ``timestamp`` (sec, nsec) and each metric by name."""
-    sec, nsec = divmod(int(ns), 1_000_000_000)
+    sec, nsec = stamp_parts(ns)
     out = {'timestamp': {'sec': sec, 'nsec': nsec}}
     out.update({name: float(v) if math.isfinite(v) else None for name, v in values.items()})
     return out

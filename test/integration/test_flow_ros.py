@@ -39,8 +39,8 @@ def test_lockstep_rigid_fleet_estimating_the_flow_equals_the_offline_simulator(n
     offline = offline_run(cfg, overrides)
     assert_equal_runs(fleet, offline)
     assert_recorded_estimates(fleet, offline)
-    vehicles = {n.k: n for n in nodes.nodes if hasattr(n, 'onboard')}
-    estimates = [complex(vehicles[k].onboard.flow[0]) for k in sorted(vehicles)]
+    vehicles = {n.k: n for n in nodes.nodes if hasattr(n, 'me')}
+    estimates = [complex(vehicles[k].me.onboard.flow[0]) for k in sorted(vehicles)]
     np.testing.assert_allclose(estimates, offline.flow_hat[-1], atol=1e-9)
     assert abs(estimates[0] - offline.sc.flow_c) < 0.1          # learning it after 3 s
 

@@ -70,7 +70,7 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
     pubs = {j: nodes.node.create_publisher(JointState, names.topic(j, 'formation_state'),
                                            itf.STATE_QOS) for j in (2, 12)}
     odom = nodes.node.create_publisher(Odometry, names.topic(1, 'odom'), itf.STATE_QOS)
-    view = node.onboard.ctrl.view(X)
+    view = node.me.onboard.ctrl.view(X)
 
     def row(j):
         i = j - 1
@@ -85,7 +85,7 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
     assert nodes.spin_until(lambda: cmds, timeout=20)
     members = np.zeros(12, bool)
     members[[0, 1]] = True
-    ctrl = node.onboard.ctrl
+    ctrl = node.me.onboard.ctrl
     expected = ctrl.command(ctrl.view(X[:, members]), X[:, [0]], [0], members=members)
     assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
     members[11] = True

@@ -277,9 +277,10 @@ def test_state_wire_bytes_are_the_formation_state_message(k):
     row = (1.5 - 2.0j, 0.7, -0.1, 1.1)
     ns = 1_795_000_123_456_789_012
     wire = messages.StateWire(k)
-    data = wire.encode(ns, messages.state_values(X, row))
+    state = messages.FormationState.of_vehicle(ns, X, row)
+    data = wire.encode(state)
     assert deserialize_message(data, JointState) == itf.state_msg(k, ns, X, row)
-    assert wire.decode(data) == (ns, messages.state_values(X, row))
+    assert wire.decode(data) == state
     assert wire.decode(serialize_message(itf.state_msg(k, ns, X, row))) in (
         None, wire.decode(data))
     assert messages.StateWire(k + 1).decode(data) is None

@@ -279,7 +279,7 @@ def test_the_plants_fleet_loop_is_the_offline_simulator(name):
         if not fleet.hold(np.zeros(4, bool), True):
             break
         assert fleet.integrate().size == 0
-        fleet.n += 1
+        fleet.next_period()
     run, ref = fleet.run({}), simulator.simulate(sc)
     np.testing.assert_allclose(run.X, ref.X, rtol=0, atol=1e-12)
     np.testing.assert_allclose(run.U, ref.U, rtol=0, atol=1e-12)
@@ -306,7 +306,7 @@ def test_the_fleet_run_ends_after_its_last_period():
     periods = 0
     while fleet.hold(np.zeros(sc.num_vehicles, bool), True):
         fleet.integrate()
-        fleet.n += 1
+        fleet.next_period()
         periods += 1
     assert periods == 5 and fleet.time == pytest.approx(0.1)
     assert fleet.run({'mode': 'x'}).t.tolist() == pytest.approx([0.0, 0.1])
