@@ -23,13 +23,22 @@ message is checked: its frames and, for a formation state, its names. What fails
 :class:`Rejection` naming its kind (``malformed``, ``wrong_frame``, ``foreign_id``); the
 node drops and counts it.
 """
+from __future__ import annotations
+
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Optional
+from typing import Any, Generic, Protocol, TypeVar
 
 from formation_control.protocol.messages import (CMD_FIELDS, FormationState, get_fields,
-                                                 ODOM_FIELDS, stamp_ns)
+                                                 ODOM_FIELDS, stamp_ns, StateWire)
+from formation_control.protocol.names import Frames
 
 MALFORMED, WRONG_FRAME, FOREIGN_ID = 'malformed', 'wrong_frame', 'foreign_id'
+
+T = TypeVar('T')
+T_co = TypeVar('T_co', covariant=True)
+Stamped = tuple[int, tuple[float, ...]]
+"""The value of an odometry or a command: (stamp ns, its ODOM_FIELDS or CMD_FIELDS values)."""
 
 
 @dataclass(frozen=True)
@@ -40,7 +49,14 @@ class Rejection:
     what: str
 
 
-class Intake:
+class Wire(Protocol[T_co]):
+    """A topic's canonical layout: reads its bytes in place."""
+
+    def decode(self, data: bytes) -> T_co | None:
+        """Return the value of canonical bytes, else None."""
+
+
+class Intake(Generic[T]):
     """
     The decode-or-check rule of one topic.
 
@@ -57,10 +73,11 @@ class Intake:
 
     """
 
-    def __init__(self, wire, read: Callable, check: Callable, what: str):
+    def __init__(self, wire: Wire[T], read: Callable[[Any], T],
+                 check: Callable[[Any], Rejection | None], what: str) -> None:
         self.wire, self.read, self.check, self.what = wire, read, check, what
 
-    def __call__(self, data: bytes, deserialize: Callable):
+    def __call__(self, data: bytes, deserialize: Callable[[bytes], Any]) -> T | Rejection:
         """
         Return the value of ``data``, or the :class:`Rejection` of the bytes.
 
@@ -76,13 +93,14 @@ class Intake:
         return self.check(msg) or self.read(msg)
 
 
-def odometry(wire, k: int, world: str, base: Optional[str] = None) -> Intake:
+def odometry(wire: Wire[Stamped], k: int, world: str,
+             base: str | None = None) -> Intake[Stamped]:
     """
     Return vehicle k's odometry rule: (stamp ns, ODOM_FIELDS values).
 
     Its frame must be ``world`` and, given, its child frame ``base``.
     """
-    def check(msg):
+    def check(msg: Any) -> Rejection | None:
         frame, child = msg.header.frame_id, msg.child_frame_id
         if base is not None and (frame, child) != (world, base):
             return Rejection(WRONG_FRAME, f'an odometry in frames {frame!r} -> {child!r} '
@@ -96,9 +114,9 @@ def odometry(wire, k: int, world: str, base: Optional[str] = None) -> Intake:
                   check, f'odometry of vehicle {k}')
 
 
-def command(wire, k: int, base: Optional[str] = None) -> Intake:
+def command(wire: Wire[Stamped], k: int, base: str | None = None) -> Intake[Stamped]:
     """Return vehicle k's command rule: (stamp ns, CMD_FIELDS values); frame ``base``."""
-    def check(msg):
+    def check(msg: Any) -> Rejection | None:
         if base is not None and msg.header.frame_id != base:
             return Rejection(WRONG_FRAME, f"a command on vehicle {k}'s topic in frame "
                                           f'{msg.header.frame_id!r}')
@@ -107,7 +125,7 @@ def command(wire, k: int, base: Optional[str] = None) -> Intake:
                   check, f'command of vehicle {k}')
 
 
-def formation_state(wire, frames=None) -> Intake:
+def formation_state(wire: StateWire, frames: Frames | None = None) -> Intake[FormationState]:
     """
     Return the rule of the formation_state of ``wire``'s vehicle: a FormationState.
 
@@ -117,7 +135,7 @@ def formation_state(wire, frames=None) -> Intake:
     """
     k = wire.k
 
-    def check(msg):
+    def check(msg: Any) -> Rejection | None:
         if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
             return Rejection(MALFORMED, f'a malformed formation_state of vehicle {k}')
         frame = msg.header.frame_id

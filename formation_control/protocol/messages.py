@@ -34,10 +34,15 @@ from typing import Any, Mapping, NamedTuple, Optional, TypeVar
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
                                            ROW_THETA)
-from formation_control.protocol.names import DEFAULT_FRAMES
+from formation_control.core.scenario import Scenario
+from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 import numpy as np
 
 M = TypeVar('M')
+
+ViewRow = tuple[complex, float, float, float]
+"""One vehicle's row of the law's particle view: (r, phase, rate, speed) (complex m, rad, rad/s,
+m/s)."""
 
 
 METRIC_DOC = {
@@ -96,22 +101,22 @@ def yaw_quaternion(orientation: Any, theta: float) -> None:
     orientation.z, orientation.w = quaternion_zw(theta)
 
 
-def stamp_parts(ns: int) -> tuple:
+def stamp_parts(ns: int) -> tuple[int, int]:
     """Return (sec, nanosec) of a time in ns: the fields of a builtin_interfaces/Time."""
     return divmod(int(ns), 1_000_000_000)
 
 
-def stamp_ns(stamp) -> int:
+def stamp_ns(stamp: Any) -> int:
     """Return the time in ns of a builtin_interfaces/Time (``sec``, ``nanosec``)."""
     return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
-def set_time(time, ns: int):
+def set_time(time: Any, ns: int) -> None:
     """Write a time in ns into a builtin_interfaces/Time (``sec``, ``nanosec``)."""
     time.sec, time.nanosec = stamp_parts(ns)
 
 
-def set_stamp(header, ns: int):
+def set_stamp(header: Any, ns: int) -> None:
     """Stamp a std_msgs/Header with a time in ns."""
     set_time(header.stamp, ns)
 
@@ -216,8 +221,9 @@ class FormationState(NamedTuple):
     flow_hat: Optional[complex] = None
 
     @classmethod
-    def of_vehicle(cls, ns: int, X, view_row, hears: Optional[Mapping[int, bool]] = None,
-                   flow_hat: Optional[complex] = None) -> 'FormationState':
+    def of_vehicle(cls, ns: int, X: RealArray, view_row: ViewRow,
+                   hears: Optional[Mapping[int, bool]] = None,
+                   flow_hat: Optional[complex] = None) -> FormationState:
         """
         Return the state of stamp ``ns`` of a vehicle's state column X (6,).
 
@@ -235,22 +241,23 @@ class FormationState(NamedTuple):
         return complex(self.x, self.y)
 
     @property
-    def row(self) -> tuple:
+    def row(self) -> ViewRow:
         """(r, phase, phase_rate, speed): the sender's row of the law's particle view."""
         return self.r, self.phase, self.phase_rate, self.speed
 
-    def names(self) -> tuple:
+    def names(self) -> tuple[str, ...]:
         """Return the JointState ``name`` array (:func:`state_names`)."""
         return state_names(tuple(self.hears), self.flow_hat is not None)
 
-    def values(self) -> tuple:
+    def values(self) -> tuple[float, ...]:
         """Return the JointState ``position`` array, in :meth:`names` order."""
         extra = () if self.flow_hat is None else (self.flow_hat.real, self.flow_hat.imag)
         return (self.x, self.y, self.heading, self.yaw_rate, self.phase, self.phase_rate,
                 self.speed, *(1.0 if h else 0.0 for h in self.hears.values()), *extra)
 
     @classmethod
-    def from_joint(cls, ns: int, names, values) -> 'FormationState':
+    def from_joint(cls, ns: int, names: Iterable[str],
+                   values: Iterable[float]) -> FormationState:
         """
         Return the state of the JointState ``name`` and ``position`` arrays of stamp ``ns``.
 
@@ -266,10 +273,13 @@ class FormationState(NamedTuple):
         return cls.of_layout(int(ns), hears, estimates, tuple(map(float, values)))
 
     @classmethod
-    def of_layout(cls, ns, hears, estimates, values):
+    def of_layout(cls, ns: int, hears: Sequence[int], estimates: bool,
+                  values: Sequence[float]) -> FormationState:
         """Return the state of float ``values`` laid out by :func:`state_names`."""
+        x, y, heading, yaw_rate, phase, phase_rate, speed = values[:_FIRST]
         flags = values[_FIRST:_FIRST + len(hears)]
-        return cls(ns, *values[:_FIRST], dict(zip(hears, [v > 0.5 for v in flags])),
+        return cls(ns, x, y, heading, yaw_rate, phase, phase_rate, speed,
+                   dict(zip(hears, [v > 0.5 for v in flags])),
                    complex(values[-2], values[-1]) if estimates else None)
 
     def finite(self) -> bool:
@@ -281,7 +291,7 @@ class FormationState(NamedTuple):
         return self.hears.get(k, True)
 
 
-def _hears_id(name):
+def _hears_id(name: str) -> int:
     try:
         return int(name[len('hears_'):])
     except ValueError:
@@ -302,7 +312,8 @@ class StateWire:
 
     HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
-    def __init__(self, k, hears=(), frames=DEFAULT_FRAMES, estimates=False):
+    def __init__(self, k: int, hears: Iterable[int] = (), frames: Frames = DEFAULT_FRAMES,
+                 estimates: bool = False) -> None:
         self.k, self.hears, self.frame = k, tuple(hears), frames.base(k)
         self.estimates = estimates
         self.names = state_names(self.hears, estimates)
@@ -322,17 +333,17 @@ class StateWire:
         self.tail = bytes(8)                              # velocity and effort: empty
 
     @classmethod
-    def of(cls, sc, k, frames=DEFAULT_FRAMES):
+    def of(cls, sc: Scenario, k: int, frames: Frames = DEFAULT_FRAMES) -> StateWire:
         """Return vehicle k's wire in scenario ``sc`` (its graph neighbours, its estimate)."""
         hears = () if sc.all_to_all else tuple(sc.comm_graph.neighbours(k))
         return cls(k, hears, frames, sc.flow_source == 'estimated')
 
-    def encode(self, state):
+    def encode(self, state: FormationState) -> bytes:
         """Return the bytes of a :class:`FormationState` in this layout."""
         return b''.join((self.HEADER, struct.pack('<iI', *stamp_parts(state.stamp)),
                          self.middle, self.values.pack(*state.values()), self.tail))
 
-    def decode(self, data):
+    def decode(self, data: bytes) -> FormationState | None:
         """Return the :class:`FormationState` of canonical bytes, else None."""
         if (len(data) < self.values_at + self.values.size or data[:4] != self.HEADER
                 or data[12:self.values_at] != self.middle):

@@ -32,13 +32,14 @@ the link is mutual (it hears this vehicle too), so the sums stay symmetric howev
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable
 import math
 
 from formation_control.core.geometry import BoolArray
 from formation_control.core.laws import View
 from formation_control.protocol.links import Liveness
 from formation_control.protocol.lockstep import FRESH, REPEATED, STALE
+from formation_control.protocol.messages import ViewRow
 import numpy as np
 
 
@@ -119,7 +120,7 @@ class NeighbourTable:
         self.odom_ns = ns
         return FRESH
 
-    def store(self, j: int, ns: int, row: Sequence[float]) -> None:
+    def store(self, j: int, ns: int, row: ViewRow) -> None:
         """
         Keep the state of vehicle ``j`` (1-based) stamped ``ns``.
 
@@ -139,7 +140,7 @@ class NeighbourTable:
         self.table[:, i] = row[1:]
         self.stamp[i] = ns
 
-    def hear(self, j: int, ns: int, row: Sequence[float], hears_me: bool = True) -> bool:
+    def hear(self, j: int, ns: int, row: ViewRow, hears_me: bool = True) -> bool:
         """
         Keep a neighbour's state and mark ``j`` live, unless the state is older than the last.
 

@@ -27,7 +27,7 @@ import re
 from typing import Any
 
 from formation_control.core import scenario
-from formation_control.core.scenario import markdown_table, ScenarioError, Spec
+from formation_control.core.scenario import markdown_table, Scenario, ScenarioError, Spec
 from formation_control.protocol.links import PARAMETERS as LINKS
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
 
@@ -76,7 +76,7 @@ def check_frames(values: Mapping[str, Any], per_vehicle: bool = True) -> None:
                             f"must differ from world_frame {values['world_frame']!r}")
 
 
-def plant_differences(sc, text):
+def plant_differences(sc: Scenario, text: str) -> str:
     """
     Return how a vehicle's scenario ``sc`` differs from the plant's (JSON ``text``), or ''.
 
@@ -92,7 +92,7 @@ def plant_differences(sc, text):
                      for name, mine, plant in scenario.differences(sc, theirs))
 
 
-def check_vehicle(sc, vehicle_id):
+def check_vehicle(sc: Scenario, vehicle_id: int) -> None:
     """
     Refuse a vehicle node of id ``vehicle_id`` in scenario ``sc``.
 

@@ -25,6 +25,7 @@ stamp (:class:`Pairing`). In real time it predicts its state over its measured d
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from formation_control.core.control import Controller
@@ -33,7 +34,7 @@ from formation_control.core.geometry import BoolArray, RealArray
 from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
 from formation_control.core.scenario import Scenario
-from formation_control.protocol.messages import state_from_odom_values
+from formation_control.protocol.messages import state_from_odom_values, ViewRow
 import numpy as np
 
 
@@ -82,7 +83,8 @@ def needs_second_sensor(sc: Scenario) -> str | None:
     return 'water' if sc.model in RIGID_MODELS else None
 
 
-def sampled_state(second, values, other, flow, model):
+def sampled_state(second: str | None, values: Sequence[float], other: Any, flow: complex,
+                  model: str) -> tuple[RealArray, complex]:
     """
     Return the state column (6,) of an odometry's ODOM_FIELDS ``values``, and its flow.
 
@@ -155,6 +157,13 @@ class Onboard:
         self.flow = np.full(1, complex(sc.flow_c))
         self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
 
+    @property
+    def predicted(self) -> RealArray:
+        """Return :attr:`X`; raises RuntimeError before the first :meth:`observe`."""
+        if self.X is None:
+            raise RuntimeError('observe a state before commanding')
+        return self.X
+
     def retune(self, sc: Scenario) -> None:
         """Take the gains of ``sc`` (changed at run time); the PI integrator carries on."""
         integral = self.ctrl.integral
@@ -164,7 +173,7 @@ class Onboard:
             self.estimator.retune(sc)
 
     def observe(self, X: RealArray, flow: complex | None = None, v_ground: complex | None = None,
-                delay: float = 0.0) -> tuple[complex, float, float, float]:
+                delay: float = 0.0) -> ViewRow:
         """
         Note the vehicle's sampled state and return what it tells its neighbours.
 
@@ -217,8 +226,6 @@ class Onboard:
             limit.
 
         """
-        if self.X is None:
-            raise RuntimeError('observe a state before commanding')
-        U = self.ctrl.command(view, self.X, [own], members=members, flow=self.flow)
+        U = self.ctrl.command(view, self.predicted, [own], members=members, flow=self.flow)
         self.U_held = U.copy()
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

@@ -21,13 +21,23 @@ commands each lockstep step waits for (:class:`lockstep.CommandGate`) and, in re
 pacing of the integration steps (:class:`lockstep.Pacer`). Refused commands come back as an
 :class:`intake.Rejection`; vehicles that diverge are reported in :attr:`Plant.errors`.
 """
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any
+
 from formation_control.core import stability
+from formation_control.core.geometry import BoolArray, IntArray
+from formation_control.core.scenario import Scenario
 from formation_control.protocol.fleet import FleetPlant
 from formation_control.protocol.intake import Rejection
 from formation_control.protocol.lockstep import (CommandGate, Pacer, REPEATED, sample_slots,
                                                  STALE)
-from formation_control.protocol.messages import input_from_cmd_values
+from formation_control.protocol.messages import FormationState, input_from_cmd_values
 import numpy as np
+
+Step = tuple[BoolArray, int, bool]
+"""A step to send: the vehicles whose odometry, its stamp (ns), whether it begins a step."""
 
 
 class Plant:
@@ -55,27 +65,30 @@ class Plant:
 
     """
 
-    def __init__(self, sc, lockstep, command_timeout, clock):
+    def __init__(self, sc: Scenario, lockstep: bool, command_timeout: float,
+                 clock: Callable[[], float]) -> None:
         self.sc, self.lockstep, self.clock = sc, lockstep, clock
         self.fleet = FleetPlant(sc)
         self.gate = CommandGate(sc.num_vehicles, command_timeout, clock, lockstep)
-        self.pacer = self.slot = self.wall_start = None
+        self.pacer: Pacer | None = None
+        self.slot: IntArray | None = None
+        self.wall_start: float | None = None
         self.t0_ns, self.wall = 0, 0.0
         self.started = self.finished = self.failed = False
-        self.errors = []
+        self.errors: list[str] = []
 
-    def stamp_ns(self, t):
+    def stamp_ns(self, t: float) -> int:
         """Return the stamp (ns) of simulated time ``t`` (s)."""
         return self.t0_ns + int(round(t * 1e9))
 
-    def begin(self):
+    def begin(self) -> int:
         """Lockstep: begin the step under way; return its stamp (ns), for its odometry."""
         self.started = True
         ns = self.stamp_ns(self.fleet.time)
         self.gate.begin(ns)
         return ns
 
-    def start_clock(self, t0_ns, real_time_factor):
+    def start_clock(self, t0_ns: int, real_time_factor: float) -> float:
         """
         Real time: simulated time 0 is ``t0_ns``; return the tick period (wall s).
 
@@ -87,7 +100,7 @@ class Plant:
         self.slot = sample_slots(self.sc.num_vehicles, self.sc.substeps)
         return 1.0 / tick_rate
 
-    def command(self, k, ns, values):
+    def command(self, k: int, ns: int, values: Sequence[float]) -> bool | Rejection:
         """
         Take vehicle k's command: its CMD_FIELDS ``values`` stamped ns.
 
@@ -105,12 +118,13 @@ class Plant:
         self.fleet.set_command(k - 1, u)
         return True
 
-    def estimate(self, k, state):
+    def estimate(self, k: int, state: FormationState) -> None:
         """Keep the flow estimate of vehicle k's :class:`messages.FormationState`, to record."""
         step = (state.stamp - self.t0_ns) // round(self.sc.dt_control * 1e9)
-        self.fleet.estimate(k - 1, int(step), state.flow_hat)
+        flow_hat = complex(np.nan, np.nan) if state.flow_hat is None else state.flow_hat
+        self.fleet.estimate(k - 1, int(step), flow_hat)
 
-    def advance(self):
+    def advance(self) -> Step | None:
         """
         Lockstep: advance once every vehicle still waited for has commanded the step.
 
@@ -122,12 +136,13 @@ class Plant:
             (:meth:`lockstep.CommandGate.nudge`).
 
         """
-        if not self.lockstep or not self.started or self.finished:
+        step_ns = self.gate.step_ns
+        if not self.lockstep or self.finished or step_ns is None:     # None: not yet started
             return None
         stopped = self.fleet.stopped
         if not self.gate.ready(stopped):
             again = self.gate.nudge(stopped)
-            return None if again is None else (again, self.gate.step_ns, False)
+            return None if again is None else (again, step_ns, False)
         if not self._hold(True):
             return None
         self._integrate()
@@ -136,18 +151,21 @@ class Plant:
         self.fleet.next_period()
         return np.ones(self.sc.num_vehicles, bool), self.begin(), True
 
-    def ticks(self):
+    def ticks(self) -> Iterator[Step]:
         """Real time: integrate the steps the clock has reached; yield each as :meth:`advance`."""
-        for _ in range(self.pacer.due(self.clock())):
-            if self.finished or not self._hold(self.pacer.boundary):
+        pacer, slot = self.pacer, self.slot
+        if pacer is None or slot is None:
+            raise RuntimeError('start the clock before its ticks')
+        for _ in range(pacer.due(self.clock())):
+            if self.finished or not self._hold(pacer.boundary):
                 return
             self._integrate(1)
-            tick = self.pacer.advance()
+            tick = pacer.advance()
             self.fleet.reach_tick(tick)
-            yield (self.slot == tick % self.sc.substeps,
+            yield (slot == tick % self.sc.substeps,
                    self.stamp_ns(tick * self.sc.dt_integration), False)
 
-    def _hold(self, boundary):
+    def _hold(self, boundary: bool) -> bool:
         if self.wall_start is None:
             self.wall_start = self.clock()
         if self.fleet.hold(self.gate.gone(), boundary):
@@ -155,7 +173,7 @@ class Plant:
         self._finish()
         return False
 
-    def _integrate(self, steps=None):
+    def _integrate(self, steps: int | None = None) -> None:
         for i in self.fleet.integrate(steps):
             self.errors.append(
                 f'vehicle {i + 1}: its state became non-finite or exploded after t = '
@@ -167,26 +185,27 @@ class Plant:
             self.failed = True
             self._finish()
 
-    def summary(self):
+    def summary(self) -> tuple[dict[str, float], str]:
         """Return the meta data of the run's record and its one-line summary, once finished."""
         simulated, wall = self.fleet.time, self.wall
         return ({'wall_time': wall, 'simulated_time': simulated},
                 f'plant: {simulated:g} s simulated in {wall:.3g} s of wall time '
                 f'(real-time factor {simulated / max(wall, 1e-9):.3g})')
 
-    def _finish(self):
-        self.wall = self.clock() - self.wall_start
+    def _finish(self) -> None:
+        if self.wall_start is not None:
+            self.wall = self.clock() - self.wall_start
         self.finished = True
         self.gate.close()
 
-    def stalled(self, limit):
+    def stalled(self, limit: float) -> tuple[float, list[int]] | None:
         """Lockstep: (seconds waited, ids of the vehicles missing) past ``limit`` s, else None."""
         waited = self.gate.waiting_for()
         if not self.lockstep or self.finished or waited <= limit:
             return None
         return waited, (np.flatnonzero(self.gate.missing(self.fleet.stopped)) + 1).tolist()
 
-    def status(self, counts):
+    def status(self, counts: Mapping[str, int]) -> tuple[str, str, dict[str, Any]]:
         """
         Return the level ('ok', 'warn' or 'error'), text and values of the plant's status.
 

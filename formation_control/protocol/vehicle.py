@@ -23,19 +23,28 @@ neighbours (:class:`neighbours.NeighbourTable`), holds what the injected link fa
 (:class:`onboard.Delay`) and commands with :class:`onboard.Onboard`. Input it refuses comes
 back as an :class:`intake.Rejection`.
 """
-import math
+from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
+import math
+from typing import Any
+
+from formation_control.core.geometry import RealArray
+from formation_control.core.scenario import Scenario
 from formation_control.protocol import links
 from formation_control.protocol.intake import Rejection, WRONG_FRAME
 from formation_control.protocol.lockstep import REPEATED, STALE
 from formation_control.protocol.messages import FormationState, ground_velocity_of, StateWire
-from formation_control.protocol.names import DEFAULT_FRAMES
+from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 from formation_control.protocol.neighbours import NeighbourTable
 from formation_control.protocol.onboard import (Delay, needs_second_sensor, Onboard, Pairing,
                                                 sampled_state)
 import numpy as np
 
 NON_FINITE = 'non_finite'
+
+Answer = FormationState | Rejection | str | None
+"""What a vehicle makes of a measurement (:meth:`Vehicle.odometry`)."""
 
 
 class Vehicle:
@@ -66,7 +75,8 @@ class Vehicle:
 
     """
 
-    def __init__(self, sc, k, lockstep, link, clock, frames=DEFAULT_FRAMES):
+    def __init__(self, sc: Scenario, k: int, lockstep: bool, link: Mapping[str, Any],
+                 clock: Callable[[], float], frames: Frames = DEFAULT_FRAMES) -> None:
         link = dict(link)
         self.sc, self.k, self.frames = sc, k, frames
         self.known = NeighbourTable(sc.num_vehicles, k, link.pop('neighbor_timeout'), clock,
@@ -79,12 +89,12 @@ class Vehicle:
         self.wire = StateWire.of(sc, k, frames)
         self.saturated = 0
 
-    def retune(self, sc):
+    def retune(self, sc: Scenario) -> None:
         """Take the run-time parameters of ``sc``."""
         self.sc = sc
         self.onboard.retune(sc)
 
-    def flow_heard(self, ns, flow, frame):
+    def flow_heard(self, ns: int, flow: complex, frame: str) -> Answer:
         """Take the known flow (complex m/s) of stamp ns in ``frame``; see :meth:`odometry`."""
         if not (math.isfinite(flow.real) and math.isfinite(flow.imag)):
             return Rejection(NON_FINITE, 'a non-finite flow')
@@ -93,7 +103,7 @@ class Vehicle:
         self.flow = flow
         return self._measure(self.pairing.add_other(ns, flow)) if self.second == 'flow' else None
 
-    def water_heard(self, ns, rel, frame):
+    def water_heard(self, ns: int, rel: Sequence[float], frame: str) -> Answer:
         """Take the water velocity (u, v) of stamp ns in ``frame``; see :meth:`odometry`."""
         if not all(map(math.isfinite, rel)):
             return Rejection(NON_FINITE, 'a non-finite water_velocity')
@@ -101,7 +111,7 @@ class Vehicle:
             return Rejection(WRONG_FRAME, f'a water_velocity in frame {frame!r}')
         return self._measure(self.pairing.add_other(ns, rel))
 
-    def odometry(self, ns, values):
+    def odometry(self, ns: int, values: Sequence[float]) -> Answer:
         """
         Take its odometry's ODOM_FIELDS ``values`` of stamp ns.
 
@@ -118,7 +128,7 @@ class Vehicle:
             return self._measure((ns, values, None))
         return self._measure(self.pairing.add_odometry(ns, values))
 
-    def _measure(self, pair):
+    def _measure(self, pair: tuple[int, Sequence[float], Any] | None) -> Answer:
         if pair is None:
             return None
         ns, values, other = pair
@@ -133,11 +143,11 @@ class Vehicle:
             return REPEATED
         row = self.onboard.observe(X, flow, ground_velocity_of(values), self.delay.ahead)
         self.known.store(self.k, ns, row)
-        return FormationState.of_vehicle(ns, self.onboard.X[:, 0], row,
+        return FormationState.of_vehicle(ns, self.onboard.predicted[:, 0], row,
                                          self.known.hears(self.wire.hears),
                                          self.onboard.flow[0] if self.wire.estimates else None)
 
-    def heard(self, j, state):
+    def heard(self, j: int, state: FormationState) -> bool | Rejection:
         """
         Take neighbour j's :class:`FormationState` as it arrives (the faults may delay it).
 
@@ -150,14 +160,14 @@ class Vehicle:
             return False
         return self.accept(j, state)
 
-    def accept(self, j, state):
+    def accept(self, j: int, state: FormationState) -> bool | Rejection:
         """Put neighbour j's state in the table; see :meth:`heard`."""
         if not self.known.hear(j, state.stamp, state.row, state.hears_vehicle(self.k)):
             return Rejection('stale', f'a formation_state of vehicle {j} stamped '
                                       f'{state.stamp * 1e-9:.3f} s, older than the last one')
         return True
 
-    def command(self):
+    def command(self) -> tuple[int, RealArray, bool] | None:
         """
         Return the command now due: (stamp ns, input (2,), whether it is the first), or None.
 
@@ -173,7 +183,8 @@ class Vehicle:
         self.known.commanded()
         return self.known.odom_ns, u, first
 
-    def stalled(self, now, born, limit):
+    def stalled(self, now: float, born: float,
+                limit: float) -> str | tuple[float, list[int]] | None:
         """
         Lockstep: what the vehicle has waited for more than ``limit`` wall s, else None.
 
@@ -189,7 +200,7 @@ class Vehicle:
             return now - known.since, (np.flatnonzero(known.waiting()) + 1).tolist()
         return None
 
-    def status(self, counts):
+    def status(self, counts: Mapping[str, int]) -> tuple[list[int], str, dict[str, Any]]:
         """
         Return (gone neighbours' ids, text, the diagnostic values) of its links.
 
