@@ -16,6 +16,7 @@
 
 from pathlib import Path
 import sys
+import types
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -73,6 +74,20 @@ def resolve_within_package(app, env, node, contnode):
                                node['reftarget'], node, contnode)
 
 
+def skip_type_alias(app, what, name, obj, skip, options):
+    """
+    Leave the type aliases (``RealArray = NDArray[...]``, ``ViewRow = tuple[...]``) out.
+
+    autosummary takes a generic alias for a class and fails to document it; the aliases are
+    named in the signatures, which the source shows.
+    """
+    if isinstance(obj, (types.GenericAlias, types.UnionType)) or \
+            type(obj).__module__ == 'typing':
+        return True
+    return None
+
+
 def setup(app):
-    """Register the package-wide reference resolver."""
+    """Register the package-wide reference resolver and the alias filter."""
     app.connect('missing-reference', resolve_within_package)
+    app.connect('autodoc-skip-member', skip_type_alias)

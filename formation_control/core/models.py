@@ -71,7 +71,7 @@ _COS = (-1 / 2, 1 / 24, -1 / 720, 1 / 40320)     # cos d = 1 + d^2 (b0 + d^2 (b1
 @dataclass(frozen=True)
 class Plant:
     """
-    Physical parameters of one fleet of identical vehicles (no defaults: see :meth:`of`).
+    Physical parameters of one fleet of identical vehicles (no defaults: see :meth:`Plant.of`).
 
     Attributes
     ----------

@@ -57,7 +57,7 @@ class DivergenceError(ScenarioError):
 
 
 def steering_bandwidth(sc: Scenario) -> float:
-    """Return how fast the steering loop acts (1/s): kappa, K_p, K_P or |K| by controller."""
+    """Return how fast the steering loop acts (1/s): kappa, K_p, K_P or ``|K|`` by controller."""
     return abs(getattr(sc, STEERING_GAINS[sc.controller]))
 
 

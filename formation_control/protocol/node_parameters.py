@@ -81,7 +81,7 @@ def plant_differences(sc: Scenario, text: str) -> str:
     Return how a vehicle's scenario ``sc`` differs from the plant's (JSON ``text``), or ''.
 
     ``name = mine here, theirs at the plant`` for each parameter of
-    :func:`scenario.differences`, joined by ``; ``. Raises ScenarioError for an unreadable
+    :func:`scenario.differences`, joined by a semicolon. Raises ScenarioError for an unreadable
     plant scenario.
     """
     try:

@@ -19,7 +19,7 @@ The ``plant`` node decodes each command (:mod:`intake`), hands it to a :class:`P
 publishes the steps it returns. The plant holds the fleet (:class:`fleet.FleetPlant`), the
 commands each lockstep step waits for (:class:`lockstep.CommandGate`) and, in real time, the
 pacing of the integration steps (:class:`lockstep.Pacer`). Refused commands come back as an
-:class:`intake.Rejection`; vehicles that diverge are reported in :attr:`Plant.errors`.
+:class:`intake.Rejection`; vehicles that diverge are reported in ``Plant.errors``.
 """
 from __future__ import annotations
 
@@ -92,7 +92,7 @@ class Plant:
         """
         Real time: simulated time 0 is ``t0_ns``; return the tick period (wall s).
 
-        :attr:`slot` says which vehicles' odometry each integration step sends, slot 0 now.
+        ``slot`` says which vehicles' odometry each integration step sends, slot 0 now.
         """
         self.started, self.t0_ns = True, t0_ns
         tick_rate = real_time_factor / self.sc.dt_integration
