@@ -314,3 +314,77 @@ def connectivity(members, edges):
     A = np.zeros((m, m))
     A[index[edges[:, 0]], index[edges[:, 1]]] = 1.0
     return algebraic_connectivity(A + A.T)
+
+
+def twisted_states(n, offsets):
+    """
+    Return the stable twisted states of the Laplacian phase potential of a circulant graph.
+
+    Parameters
+    ----------
+    n : int
+        Number of vehicles.
+    offsets : sequence of int
+        Vehicle k hears k +- d for each offset d (the ring: (1,)).
+
+    Returns
+    -------
+    list of int
+        The winding numbers q in 1..n//2 whose twisted state ``psi_k = 2 pi q k / n`` is a
+        strict local minimum of ``sum_arcs (1 - cos(psi_j - psi_k))`` (docs/errata.md,
+        "Twisted states"): its Hessian has the eigenvalues
+        ``lambda_l = sum_d 2 cos(2 pi q d / n) (1 - cos(2 pi l d / n))``, l = 1..n-1, all > 0.
+        On a ring: every q with ``|q| < n/4``.
+
+    """
+    d = np.asarray(offsets, float)[:, None]
+    modes = np.arange(1, n)[None, :]
+    out = []
+    for q in range(1, n // 2 + 1):
+        weight = np.cos(2.0 * np.pi * q * d / n)
+        hessian = np.sum(2.0 * weight * (1.0 - np.cos(2.0 * np.pi * modes * d / n)), axis=0)
+        if np.all(hessian > 1e-12):
+            out.append(q)
+    return out
+
+
+TRAP_STARTS = 64
+"""Random phase starts of :func:`slot_traps`."""
+
+
+def slot_traps(graph, starts=TRAP_STARTS, seed=0, max_steps=20000):
+    """
+    Return the share of random phase starts that end away from synchrony on the graph.
+
+    Parameters
+    ----------
+    graph : Graph
+        The communication graph.
+    starts : int
+        Independent uniformly random starts of the phases.
+    seed : int
+        Seed of the starts (the census is reproducible).
+    max_steps : int
+        Euler steps at most (step ``0.5 / max degree``, inside the stability limit
+        ``2 / lambda_max(L) >= 1 / max degree``).
+
+    Returns
+    -------
+    float
+        The fraction of starts whose gradient flow ``psi_k' = sum_j a_kj sin(psi_j - psi_k)``
+        of the Laplacian phase potential comes to rest (every ``|psi_k'| < 1e-9``) with the
+        order ``|mean e^{i psi}|`` below 0.999: a stable equilibrium that is not synchrony,
+        where a slot pattern stops with its slots wrongly filled.
+
+    """
+    A = graph.adjacency()
+    dt = 0.5 / max(1.0, A.sum(axis=1).max())
+    rng = np.random.default_rng(seed)
+    x = np.exp(2j * np.pi * rng.random((starts, graph.n)))
+    for _ in range(max_steps):
+        rate = (np.conj(x) * (x @ A)).imag
+        if np.all(abs(rate) < 1e-9):
+            break
+        x = x * np.exp(1j * dt * rate)
+    resting = np.all(abs((np.conj(x) * (x @ A)).imag) < 1e-9, axis=1)
+    return float(np.mean(resting & (abs(x.mean(axis=1)) < 0.999)))

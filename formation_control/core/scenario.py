@@ -30,7 +30,7 @@ from formation_control.core.errors import ScenarioError
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
-from formation_control.core.stability import step_warnings
+from formation_control.core.stability import hold_fallback, step_warnings
 import numpy as np
 import yaml
 
@@ -624,6 +624,35 @@ def _check_pattern(sc):
     if sc.pattern_form == 'moments' and not sc.all_to_all:
         _fail('pattern_form', sc.pattern_form, 'the moments are fleet means (all-to-all): on a '
               'limited graph their Laplacian form converges only locally; use slots (or auto)')
+    if sc.pattern_slots and not sc.comm_graph.complete:
+        _check_slot_traps(sc)
+
+
+def _check_slot_traps(sc):
+    """Refuse slots on a graph whose phase potential has stable states other than synchrony."""
+    from formation_control.core import graphs
+    n = sc.num_vehicles
+    if sc.graph in ('ring', 'circulant'):
+        offsets = (1,) if sc.graph == 'ring' else sc.graph_offsets
+        twisted = graphs.twisted_states(n, offsets)
+        if not twisted:
+            return
+        where = (f'a ring of {n}' if sc.graph == 'ring' else
+                 f'the circulant graph {list(offsets)} on {n}')
+        rule = ' (|q| < N/4)' if sc.graph == 'ring' else ''
+        found = (f'{where} has stable twisted states for slots: psi_k = 2 pi q k / N with '
+                 f"q = {', '.join(map(str, twisted))}{rule}")
+    else:
+        share = graphs.slot_traps(sc.comm_graph)
+        if share == 0:
+            return
+        found = (f'the {sc.graph} graph on {n} has stable slot states other than synchrony: '
+                 f'{share:.0%} of {graphs.TRAP_STARTS} random phase starts end in one')
+    dense = math.ceil(0.75 * (n - 1))
+    _fail('graph', sc.graph, f'{found}, where a slot pattern stops with its slots wrongly filled '
+          f'(a splay in coincident pairs, clusters in the wrong number or order). Use graph: '
+          f'complete (the moment form), a tree (graph: explicit without cycles), or a denser '
+          f'graph (every degree >= {dense} = 3 (N - 1) / 4 synchronises from almost every start)')
 
 
 def rhp_zero(sc):
@@ -743,7 +772,11 @@ def resolve(params):
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
-    return replace(sc, warnings=tuple(_check_physics(sc)) + tuple(step_warnings(sc)))
+    notes = _check_physics(sc)
+    hold, fallback = hold_fallback(sc)
+    if fallback:
+        sc, notes = replace(sc, hold_prediction=hold), notes + (fallback,)
+    return replace(sc, warnings=notes + tuple(step_warnings(sc)))
 
 
 def parse_override(text):

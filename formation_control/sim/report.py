@@ -184,7 +184,8 @@ def format_report(title, out, rows):
     time = out['convergence_time']
     lines = [title,
              f"  converged          {'yes' if out['converged'] else 'no'}"
-             + (f', from t = {time:.4g} s' if time is not None else ''),
+             + (f', from t = {time:.4g} s' if time is not None else '')
+             + (f" (fails: {', '.join(out['unmet'])})" if out.get('unmet') else ''),
              f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
     if out.get('pattern'):
         lines.insert(2, f"  predicted pattern  {out['pattern']}")

@@ -380,6 +380,7 @@ def summary(run):
     -------
     dict
         ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end),
+        ``unmet`` (the names of the :func:`metrics.conditions` it fails at the end),
         ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
         ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
         bodies: ``mean_u``, ``mean_v`` (m/s).
@@ -392,7 +393,7 @@ def summary(run):
     flags = metrics.converged(sc, samples)
     final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
-           'converged': bool(flags[-1]),
+           'converged': bool(flags[-1]), 'unmet': metrics.unmet(sc, final),
            'convergence_time': metrics.convergence_time(run.t, flags),
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate}
