@@ -208,6 +208,14 @@ def _explicit(n, flat):
     return np.array(sorted(seen)) - 1
 
 
+def _check_nu(nu, degree):
+    """Refuse a given nu below the largest degree: the laws need every d_k / nu <= 1."""
+    if 0 < nu < degree:
+        _fail('graph_nu', nu, f'must be >= the largest degree {degree} of the graph (every '
+              f'coupling d_k / nu <= 1, as in the all-to-all law; a smaller nu multiplies the '
+              f'formation gains by d_k / nu and makes the laws stiff), or 0 for the default')
+
+
 def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.0):
     """
     Build and validate the communication graph a scenario names.
@@ -237,7 +245,8 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     ------
     GraphError
         Naming the parameter: unknown kind, ids out of range, self or duplicate edges,
-        offsets that repeat a link, a degree out of range, a disconnected graph, nu < 0.
+        offsets that repeat a link, a degree out of range, a disconnected graph, nu < 0 or
+        below the largest degree.
 
     """
     if graph not in GRAPHS:
@@ -245,6 +254,7 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
     if not (math.isfinite(nu) and nu >= 0):
         _fail('graph_nu', nu, 'must be >= 0 (0 = max degree + 1)')
     if graph == 'complete':
+        _check_nu(nu, n - 1)
         return Graph(n, None, float(nu) if nu > 0 else float(n))
     if graph == 'ring':
         if n < 3:
@@ -263,6 +273,7 @@ def build(n, graph='complete', offsets=(1,), degree=4.0, seed=0, edges=(), nu=0.
         _fail(where, value, f'the graph on {n} vehicles is not connected: the Laplacian laws '
               f'need every vehicle linked to every other through some path')
     degrees = np.bincount(pairs.ravel(), minlength=n)
+    _check_nu(nu, int(degrees.max(initial=0)))
     nu = float(nu) if nu > 0 else float(degrees.max(initial=0) + 1)
     return Graph(n, pairs.astype(np.int64), nu)
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import re
 
 from formation_control.core.errors import ScenarioError
+from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
@@ -403,7 +404,7 @@ def _coerce(name, value):
     if not isinstance(value, (list, tuple)):
         _fail(name, value, 'must be a list')
     if name in ('informed', 'graph_offsets', 'graph_edges'):
-        return tuple(_coerce_int_item(name, v) for v in value)
+        return tuple(_coerce_int_item(name, v, value) for v in value)
     out = []
     for v in value:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -412,10 +413,12 @@ def _coerce(name, value):
     return tuple(out)
 
 
-def _coerce_int_item(name, v):
+def _coerce_int_item(name, v, value):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
-        _fail(name, v, 'must be a list of vehicle ids (integers)' if name != 'graph_offsets'
-              else 'must be a list of integers')
+        flat = ' (a flat list [i1, j1, i2, j2, ...], not pairs)' if isinstance(
+            v, (list, tuple)) else ''
+        _fail(name, list(value), f'must be a list of vehicle ids (integers){flat}'
+              if name != 'graph_offsets' else 'must be a list of integers')
     return int(v)
 
 
@@ -498,6 +501,22 @@ Checks across parameters, for rigid bodies (see [errata.md](errata.md), "Rigid-b
 - the full law on tail steering (`law_variant: full`, and always the `pi` controller) closes a
   one-sample loop of gain bandwidth I0 / (l m0 u0), refused from 0.8;
 - PI steering (8.24) needs h u0 / m0 > K_I / K_P.
+
+Checks across parameters, for every model (errata.md, issue 28):
+
+- `graph_nu`, when given, must be at least the largest degree (every d_k / nu <= 1);
+  `graph_edges` applies to `graph: explicit` only, `graph_offsets` to `circulant` only;
+- `flow_model` `time_varying`, `shear` or `vortex` needs a non-zero strength (`flow_amplitude`,
+  `flow_shear`, `flow_circulation`); `flow_source: estimated` needs max |f| below 0.95 of the
+  vehicle speed (the estimate's clamp); a `time_varying` flow that turns the course faster
+  than 0.1 of the laws' rate (|omega0| (s - |f|) circular, |K| parallel) is warned about;
+- a slot pattern is refused on a graph whose phase potential has stable states other than
+  synchrony (a ring or circulant graph with a stable twisted state, or one found by a census
+  of 64 random phase starts);
+- a held loop whose gain times `dt_control` passes half its limit is warned about (with
+  `hold_prediction: midpoint` the limit of a single loop is 1, not 2, and the second-order
+  laws' cascade with the formation loop lowers it further); where only the plain hold is
+  stable, the run falls back to `hold_prediction: none` and says so.
 """
 
 
@@ -553,6 +572,10 @@ def _check_structure(sc):
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
         _fail('informed', list(sc.informed), f'vehicle ids must lie in 1..{sc.num_vehicles}')
+    for name, kind in (('graph_edges', 'explicit'), ('graph_offsets', 'circulant')):
+        if sc.graph != kind and getattr(sc, name) != getattr(_DEFAULTS, name):
+            _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
+                  f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
     from formation_control.core.graphs import GraphError
     try:
         sc.comm_graph
@@ -602,6 +625,47 @@ def _check_flow(sc):
         _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
     if sc.model in RIGID_MODELS and speed >= sc.u0:
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
+    strength = {'time_varying': 'flow_amplitude', 'shear': 'flow_shear',
+                'vortex': 'flow_circulation'}.get(sc.flow_model)
+    if strength and getattr(sc, strength) == 0:
+        _fail(strength, 0.0, f'flow_model {sc.flow_model} needs {strength} != 0 (at 0 the flow '
+              f'is the uniform flow: say flow_model: uniform)')
+    own = vehicle_speed(sc)
+    if sc.flow_source == 'estimated' and speed >= CLAMP * own:
+        _fail(where, value, f'flow_source estimated clamps each estimate to {CLAMP:g} of the '
+              f'vehicle speed {own:g} m/s, so {what} = {speed:.3g} m/s >= {CLAMP * own:.3g} '
+              f'm/s would be underestimated for good (a permanent bias); lower the flow or use '
+              f'flow_source: known')
+
+
+def vehicle_speed(sc):
+    """Return the vehicles' speed relative to the flow (m/s): 1 for particles, u0 rigid."""
+    return sc.u0 if sc.model in RIGID_MODELS else 1.0
+
+
+SLOW_FLOW = 0.1
+"""A time-varying flow is slow when it turns the course below this share of the laws' rate."""
+
+
+def _slow_flow_note(sc):
+    """Return the warning of a time-varying flow too fast for the laws' steady view, or None."""
+    if sc.flow_model != 'time_varying':
+        return None
+    flow = flowfield(sc)
+    s_min = vehicle_speed(sc) - flow.max_speed
+    turn = flow.max_rate() / s_min
+    if sc.formation == 'circular':
+        rate, what = abs(sc.omega0) * s_min, "the circle's own turn rate |omega0| (s - |f|)"
+    else:
+        rate, what = abs(sc.K), 'the parallel gain |K|'
+    if turn <= SLOW_FLOW * rate:
+        return None
+    period = 2.0 * np.pi * sc.flow_amplitude / (SLOW_FLOW * rate * s_min)
+    return (f'flow_period = {sc.flow_period:g} s: the laws treat the flow as steady (no df/dt), '
+            f'and |df/dt| = 2 pi A / T = {flow.max_rate():.3g} m/s^2 turns the course by up to '
+            f'|df/dt| / (s - |f|) = {turn:.3g} rad/s, more than {SLOW_FLOW:g} of {what} = '
+            f'{rate:.3g} rad/s: expect the formation to lag the flow. Use flow_period >= '
+            f'{period:.3g} s or a smaller flow_amplitude')
 
 
 def _check_pattern(sc):
@@ -612,8 +676,9 @@ def _check_pattern(sc):
         _fail('pattern', sc.pattern, 'a symmetric pattern places vehicles on the circle: it '
               'needs formation circular')
     if sc.flow_c != 0 or sc.flow_model != 'uniform':
-        _fail('pattern', sc.pattern, f'flow = {list(sc.flow)} m/s ({sc.flow_model}) is not '
-              f'zero: in a flow no '
+        flow = (f'flow = {list(sc.flow)} m/s' if sc.flow_model == 'uniform' else
+                f'flow_model = {sc.flow_model!r} (flow = {list(sc.flow)} m/s)')
+        _fail('pattern', sc.pattern, f'{flow} is not a zero flow: in a flow no '
               f'fixed phase pattern exists on a circle (the course rate omega0 s_k varies '
               f'with the course, so the vehicles move along the circle relative to each '
               f'other); use flow: [0.0, 0.0] or pattern: none')
@@ -711,7 +776,7 @@ def held_force_loop_gain(sc):
 
 def _check_physics(sc):
     """Check the conditions the rigid-body laws need (errata); return the warnings."""
-    notes = []
+    notes = [note for note in (_slow_flow_note(sc),) if note]
     if sc.model in ('rigid', 'rigid_cop'):
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
         if zero < 0.5 * band:

@@ -376,9 +376,9 @@ def test_ring_twisted_states_are_stable_exactly_for_q_below_n_over_4(n):
     assert graphs.twisted_states(n, (1,)) == [q for q in range(1, n // 2 + 1) if 4 * q < n]
 
 
-@pytest.mark.parametrize('offsets, q, stable', [((1,), 1, True), ((1,), 2, True),
-                                                 ((1,), 3, False), ((1, 3), 1, True),
-                                                 ((1, 3), 2, False), ((2, 3), 1, False)])
+@pytest.mark.parametrize('offsets, q, stable', [
+    ((1,), 1, True), ((1,), 2, True), ((1,), 3, False), ((1, 3), 1, True), ((1, 3), 2, False),
+    ((2, 3), 1, False)])
 def test_the_twisted_hessian_is_that_of_the_phase_potential(offsets, q, stable):
     """Finite differences of U = sum_arcs (1 - cos(dpsi)) / 2 at psi_k = 2 pi q k / 12."""
     g = graphs.build(12, 'circulant', offsets=offsets)
