@@ -138,3 +138,39 @@ def test_midpoint_falls_back_to_the_plain_hold_where_only_that_is_stable():
     assert resolve({**CIRCLE, 'hold_prediction': 'none', 'dt_control': 0.2,
                     'dt_integration': 0.05, 'record_dt': 0.2}).warnings[0].endswith(
         'may oscillate or diverge')
+
+
+def _phi_jacobian(sc, phase):
+    """Return the numerical Jacobian d phi / d phase of the first-order law (N, N)."""
+    from formation_control.core import laws
+    from formation_control.core.control import Controller
+    f = Controller(sc).formation
+    n = sc.num_vehicles
+    r = -1j * np.exp(1j * phase) / sc.omega0 if sc.formation == 'circular' else np.zeros(n)
+
+    def phi(ph):
+        view = laws.View(r, ph, np.zeros(n), np.ones(n), np.zeros(n))
+        return f.terms(view).phi
+    h = 1e-6
+    return np.array([(phi(phase + h * e) - phi(phase - h * e)) / (2 * h)
+                     for e in np.eye(n)]).T
+
+
+@pytest.mark.parametrize('params', [
+    {'formation': 'parallel', 'K': -0.7},
+    {'formation': 'parallel', 'K': -0.7, 'graph': 'ring'},
+    {'formation': 'parallel', 'K': -0.7, 'graph': 'circulant', 'graph_offsets': [1, 3],
+     'graph_nu': 4.0},
+])
+def test_the_formation_rate_is_the_largest_eigenvalue_of_the_law_at_synchrony(params):
+    sc = resolve({'model': 'first_order', 'controller': 'first_order', 'num_vehicles': 8,
+                  **params})
+    eig = np.linalg.eigvals(_phi_jacobian(sc, np.full(8, 0.3)))
+    assert max(abs(eig)) == pytest.approx(stability.formation_rate(sc), rel=1e-6)
+
+
+def test_the_formation_rate_bounds_the_splay_pattern_law():
+    sc = resolve({'model': 'first_order', 'controller': 'first_order', 'num_vehicles': 8,
+                  'formation': 'circular', 'pattern': 'splay'})
+    J = _phi_jacobian(sc, 2 * np.pi * np.arange(8) / 8)
+    assert max(abs(np.linalg.eigvals(J))) <= stability.formation_rate(sc) * (1 + 1e-6)
