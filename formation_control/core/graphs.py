@@ -28,6 +28,7 @@ all-to-all laws), ``ring``, ``circulant`` (vehicle k hears k +- d for each d in
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 import math
 from typing import NoReturn, TYPE_CHECKING
 
@@ -216,6 +217,14 @@ def _explicit(n: int, flat: Sequence[int]) -> IntArray:
     return np.array(sorted(seen)) - 1
 
 
+def _check_nu(nu: float, degree: float) -> None:
+    """Refuse a given nu below the largest degree: the laws need every d_k / nu <= 1."""
+    if 0 < nu < degree:
+        _fail('graph_nu', nu, f'must be >= the largest degree {degree} of the graph (every '
+              f'coupling d_k / nu <= 1, as in the all-to-all law; a smaller nu multiplies the '
+              f'formation gains by d_k / nu and makes the laws stiff), or 0 for the default')
+
+
 def build(n: int, graph: str = 'complete', offsets: Sequence[int] = (1,), degree: float = 4.0,
           seed: int = 0, edges: Sequence[int] = (), nu: float = 0.0) -> Graph:
     """
@@ -246,7 +255,8 @@ def build(n: int, graph: str = 'complete', offsets: Sequence[int] = (1,), degree
     ------
     GraphError
         Naming the parameter: unknown kind, ids out of range, self or duplicate edges,
-        offsets that repeat a link, a degree out of range, a disconnected graph, nu < 0.
+        offsets that repeat a link, a degree out of range, a disconnected graph, nu < 0 or
+        below the largest degree.
 
     """
     if graph not in GRAPHS:
@@ -254,6 +264,7 @@ def build(n: int, graph: str = 'complete', offsets: Sequence[int] = (1,), degree
     if not (math.isfinite(nu) and nu >= 0):
         _fail('graph_nu', nu, 'must be >= 0 (0 = max degree + 1)')
     if graph == 'complete':
+        _check_nu(nu, n - 1)
         return Graph(n, None, float(nu) if nu > 0 else float(n))
     if graph == 'ring':
         if n < 3:
@@ -272,6 +283,7 @@ def build(n: int, graph: str = 'complete', offsets: Sequence[int] = (1,), degree
         _fail(where, value, f'the graph on {n} vehicles is not connected: the Laplacian laws '
               f'need every vehicle linked to every other through some path')
     degrees = np.bincount(pairs.ravel(), minlength=n)
+    _check_nu(nu, int(degrees.max(initial=0)))
     nu = float(nu) if nu > 0 else float(degrees.max(initial=0) + 1)
     return Graph(n, pairs.astype(np.int64), nu)
 
@@ -323,3 +335,101 @@ def connectivity(members: BoolArray, edges: IntArray) -> float:
     A = np.zeros((m, m))
     A[index[edges[:, 0]], index[edges[:, 1]]] = 1.0
     return algebraic_connectivity(A + A.T)
+
+
+def twisted_states(n: int, offsets: Sequence[int]) -> list[int]:
+    """
+    Return the stable twisted states of the Laplacian phase potential of a circulant graph.
+
+    Parameters
+    ----------
+    n : int
+        Number of vehicles.
+    offsets : sequence of int
+        Vehicle k hears k +- d for each offset d (the ring: (1,)).
+
+    Returns
+    -------
+    list of int
+        The winding numbers q in 1..n//2 whose twisted state ``psi_k = 2 pi q k / n`` is a
+        strict local minimum of ``sum_arcs (1 - cos(psi_j - psi_k))`` (docs/errata.md,
+        "Twisted states"): its Hessian has the eigenvalues
+        ``lambda_l = sum_d 2 cos(2 pi q d / n) (1 - cos(2 pi l d / n))``, l = 1..n-1, all > 0.
+        On a ring: every q with ``|q| < n/4``.
+
+    """
+    d = np.asarray(offsets, float)[:, None]
+    modes = np.arange(1, n)[None, :]
+    out = []
+    for q in range(1, n // 2 + 1):
+        weight = np.cos(2.0 * np.pi * q * d / n)
+        hessian = np.sum(2.0 * weight * (1.0 - np.cos(2.0 * np.pi * modes * d / n)), axis=0)
+        if np.all(hessian > 1e-12):
+            out.append(q)
+    return out
+
+
+TRAP_STARTS = 64
+"""Random phase starts of :func:`slot_traps`."""
+
+
+def _in_half_circle(x: RealArray) -> bool:
+    """Return (S,) bool: whether the unit vectors x (S, n) lie in an open half circle."""
+    ang = np.sort(np.angle(x), axis=1)
+    gaps = np.diff(np.concatenate([ang, ang[:, :1] + 2.0 * np.pi], axis=1), axis=1)
+    return gaps.max(axis=1) > np.pi
+
+
+def slot_traps(graph: Graph, starts: int = TRAP_STARTS, seed: int = 0,
+               max_steps: int = 20000) -> float:
+    """
+    Return the share of random phase starts that end away from synchrony on the graph.
+
+    Parameters
+    ----------
+    graph : Graph
+        The communication graph.
+    starts : int
+        Independent uniformly random starts of the phases.
+    seed : int
+        Seed of the starts (the census is reproducible).
+    max_steps : int
+        Euler steps at most (step ``0.5 / max degree``, inside the stability limit
+        ``2 / lambda_max(L) >= 1 / max degree``).
+
+    Returns
+    -------
+    float
+        The fraction of starts whose gradient flow ``psi_k' = sum_j a_kj sin(psi_j - psi_k)``
+        of the Laplacian phase potential comes to rest (every ``|psi_k'| < 1e-9``) outside
+        every open half circle: a stable equilibrium that is not synchrony, where a slot
+        pattern stops with its slots wrongly filled. A start whose phases enter an open half
+        circle is counted as synchronising (on a connected graph the flow keeps such phases in
+        a shrinking arc and converges to synchrony), which ends its integration.
+
+    """
+    return _slot_traps(graph.n, graph.edges.tobytes(), starts, seed, max_steps)
+
+
+@lru_cache(maxsize=64)
+def _slot_traps(n: int, edges: bytes, starts: int, seed: int, max_steps: int) -> float:
+    pairs = np.frombuffer(edges, dtype=np.int64).reshape(-1, 2)
+    A = np.zeros((n, n))
+    A[pairs[:, 0], pairs[:, 1]] = 1.0
+    A = A + A.T
+    dt = 0.5 / max(1.0, A.sum(axis=1).max())
+    rng = np.random.default_rng(seed)
+    x = np.exp(2j * np.pi * rng.random((starts, n)))
+    trapped = np.zeros(starts, bool)
+    for step in range(max_steps):
+        rate = (np.conj(x) * (x @ A)).imag
+        if step % 20 == 0:
+            synced = _in_half_circle(x)
+            trapped = ~synced & np.all(abs(rate) < 1e-9, axis=1)
+            live = ~synced & ~trapped
+            if not live.any():
+                break
+            x, rate = x[live | trapped], rate[live | trapped]
+            trapped = trapped[live | trapped]
+        x = x * np.exp(1j * dt * rate * ~trapped[:, None])
+    return float(np.count_nonzero(trapped) / starts)

@@ -32,11 +32,12 @@ import re
 from typing import Any, NoReturn, TYPE_CHECKING
 
 from formation_control.core.errors import ScenarioError, UsageError
+from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
-from formation_control.core.stability import steering_bandwidth, step_warnings
+from formation_control.core.stability import hold_fallback, steering_bandwidth, step_warnings
 import numpy as np
 import yaml
 
@@ -418,7 +419,7 @@ def _coerce(name: str, value: Any) -> Any:
     if not isinstance(value, (list, tuple)):
         _fail(name, value, 'must be a list')
     if name in ('informed', 'graph_offsets', 'graph_edges'):
-        return tuple(_coerce_int_item(name, v) for v in value)
+        return tuple(_coerce_int_item(name, v, value) for v in value)
     out = []
     for v in value:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -427,10 +428,12 @@ def _coerce(name: str, value: Any) -> Any:
     return tuple(out)
 
 
-def _coerce_int_item(name: str, v: Any) -> int:
+def _coerce_int_item(name: str, v: Any, value: Any) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
-        _fail(name, v, 'must be a list of vehicle ids (integers)' if name != 'graph_offsets'
-              else 'must be a list of integers')
+        flat = ' (a flat list [i1, j1, i2, j2, ...], not pairs)' if isinstance(
+            v, (list, tuple)) else ''
+        _fail(name, list(value), f'must be a list of vehicle ids (integers){flat}'
+              if name != 'graph_offsets' else 'must be a list of integers')
     return int(v)
 
 
@@ -511,6 +514,22 @@ Checks across parameters, for rigid bodies (see [errata.md](errata.md), "Rigid-b
 - the full law on tail steering (`law_variant: full`, and always the `pi` controller) closes a
   one-sample loop of gain bandwidth I0 / (l m0 u0), refused from 0.8;
 - PI steering (8.24) needs h u0 / m0 > K_I / K_P.
+
+Checks across parameters, for every model (errata.md, issue 28):
+
+- `graph_nu`, when given, must be at least the largest degree (every d_k / nu <= 1);
+  `graph_edges` applies to `graph: explicit` only, `graph_offsets` to `circulant` only;
+- `flow_model` `time_varying`, `shear` or `vortex` needs a non-zero strength (`flow_amplitude`,
+  `flow_shear`, `flow_circulation`); `flow_source: estimated` needs max |f| below 0.95 of the
+  vehicle speed (the estimate's clamp); a `time_varying` flow that turns the course faster
+  than 0.1 of the laws' rate (|omega0| (s - |f|) circular, |K| parallel) is warned about;
+- a slot pattern is refused on a graph whose phase potential has stable states other than
+  synchrony (a ring or circulant graph with a stable twisted state, or one found by a census
+  of 64 random phase starts);
+- a held loop whose gain times `dt_control` passes half its limit is warned about (with
+  `hold_prediction: midpoint` the limit of a single loop is 1, not 2, and the second-order
+  laws' cascade with the formation loop lowers it further); where only the plain hold is
+  stable, the run falls back to `hold_prediction: none` and says so.
 """
 
 
@@ -585,6 +604,10 @@ def _check_structure(sc: Scenario) -> None:
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
         _fail('informed', list(sc.informed), f'vehicle ids must lie in 1..{sc.num_vehicles}')
+    for name, kind in (('graph_edges', 'explicit'), ('graph_offsets', 'circulant')):
+        if sc.graph != kind and getattr(sc, name) != getattr(_DEFAULTS, name):
+            _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
+                  f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
     from formation_control.core.graphs import GraphError
     try:
         sc.comm_graph
@@ -634,6 +657,47 @@ def _check_flow(sc: Scenario) -> None:
         _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
     if sc.model in RIGID_MODELS and speed >= sc.u0:
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
+    strength = {'time_varying': 'flow_amplitude', 'shear': 'flow_shear',
+                'vortex': 'flow_circulation'}.get(sc.flow_model)
+    if strength and getattr(sc, strength) == 0:
+        _fail(strength, 0.0, f'flow_model {sc.flow_model} needs {strength} != 0 (at 0 the flow '
+              f'is the uniform flow: say flow_model: uniform)')
+    own = vehicle_speed(sc)
+    if sc.flow_source == 'estimated' and speed >= CLAMP * own:
+        _fail(where, value, f'flow_source estimated clamps each estimate to {CLAMP:g} of the '
+              f'vehicle speed {own:g} m/s, so {what} = {speed:.3g} m/s >= {CLAMP * own:.3g} '
+              f'm/s would be underestimated for good (a permanent bias); lower the flow or use '
+              f'flow_source: known')
+
+
+def vehicle_speed(sc: Scenario) -> float:
+    """Return the vehicles' speed relative to the flow (m/s): 1 for particles, u0 rigid."""
+    return sc.u0 if sc.model in RIGID_MODELS else 1.0
+
+
+SLOW_FLOW = 0.1
+"""A time-varying flow is slow when it turns the course below this share of the laws' rate."""
+
+
+def _slow_flow_note(sc: Scenario) -> str | None:
+    """Return the warning of a time-varying flow too fast for the laws' steady view, or None."""
+    if sc.flow_model != 'time_varying':
+        return None
+    flow = flowfield(sc)
+    s_min = vehicle_speed(sc) - flow.max_speed
+    turn = flow.max_rate() / s_min
+    if sc.formation == 'circular':
+        rate, what = abs(sc.omega0) * s_min, "the circle's own turn rate |omega0| (s - |f|)"
+    else:
+        rate, what = abs(sc.K), 'the parallel gain |K|'
+    if turn <= SLOW_FLOW * rate:
+        return None
+    period = 2.0 * np.pi * sc.flow_amplitude / (SLOW_FLOW * rate * s_min)
+    return (f'flow_period = {sc.flow_period:g} s: the laws treat the flow as steady (no df/dt), '
+            f'and |df/dt| = 2 pi A / T = {flow.max_rate():.3g} m/s^2 turns the course by up to '
+            f'|df/dt| / (s - |f|) = {turn:.3g} rad/s, more than {SLOW_FLOW:g} of {what} = '
+            f'{rate:.3g} rad/s: expect the formation to lag the flow. Use flow_period >= '
+            f'{period:.3g} s or a smaller flow_amplitude')
 
 
 def _check_pattern(sc: Scenario) -> None:
@@ -644,8 +708,9 @@ def _check_pattern(sc: Scenario) -> None:
         _fail('pattern', sc.pattern, 'a symmetric pattern places vehicles on the circle: it '
               'needs formation circular')
     if sc.flow_c != 0 or sc.flow_model != 'uniform':
-        _fail('pattern', sc.pattern, f'flow = {list(sc.flow)} m/s ({sc.flow_model}) is not '
-              f'zero: in a flow no '
+        flow = (f'flow = {list(sc.flow)} m/s' if sc.flow_model == 'uniform' else
+                f'flow_model = {sc.flow_model!r} (flow = {list(sc.flow)} m/s)')
+        _fail('pattern', sc.pattern, f'{flow} is not a zero flow: in a flow no '
               f'fixed phase pattern exists on a circle (the course rate omega0 s_k varies '
               f'with the course, so the vehicles move along the circle relative to each '
               f'other); use flow: [0.0, 0.0] or pattern: none')
@@ -656,6 +721,35 @@ def _check_pattern(sc: Scenario) -> None:
     if sc.pattern_form == 'moments' and not sc.all_to_all:
         _fail('pattern_form', sc.pattern_form, 'the moments are fleet means (all-to-all): on a '
               'limited graph their Laplacian form converges only locally; use slots (or auto)')
+    if sc.pattern_slots and not sc.comm_graph.complete:
+        _check_slot_traps(sc)
+
+
+def _check_slot_traps(sc: Scenario) -> None:
+    """Refuse slots on a graph whose phase potential has stable states other than synchrony."""
+    from formation_control.core import graphs
+    n = sc.num_vehicles
+    if sc.graph in ('ring', 'circulant'):
+        offsets = (1,) if sc.graph == 'ring' else sc.graph_offsets
+        twisted = graphs.twisted_states(n, offsets)
+        if not twisted:
+            return
+        where = (f'a ring of {n}' if sc.graph == 'ring' else
+                 f'the circulant graph {list(offsets)} on {n}')
+        rule = ' (|q| < N/4)' if sc.graph == 'ring' else ''
+        found = (f'{where} has stable twisted states for slots: psi_k = 2 pi q k / N with '
+                 f"q = {', '.join(map(str, twisted))}{rule}")
+    else:
+        share = graphs.slot_traps(sc.comm_graph)
+        if share == 0:
+            return
+        found = (f'the {sc.graph} graph on {n} has stable slot states other than synchrony: '
+                 f'{share:.0%} of {graphs.TRAP_STARTS} random phase starts end in one')
+    dense = math.ceil(0.75 * (n - 1))
+    _fail('graph', sc.graph, f'{found}, where a slot pattern stops with its slots wrongly filled '
+          f'(a splay in coincident pairs, clusters in the wrong number or order). Use graph: '
+          f'complete (the moment form), a tree (graph: explicit without cycles), or a denser '
+          f'graph (every degree >= {dense} = 3 (N - 1) / 4 synchronises from almost every start)')
 
 
 def rhp_zero(sc: Scenario) -> float:
@@ -709,7 +803,7 @@ def held_force_loop_gain(sc: Scenario) -> float:
 
 def _check_physics(sc: Scenario) -> tuple[str, ...]:
     """Check the conditions the rigid-body laws need (errata); return the warnings."""
-    notes = []
+    notes = [note for note in (_slow_flow_note(sc),) if note]
     if sc.model in ('rigid', 'rigid_cop'):
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
         if zero < 0.5 * band:
@@ -770,7 +864,11 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
-    return replace(sc, warnings=tuple(_check_physics(sc)) + tuple(step_warnings(sc)))
+    notes = _check_physics(sc)
+    hold, fallback = hold_fallback(sc)
+    if fallback:
+        sc, notes = replace(sc, hold_prediction=hold), notes + (fallback,)
+    return replace(sc, warnings=notes + tuple(step_warnings(sc)))
 
 
 def parse_override(text: str) -> tuple[str, Any]:

@@ -229,9 +229,9 @@ def survivors_converged(run: Run,
     if not rows:
         return None, None
     sub = resolve({**run.sc.to_dict(), 'num_vehicles': len(rows), 'graph': 'complete',
-                   'graph_edges': [], 'graph_nu': 0.0, 'informed': [], 'pattern': 'none',
-                   'pattern_form': 'auto', 'init_x': [], 'init_y': [], 'init_theta': [],
-                   'init_omega': [], 'init_u': [], 'init_v': []})
+                   'graph_edges': [], 'graph_offsets': [1], 'graph_nu': 0.0, 'informed': [],
+                   'pattern': 'none', 'pattern_form': 'auto', 'init_x': [], 'init_y': [],
+                   'init_theta': [], 'init_omega': [], 'init_u': [], 'init_v': []})
     ctrl = Controller(sub)
     flags = [bool(metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows])))
              for X, U in zip(run.X, run.U)]

@@ -39,6 +39,8 @@ RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
 SPREAD_TOL = 1e-2        # circular: max |c_k - mean(c)| below this (m)
 RADIUS_TOL = 1e-2        # circular: relative error of the mean radius
 PHASE_ORDERS = 8         # patterns: |p_m| reported for m = 1..min(floor(N/2), PHASE_ORDERS)
+MOMENT_TOL = 1e-2        # patterns: |p_m| below this, |p_M| within this of 1/M
+SEPARATION_TOL = 0.1     # splay: the smallest distance at least (1 - this) of the chord
 
 
 @dataclass(frozen=True)
@@ -214,29 +216,84 @@ def phase_orders(phase: RealArray) -> tuple[Value, ...]:
     return tuple(laws._fleet(x) for x in orders)
 
 
-def converged(sc: Scenario, snap: Snapshot) -> bool | BoolArray:
+def needs_separation(sc: Scenario) -> bool:
+    """Return whether :func:`converged` reads the minimum separation (a splay pattern)."""
+    return sc.formation == 'circular' and sc.pattern == 'splay'
+
+
+def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
     """
-    Return whether the formation of the scenario is reached.
+    Return each condition of the convergence test of the scenario, by name.
 
     Parameters
     ----------
     sc : scenario.Scenario
-        The scenario (formation, omega0).
+        The scenario (formation, omega0, pattern, pattern_M, num_vehicles).
     snap : Snapshot
         The fleet's metrics.
 
     Returns
     -------
-    bool, or ndarray of bool for a batch's snapshot
-        Parallel: ``|p| > ORDER_TOL`` and every ``|phase rate| < RATE_TOL`` (rad/s); circular:
-        centre spread below SPREAD_TOL (m) and the mean radius within RADIUS_TOL of
-        ``1/|omega0|``.
+    dict of str to bool, or to ndarray of bool for a batch's snapshot
+        Parallel: ``order`` (``|p| > ORDER_TOL``) and ``turn_rate`` (every
+        ``|phase rate| < RATE_TOL`` rad/s). Circular: ``centre_spread`` (below SPREAD_TOL m)
+        and ``radius`` (mean radius within RADIUS_TOL of ``1/|omega0|``); with a pattern also
+        ``phase_moments`` (:func:`pattern_moments_reached`) and, for a splay, ``separation``
+        (the smallest distance at least ``1 - SEPARATION_TOL`` of the chord
+        ``2 sin(pi/N) / |omega0|``): a splay in coincident pairs is not converged.
 
     """
     if sc.formation == 'parallel':
-        return (snap.order > ORDER_TOL) & (snap.max_rate < RATE_TOL)
-    radius_error = snap.radius * abs(sc.omega0) - 1.0
-    return (snap.spread < SPREAD_TOL) & (-RADIUS_TOL < radius_error) & (radius_error < RADIUS_TOL)
+        return {'order': snap.order > ORDER_TOL, 'turn_rate': snap.max_rate < RATE_TOL}
+    radius_error = np.abs(snap.radius * abs(sc.omega0) - 1.0)
+    out: dict[str, Any] = {'centre_spread': snap.spread < SPREAD_TOL,
+                           'radius': radius_error < RADIUS_TOL}
+    if sc.pattern != 'none':
+        out['phase_moments'] = pattern_moments_reached(sc, snap.phase_orders)
+    if sc.pattern == 'splay':
+        chord = 2.0 * np.sin(np.pi / sc.num_vehicles) / abs(sc.omega0)
+        with np.errstate(invalid='ignore'):
+            out['separation'] = snap.min_separation >= (1.0 - SEPARATION_TOL) * chord
+    return out
+
+
+def pattern_moments_reached(sc: Scenario, orders: Any) -> Any:
+    """
+    Return whether the moduli ``orders`` (|p_1|, |p_2|, ...) are those of the pattern.
+
+    Splay: every ``|p_m| < MOMENT_TOL``; (M, N) pattern: ``|p_m| < MOMENT_TOL`` for m < M and
+    ``|p_M|`` within MOMENT_TOL of ``1/M`` (M clusters of equal size: the zero moments m < M
+    make the cluster sizes equal). Moments beyond those reported (:data:`PHASE_ORDERS`) are
+    not tested; the splay's separation test covers them.
+    """
+    ok: Any = True
+    for m, value in enumerate(orders, start=1):
+        if sc.pattern == 'symmetric' and m == sc.pattern_M:
+            ok = ok & (abs(value - 1.0 / m) < MOMENT_TOL)
+        elif sc.pattern == 'splay' or m < sc.pattern_M:
+            ok = ok & (value < MOMENT_TOL)
+    return ok
+
+
+def converged(sc: Scenario, snap: Snapshot) -> bool | BoolArray:
+    """
+    Return whether the formation of the scenario is reached: every one of :func:`conditions`.
+
+    Returns
+    -------
+    bool, or ndarray of bool for a batch's snapshot
+
+    """
+    flags = list(conditions(sc, snap).values())
+    out = flags[0]
+    for flag in flags[1:]:
+        out = out & flag
+    return out
+
+
+def unmet(sc: Scenario, snap: Snapshot) -> list[str]:
+    """Return the names of the :func:`conditions` a one-fleet snapshot fails (a list)."""
+    return [name for name, ok in conditions(sc, snap).items() if not bool(ok)]
 
 
 def vehicles_converged(ctrl: Controller, view: laws.View) -> BoolArray:

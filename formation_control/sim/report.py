@@ -198,7 +198,8 @@ def format_report(title: str, out: Mapping[str, Any], rows: Iterable[Row]) -> st
     time = out['convergence_time']
     lines = [title,
              f"  converged          {'yes' if out['converged'] else 'no'}"
-             + (f', from t = {time:.4g} s' if time is not None else ''),
+             + (f', from t = {time:.4g} s' if time is not None else '')
+             + (f" (fails: {', '.join(out['unmet'])})" if out.get('unmet') else ''),
              f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
     if out.get('pattern'):
         lines.insert(2, f"  predicted pattern  {out['pattern']}")

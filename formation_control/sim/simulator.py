@@ -302,7 +302,8 @@ class Outcome:
         """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
         if n % self.sc.record_every == 0 or n == self.steps:
             t = n * self.sc.dt_control
-            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=n == self.steps)
+            separation = n == self.steps or metrics.needs_separation(self.sc)
+            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=separation)
             self.times.append(t)
             self.samples.append(np.asarray(metrics.converged(self.sc, self.final)))
             self.X, self.U = X.copy(), U.copy()
@@ -404,6 +405,7 @@ def summary(run: Run) -> dict[str, Any]:
     dict
         ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end,
         evaluated sample by sample: a fleet's views stay in cache),
+        ``unmet`` (the names of the :func:`metrics.conditions` it fails at the end),
         ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
         ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
         bodies: ``mean_u``, ``mean_v`` (m/s).
@@ -412,11 +414,12 @@ def summary(run: Run) -> dict[str, Any]:
     sc = run.sc
     ctrl = Controller(sc)
     flags: list[Any] = []
+    separation = metrics.needs_separation(sc)
     for t, X, U in zip(run.t, run.X, run.U):
-        final = metrics.snapshot(ctrl, X, U, t, separation=False)
-        flags.append(metrics.converged(sc, final))
+        flags.append(metrics.converged(sc, metrics.snapshot(ctrl, X, U, t, separation)))
+    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
-           'converged': bool(flags[-1]),
+           'converged': bool(flags[-1]), 'unmet': metrics.unmet(sc, final),
            'convergence_time': metrics.convergence_time(run.t, flags),
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate}

@@ -41,7 +41,7 @@ from typing import Any, TextIO, TypeAlias
 
 from formation_control.core import scenario
 from formation_control.core.models import ROW_THETA, ROW_X, ROW_Y
-from formation_control.sim import simulator
+from formation_control.sim import metrics, simulator
 import numpy as np
 from numpy.typing import NDArray
 
@@ -234,7 +234,8 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     dict of str to ndarray
         One row per run: ``seed``, ``converged`` (:func:`metrics.converged` at the end, as
         :func:`simulator.summary`), ``convergence_time`` (s, NaN if not converged), the final
-        metrics by name (:meth:`metrics.Snapshot.values`) and ``final_x``, ``final_y``,
+        metrics by name (:meth:`metrics.Snapshot.values`), ``met_<condition>`` for each of
+        :func:`metrics.conditions` at the end, and ``final_x``, ``final_y``,
         ``final_theta`` (runs, N).
 
     """
@@ -242,6 +243,8 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     out = simulator.simulate(sc, simulator.initial_states(sc, seeds), simulator.Outcome(sc))
     rows = {'seed': np.array(seeds, dtype=np.int64), 'converged': out.flags[-1],
             'convergence_time': out.convergence_times()}
+    for name, ok in metrics.conditions(sc, out.final).items():
+        rows[f'met_{name}'] = np.broadcast_to(ok, (len(seeds),)).copy()
     rows.update(out.final.values())
     rows.update(final_x=out.X[ROW_X], final_y=out.X[ROW_Y], final_theta=out.X[ROW_THETA])
     return rows
@@ -569,7 +572,9 @@ def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
     list of dict
         Per grid point: ``label``, ``runs``, ``converged`` (count), ``fraction`` and its 95 %
         Wilson interval ``low``, ``high``; ``t10``, ``t50``, ``t90``, the convergence-time
-        quantiles (s) of the runs that converged (NaN if none).
+        quantiles (s) of the runs that converged (NaN if none); ``failed``, the number of
+        runs that fail each convergence condition (``met_<condition>`` false; NaN where a
+        grid point has no such condition), by name.
 
     """
     axes = json.loads(str(data['axes']))
@@ -581,10 +586,13 @@ def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
         times = data['convergence_time'][mine][ok]
         low, high = wilson(int(ok.sum()), int(ok.size))
         q = np.quantile(times, (0.1, 0.5, 0.9)) if times.size else (np.nan,) * 3
+        failed = {key[4:]: int(np.count_nonzero(data[key][mine] == 0)) for key in sorted(data)
+                  if key.startswith('met_')}
         rows.append({'label': point_label(axes, [params[n] for n in axes]),
                      'runs': int(ok.size), 'converged': int(ok.sum()),
                      'fraction': float(ok.mean()), 'low': low, 'high': high,
-                     't10': float(q[0]), 't50': float(q[1]), 't90': float(q[2])})
+                     't10': float(q[0]), 't50': float(q[1]), 't90': float(q[2]),
+                     'failed': {k: v for k, v in failed.items() if v}})
     return rows
 
 
@@ -592,11 +600,12 @@ def format_table(rows: Sequence[Mapping[str, Any]]) -> str:
     """Return the table of :func:`table` as text, one line per grid point."""
     width = max(len('grid point'), *(len(r['label']) for r in rows))
     lines = [f"{'grid point':{width}s}  {'runs':>5s}  {'converged':>9s}  {'95% CI':>13s}  "
-             f"{'t10 (s)':>8s}  {'median':>8s}  {'t90 (s)':>8s}"]
+             f"{'t10 (s)':>8s}  {'median':>8s}  {'t90 (s)':>8s}  failed on"]
     for r in rows:
+        failed = ', '.join(f'{k} {v}' for k, v in r.get('failed', {}).items())
         lines.append(f"{r['label']:{width}s}  {r['runs']:5d}  {r['fraction']:9.3f}  "
                      f"[{r['low']:.3f}, {r['high']:.3f}]  {r['t10']:8.2f}  {r['t50']:8.2f}  "
-                     f"{r['t90']:8.2f}")
+                     f"{r['t90']:8.2f}  {failed}".rstrip())
     return '\n'.join(lines)
 
 

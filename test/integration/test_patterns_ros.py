@@ -28,8 +28,8 @@ from sensor_msgs.msg import JointState
 @pytest.mark.parametrize('name, overrides', [
     ('particle_circular_splay', ['duration:=3.0']),
     ('rigid_circular_splay', ['duration:=3.0']),
-    ('particle_circular_splay', ['graph:=ring', 'pattern:=symmetric', 'pattern_M:=4',
-                                 'duration:=3.0']),
+    ('particle_circular_splay', ['graph:=random', 'graph_degree:=3.0', 'graph_seed:=1',
+                                 'pattern:=symmetric', 'pattern_M:=4', 'duration:=3.0']),
 ])
 def test_lockstep_pattern_fleet_equals_the_offline_simulator(nodes, tmp_path, name, overrides):
     cfg = CONFIG / f'{name}.yaml'

@@ -36,8 +36,8 @@ import pytest
 CLI = Path(sys.executable).parent / 'formation-control'
 CONFIG = Path(__file__).resolve().parents[2] / 'config'
 STATE_KEYS = ('x', 'y', 'theta', 'omega', 'u', 'v')
-SUMMARY_KEYS = {'num_vehicles', 'duration', 'converged', 'convergence_time', 'order_parameter',
-                'lyapunov', 'max_turn_rate', 'final', 'predicted'}
+SUMMARY_KEYS = {'num_vehicles', 'duration', 'converged', 'unmet', 'convergence_time',
+                'order_parameter', 'lyapunov', 'max_turn_rate', 'final', 'predicted'}
 PARTICLE_OVERRIDES = ['num_vehicles:=4', 'duration:=5.0', 'flow:=[0.2, 0.1]', 'kappa:=4.0']
 AMENT_CASES = pytest.mark.parametrize('ament', [
     pytest.param(True, id='ament_prefix_set'),

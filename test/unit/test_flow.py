@@ -23,7 +23,7 @@ and vortex fields (docs/laws.md, "Flowfields"); bad inputs.
 """
 from formation_control.core import estimation, flowfields, models, scenario
 from formation_control.core.control import Controller
-from formation_control.sim import simulator
+from formation_control.sim import metrics, simulator
 import numpy as np
 import pytest
 from runs import CONFIG, run_of, SOURCES
@@ -178,36 +178,66 @@ def test_run_record_holds_the_estimates(tmp_path):
 
 # --- a slowly turning flow: the bound from the estimator bandwidth -----------------------------
 
+def turning_flow_run(seed, source='estimated'):
+    """Return a run of 6 particles in f = [0.3, 0] + 0.2 e^{i 2 pi t / 60} m/s, 150 s."""
+    sc = scenario.load(CONFIG / 'particle_circular_flow.yaml',
+                       ['flow_model:=time_varying', 'flow_amplitude:=0.2', 'flow_period:=60.0',
+                        'flow:=[0.3, 0.0]', 'num_vehicles:=6', *SOURCES[source]], seed=seed,
+                       duration=150.0)
+    return sc, simulator.simulate(sc)
+
+
+def true_centres(sc, run, since):
+    """Return the true circle centres (T, N) of the samples from ``since`` (s) on."""
+    ctrl = Controller(sc)
+    late = run.t >= since
+    return np.array([ctrl.formation.centres(ctrl.view(X, U[1], ctrl.plant.flow(t, X[0], X[1])))
+                     for t, X, U in zip(run.t[late], run.X[late], run.U[late])])
+
+
+TURNING_LOOP = {'known': (0.17, 0.20), 'estimated': (0.32, 0.36)}
+"""Regression figures (measured, seeds 1-3): the common centre's loop max |mean c - its mean|
+(m) over 90-150 s in the turning flow; the laws omit df/dt (issue 28, item 4, not built)."""
+
+
 @pytest.mark.slow
-def test_turning_flow_keeps_the_circle_within_the_bandwidth_bound():
+@pytest.mark.parametrize('seed', [1, 2, 3])
+def test_turning_flow_keeps_the_true_circle_within_the_estimator_lag_bound(seed):
     """
     In f = f0 + A e^{i w t} the estimation error settles at |e| = A w / sqrt(lambda_f^2 + w^2).
 
     Each vehicle's believed course gamma_hat = arg(e^{i theta} + fhat) is then within
-    asin(|e| / (1 - max|f| - |e|)) of its true course gamma, so its believed circle centre is
-    within that / |omega0| of the true one (errata, "Flow estimation"). The law closes the
-    believed centres; the true centres spread by at most twice the bound more.
+    delta = asin(|e| / (1 - max|f| - |e|)) of its true course, so its believed centre is within
+    delta / |omega0| of its true one (errata, "Flow estimation"). The law gathers the believed
+    centres (to SPREAD_TOL), so the true centres lie within ``SPREAD_TOL + delta / |omega0|``
+    of their mean: a closed-loop property of the true circle. A controller that ignores its
+    estimate (f = 0) spreads them by 0.36 m and drifts 9 m, and fails.
     """
-    A, T = 0.2, 60.0
-    sc = scenario.load(CONFIG / 'particle_circular_flow.yaml',
-                       ['flow_model:=time_varying', f'flow_amplitude:={A}',
-                        f'flow_period:={T}', 'flow:=[0.3, 0.0]', 'num_vehicles:=6',
-                        *ESTIMATED], seed=1, duration=90.0)
-    run = simulator.simulate(sc)
-    ctrl, w = Controller(sc), 2 * np.pi / T
-    e_bound = A * w / np.hypot(sc.flow_gain, w)
+    sc, run = turning_flow_run(seed)
+    ctrl, w = Controller(sc), 2 * np.pi / sc.flow_period
+    e_bound = sc.flow_amplitude * w / np.hypot(sc.flow_gain, w)
+    delta = np.arcsin(e_bound / (1 - 0.5 - e_bound)) / abs(sc.omega0)
+    c = true_centres(sc, run, 90.0)
+    spread = np.max(abs(c - c.mean(axis=1, keepdims=True)))
+    assert spread <= metrics.SPREAD_TOL + 2 * delta
+    radius = np.mean(abs(run.X[-1][0] + 1j * run.X[-1][1] - c[-1].mean()))
+    assert radius == pytest.approx(1 / abs(sc.omega0), rel=0.1)
+    loop = np.max(abs(c.mean(axis=1) - c.mean()))
+    low, high = TURNING_LOOP['estimated']
+    assert low <= loop <= high
     settled = run.t >= 60.0
     true_flow = np.array([ctrl.plant.flow(t, X[0], X[1]) for t, X in zip(run.t, run.X)])
     err = abs(run.flow_hat - true_flow)[settled]
     assert np.max(err) <= e_bound * 1.001 and np.max(err) > 0.9 * e_bound
-    course_bound = np.arcsin(e_bound / (1 - 0.5 - e_bound))
-    for t, X, U, fhat in list(zip(run.t, run.X, run.U, run.flow_hat))[-300::5]:
-        believed = ctrl.formation.centres(ctrl.view(X, U[1], fhat))
-        true = ctrl.formation.centres(ctrl.view(X, U[1], ctrl.plant.flow(t, X[0], X[1])))
-        assert np.max(abs(true - believed)) <= course_bound / abs(sc.omega0)
-        spread = np.max(abs(true - true.mean()))
-        assert spread <= np.max(abs(believed - believed.mean())) + 2 * course_bound
-    assert 2 * course_bound < 0.1                                  # a useful bound: 7 cm
+
+
+@pytest.mark.slow
+def test_turning_flow_known_centre_loop_regression():
+    sc, run = turning_flow_run(1, 'known')
+    c = true_centres(sc, run, 90.0)
+    assert np.max(abs(c - c.mean(axis=1, keepdims=True))) <= 0.05
+    low, high = TURNING_LOOP['known']
+    assert low <= np.max(abs(c.mean(axis=1) - c.mean())) <= high
 
 
 # --- bad inputs -------------------------------------------------------------------------------
@@ -271,24 +301,36 @@ FIELDS = {
     'vortex': ('flow_model:=vortex', 'flow_circulation:=1.0', 'flow_radius:=2.0',
                'flow_center:=[3.0, 0.0]'),
 }
+ROBUSTNESS_SEEDS = range(101, 106)
 ROBUSTNESS = {
-    # (scenario, field, source): centre spread (m), centre drift (m/s), course-rate error
-    # |gamma' - omega0 s| (rad/s), speed error |u - u0| (m/s), over the last 20 s of 60 s
-    ('particle_circular', 'shear', 'known'): (0.048, 0.00051, 0.034, 0.0),
-    ('particle_circular', 'shear', 'estimated'): (0.054, 0.00064, 0.068, 0.0),
-    ('particle_circular', 'vortex', 'known'): (0.028, 0.00065, 0.033, 0.0),
-    ('particle_circular', 'vortex', 'estimated'): (0.049, 0.00088, 0.052, 0.0),
-    ('rigid_circular', 'shear', 'known'): (0.066, 0.0081, 0.0, 4.5e-05),
-    ('rigid_circular', 'shear', 'estimated'): (0.069, 0.012, 0.0, 4e-05),
-    ('rigid_circular', 'vortex', 'known'): (0.068, 0.034, 0.0, 4.9e-05),
-    ('rigid_circular', 'vortex', 'estimated'): (0.073, 0.034, 0.0, 4.4e-05),
+    # Regression figures, not derived bounds: the (lowest, highest) over seeds 101-105 of the
+    # centre spread (m), centre drift (m/s), course-rate error |gamma' - omega0 s| (rad/s) and
+    # speed error |u - u0| (m/s), over the last 20 s of 100 s (README, "Shear and vortex").
+    ('particle_circular', 'shear', 'known'):
+        ((0.045, 0.056), (0.00018, 0.0018), (0.031, 0.042), (0.0, 0.0)),
+    ('particle_circular', 'shear', 'estimated'):
+        ((0.047, 0.059), (0.00025, 0.0016), (0.064, 0.074), (0.0, 0.0)),
+    ('particle_circular', 'vortex', 'known'):
+        ((0.013, 0.04), (0.00015, 0.0086), (0.017, 0.033), (0.0, 0.0)),
+    ('particle_circular', 'vortex', 'estimated'):
+        ((0.028, 0.046), (0.00017, 0.0059), (0.031, 0.051), (0.0, 0.0)),
+    ('rigid_circular', 'shear', 'known'):
+        ((0.053, 0.066), (0.00087, 0.015), (0.0, 0.0), (4.5e-05, 5.4e-05)),
+    ('rigid_circular', 'shear', 'estimated'):
+        ((0.074, 0.086), (0.001, 0.019), (0.0, 0.0), (3.1e-05, 4.8e-05)),
+    ('rigid_circular', 'vortex', 'known'):
+        ((0.026, 0.041), (0.02, 0.027), (0.0, 0.0), (2.4e-05, 3.7e-05)),
+    ('rigid_circular', 'vortex', 'estimated'):
+        ((0.029, 0.05), (0.02, 0.026), (0.0, 0.0), (2.5e-05, 3.5e-05)),
 }
+ENVELOPE_MARGIN = 1.1
+"""The envelopes are rounded to 2 digits: a figure may lie this factor outside them."""
 
 
-def robustness(name, field, source, seconds=20.0):
-    """Return the measured figures of ROBUSTNESS for one run (seed 1, 60 s)."""
-    sc = scenario.load(CONFIG / f'{name}.yaml', [*FIELDS[field], *SOURCES[source]], seed=1,
-                       duration=60.0)
+def robustness(name, field, source, seed, seconds=20.0):
+    """Return the measured figures of ROBUSTNESS for one run (100 s)."""
+    sc = scenario.load(CONFIG / f'{name}.yaml', [*FIELDS[field], *SOURCES[source]], seed=seed,
+                       duration=100.0)
     run = simulator.simulate(sc)
     ctrl = Controller(sc)
     late = run.t >= run.t[-1] - seconds
@@ -311,12 +353,16 @@ def test_robustness_in_shear_and_vortex_fields(name, field, source):
     """
     What the laws, made for a uniform flow, do in one that is not: the table of docs/laws.md.
 
-    The circle holds together to a few centimetres, its centre drifts (the vortex carries a
-    rigid fleet at 3.4 cm/s), and the steady turn is kept to a few hundredths of a rad/s;
-    estimating the flow costs little, since each vehicle tracks its own local flow.
+    From every seed the circle holds together to under 10 cm and the steady turn is kept to
+    under 0.1 rad/s; each figure stays within its multi-seed envelope (a regression figure,
+    not a bound: the drift of an estimating rigid fleet in shear ranges 0.001-0.019 m/s).
     """
-    measured = robustness(name, field, source)
-    np.testing.assert_allclose(measured, ROBUSTNESS[name, field, source], rtol=0.1, atol=1e-12)
+    for seed in ROBUSTNESS_SEEDS:
+        measured = robustness(name, field, source, seed)
+        spread, _, rate, speed = measured
+        assert spread < 0.1 and rate < 0.1 and speed < 1e-4
+        for value, (low, high) in zip(measured, ROBUSTNESS[name, field, source]):
+            assert low / ENVELOPE_MARGIN <= value <= high * ENVELOPE_MARGIN
 
 
 def test_pairing_matches_odometry_and_second_sensor_by_stamp_in_either_order():

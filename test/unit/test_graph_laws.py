@@ -195,7 +195,7 @@ def test_a_fleet_converges_while_its_graph_switches_between_connected_graphs():
     ({'graph': 'explicit', 'graph_edges': [2, 2, 1, 2, 2, 3, 3, 4]}, r"'graph_edges' .* self"),
     ({'graph': 'circulant', 'graph_offsets': [2]}, r"'graph_offsets' = \[2\] is invalid"),
     ({'graph': 'circulant', 'graph_offsets': [1.5]},
-     r"'graph_offsets' = 1.5 is invalid: must be a list of integers"),
+     r"'graph_offsets' = \[1.5\] is invalid: must be a list of integers"),
     ({'graph': 'mesh'}, r"'graph' = 'mesh' is invalid: allowed values: complete \| ring"),
     ({'graph_nu': -2.0}, r"'graph_nu' = -2.0 is invalid: must be >= 0"),
 ])

@@ -340,3 +340,130 @@ def test_report_states_the_predicted_pattern_and_the_plot_marks_the_places(tmp_p
     assert pred['phase_order_2'][0] == 0.0 and pred['min_separation'][0] == 0.0
     assert 'phase_order_1' not in report.predictions(replace(sym, pattern='none'),
                                                      scenario.initial_state(sym))
+
+
+def circle_state(sc, phase):
+    """Return the states (6, N) of vehicles on the unit circle about 0 heading along it."""
+    X = np.zeros((6, sc.num_vehicles))
+    r = -1j * np.exp(1j * phase) / sc.omega0                 # c_k = r_k + i e_k / omega0 = 0
+    X[0], X[1], X[2] = r.real, r.imag, phase
+    X[3], X[4] = sc.omega0, 1.0
+    return X
+
+
+@pytest.mark.parametrize('n', [8, 12, 16])
+def test_a_paired_splay_is_not_converged_and_says_why(n):
+    """The twisted state q = 1 of ring slots: phases 4 pi k / N, N/2 coincident pairs."""
+    sc = scenario.load(CONFIG / 'particle_circular_splay.yaml', [f'num_vehicles:={n}'])
+    ctrl = Controller(sc)
+    k = np.arange(n)
+    for phase, unmet in [(2 * np.pi * k / n, []),
+                         (4 * np.pi * k / n, ['phase_moments', 'separation'])]:
+        X = circle_state(sc, phase)
+        snap = metrics.snapshot(ctrl, X, np.zeros((2, n)))
+        assert snap.spread < 1e-12 and metrics.conditions(sc, snap)['radius']
+        assert metrics.unmet(sc, snap) == unmet
+        assert bool(metrics.converged(sc, snap)) is not unmet
+
+
+def test_unequal_or_too_few_clusters_are_not_converged():
+    sc = scenario.load(CONFIG / 'particle_circular_symmetric.yaml')
+    n, m = sc.num_vehicles, sc.pattern_M
+    ctrl = Controller(sc)
+    k = np.arange(n)
+    for phase, ok in [(2 * np.pi * (k % m) / m, True), (2 * np.pi * (k % (m - 1)) / (m - 1),
+                                                        False)]:
+        snap = metrics.snapshot(ctrl, circle_state(sc, phase), np.zeros((2, n)))
+        assert bool(metrics.converged(sc, snap)) is ok
+        assert ok or metrics.unmet(sc, snap) == ['phase_moments']
+
+
+@pytest.mark.parametrize('n', range(3, 41))
+def test_ring_twisted_states_are_stable_exactly_for_q_below_n_over_4(n):
+    assert graphs.twisted_states(n, (1,)) == [q for q in range(1, n // 2 + 1) if 4 * q < n]
+
+
+@pytest.mark.parametrize('offsets, q, stable', [
+    ((1,), 1, True), ((1,), 2, True), ((1,), 3, False), ((1, 3), 1, True), ((1, 3), 2, False),
+    ((2, 3), 1, False)])
+def test_the_twisted_hessian_is_that_of_the_phase_potential(offsets, q, stable):
+    """Finite differences of U = sum_arcs (1 - cos(dpsi)) / 2 at psi_k = 2 pi q k / 12."""
+    g = graphs.build(12, 'circulant', offsets=offsets)
+    src, dst = g.arcs
+    psi0 = 2 * np.pi * q * np.arange(12) / 12
+
+    def u(psi):
+        return 0.5 * np.sum(1 - np.cos(psi[dst] - psi[src]))
+    h, eye = 1e-4, np.eye(12)
+    H = np.array([[(u(psi0 + h * (a + b)) - u(psi0 + h * (a - b)) - u(psi0 - h * (a - b))
+                    + u(psi0 - h * (a + b))) / (4 * h * h) for b in eye] for a in eye])
+    eig = np.sort(np.linalg.eigvalsh(H))[1:]                 # the common rotation: 0
+    assert bool(np.all(eig > 1e-6)) is stable
+    assert (q in graphs.twisted_states(12, offsets)) is stable
+
+
+@pytest.mark.parametrize('n', [8, 12, 16])
+def test_the_phase_census_finds_the_ring_traps_and_none_on_trees_or_dense_graphs(n):
+    assert graphs.slot_traps(graphs.build(n, 'ring')) > 0.1
+    tree = [x for k in range(2, n + 1) for x in (k // 2, k)]        # a binary tree
+    assert graphs.slot_traps(graphs.build(n, 'explicit', edges=tree)) == 0
+    dense = tuple(range(1, (n + 1) // 2))
+    assert graphs.slot_traps(graphs.build(n, 'circulant', offsets=dense)) == 0
+
+
+@pytest.mark.parametrize('n', [8, 12, 16])
+@pytest.mark.parametrize('pattern', ['splay', 'symmetric'])
+def test_slots_on_a_ring_are_refused_with_the_graph_property_and_what_to_use(n, pattern):
+    with pytest.raises(scenario.ScenarioError) as err:
+        scenario.load(CONFIG / 'particle_circular_splay.yaml', [
+            f'num_vehicles:={n}', 'graph:=ring', f'pattern:={pattern}', 'pattern_M:=4'])
+    text = str(err.value)
+    assert text.startswith(f"parameter 'graph' = 'ring' is invalid: a ring of {n} has stable "
+                           f'twisted states for slots: psi_k = 2 pi q k / N with q = 1')
+    assert '(|q| < N/4)' in text and 'coincident pairs' in text
+    assert 'Use graph: complete (the moment form), a tree' in text
+
+
+def test_slots_on_a_graph_the_census_traps_are_refused():
+    edges = [x for k in range(1, 12) for x in (k, k + 1)] + [12, 1, 1, 7]   # two 7-cycles
+    assert graphs.slot_traps(graphs.build(12, 'explicit', edges=edges)) > 0
+    with pytest.raises(scenario.ScenarioError, match=r"'graph' = 'explicit' is invalid: the "
+                       r'explicit graph on 12 has stable slot states other than synchrony'):
+        scenario.load(CONFIG / 'particle_circular_splay.yaml', [
+            'graph:=explicit', f'graph_edges:={edges}'])
+
+
+CENSUS_SEEDS = range(1, 21)
+
+
+def census(sc, seeds=CENSUS_SEEDS):
+    """Return the end of a batch of runs of sc, one per seed, and its convergence conditions."""
+    out = simulator.simulate(sc, simulator.initial_states(sc, seeds), simulator.Outcome(sc))
+    return out, metrics.conditions(sc, out.final)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('n', [8, 12, 16])
+def test_census_slots_forced_on_a_ring_pair_and_are_reported_unconverged(n):
+    """The refusal's reason, from 20 seeds: ring slots (past the refusal) end paired."""
+    sc = scenario.load(CONFIG / 'particle_circular_splay.yaml', [
+        f'num_vehicles:={n}', 'duration:=250.0', 'record_dt:=5.0'])
+    ring = replace(sc, graph='ring', pattern_form='slots')
+    out, cond = census(ring)
+    chord = 2 * np.sin(np.pi / n)
+    paired = out.final.min_separation < 0.01 * chord
+    assert paired.sum() >= 3                                 # measured: 7, 7, 8 of 20
+    assert not np.any(out.flags[-1][paired]) and not np.any(cond['separation'][paired])
+    assert np.all(cond['centre_spread'])                     # on one circle all the same
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('n', [8, 12, 16])
+def test_census_no_seed_ends_paired_on_the_graphs_the_pattern_is_allowed_on(n):
+    """20 seeds of the splay on the complete graph (moments): all converged, none paired."""
+    sc = scenario.load(CONFIG / 'particle_circular_splay.yaml', [
+        f'num_vehicles:={n}', 'duration:=250.0', 'record_dt:=5.0'])
+    out, cond = census(sc)
+    chord = 2 * np.sin(np.pi / n)
+    assert np.all(out.final.min_separation > (1 - CHORD_RTOL) * chord)
+    assert np.all(out.flags[-1]) and all(np.all(v) for v in cond.values())

@@ -123,3 +123,11 @@ def test_command_limits_clip_and_flag(model, limit, row):
 def test_negative_limit_is_refused_with_its_name():
     with pytest.raises(ScenarioError, match="'max_thrust' = -1.0 .*>= 0 \\(0 = no limit\\)"):
         scenario.resolve({'model': 'rigid', 'max_thrust': -1.0})
+
+
+def test_the_report_names_the_conditions_a_run_fails():
+    run = run_of('particle_circular_splay', 1, ('duration:=2.0',))
+    out, rows = report.report(run)
+    assert not out['converged'] and 'phase_moments' in out['unmet']
+    line = report.format_report('t', out, rows).splitlines()[1]
+    assert line == f"  converged          no (fails: {', '.join(out['unmet'])})"

@@ -457,3 +457,44 @@ def test_each_range_of_the_table_is_enforced(name):
     _refused(rf"parameter '{name}' = .* is invalid: must be {'>' if spec.above else '>='} "
              rf'{spec.low:g}', **base, **{name: value})
     resolve(dict(base, **{name: getattr(Scenario(), name)}))
+
+
+RING = {'formation': 'circular', 'graph': 'ring', 'num_vehicles': 12}
+
+
+@pytest.mark.parametrize('params, match', [
+    ({**RING, 'graph_nu': 0.2}, r"'graph_nu' = 0.2 is invalid: must be >= the largest degree 2"),
+    ({'graph_nu': 3.0, 'num_vehicles': 6}, r"'graph_nu' = 3.0 .* largest degree 5"),
+    ({**RING, 'graph_edges': [1, 2]}, r"'graph_edges' = \[1, 2\] is invalid: applies to graph: "
+                                      r"explicit only \(graph is 'ring'"),
+    ({'graph_offsets': [2]}, r"'graph_offsets' = \[2\] is invalid: applies to graph: circulant"),
+    ({'graph': 'explicit', 'graph_edges': [[1, 2], [2, 3]], 'num_vehicles': 3},
+     r"'graph_edges' = \[\[1, 2\], \[2, 3\]\] is invalid: .*flat list"),
+    ({'flow_model': 'vortex'}, r"'flow_circulation' = 0.0 is invalid: flow_model vortex needs"),
+    ({'flow_model': 'time_varying'}, r"'flow_amplitude' = 0.0 .* say flow_model: uniform"),
+    ({'flow_model': 'shear'}, r"'flow_shear' = 0.0 is invalid"),
+    ({'flow': [0.97, 0.0], 'flow_source': 'estimated'},
+     r"'flow' = \[0.97, 0.0\] is invalid: flow_source estimated clamps each estimate to 0.95"),
+    ({'formation': 'circular', 'pattern': 'splay', 'flow_model': 'vortex',
+      'flow_circulation': 1.0}, r"flow_model = 'vortex' \(flow = \[0.0, 0.0\] m/s\) is not a "
+                                r'zero flow'),
+])
+def test_parameters_that_would_be_ignored_or_mislead_are_refused_by_name(params, match):
+    with pytest.raises(scenario.ScenarioError, match=match):
+        resolve(params)
+
+
+def test_the_largest_degree_is_a_valid_nu_and_the_estimate_below_its_clamp_runs():
+    assert resolve({**RING, 'graph_nu': 2.0}).comm_graph.nu == 2.0
+    assert resolve({'flow': [0.94, 0.0], 'flow_source': 'estimated'}).flow_source == 'estimated'
+
+
+@pytest.mark.parametrize('period, warned', [(0.5, True), (38.0, True), (39.0, False)])
+def test_a_flow_turning_too_fast_for_the_steady_view_is_warned_about(period, warned):
+    sc = resolve({'formation': 'circular', 'flow_model': 'time_varying', 'flow_amplitude': 0.3,
+                  'flow_period': period})
+    notes = [w for w in sc.warnings if w.startswith(f'flow_period = {period:g} s')]
+    assert bool(notes) is warned
+    if warned:
+        assert f'|df/dt| = 2 pi A / T = {2 * math.pi * 0.3 / period:.3g} m/s^2' in notes[0]
+        assert 'Use flow_period >= 38.5 s' in notes[0]

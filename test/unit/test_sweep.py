@@ -214,6 +214,21 @@ def test_cli_table_plot_and_columns(tmp_path, capsys):
         assert d['final_x'].shape == (6, 5) and d['kappa'].tolist() == [4.0] * 3 + [6.0] * 3
         assert set(json.loads(str(d['axes']))) == {'kappa'}
         assert not d['converged'].any() and np.isnan(d['convergence_time']).all()
+        assert not d['met_centre_spread'].any()
+    assert text.splitlines()[0].endswith('failed on')
+    assert 'centre_spread 3' in text.splitlines()[1]
+
+
+def test_the_table_counts_the_conditions_each_grid_point_fails():
+    data = {'axes': json.dumps(['K']), 'params': json.dumps([{'K': 1.0}, {'K': 2.0}]),
+            'grid_point': np.array([0, 0, 1, 1]), 'converged': np.array([True, False] * 2),
+            'convergence_time': np.array([1.0, np.nan] * 2),
+            'met_separation': np.array([True, False, True, np.nan]),
+            'met_radius': np.array([True, True, True, False])}
+    rows = sweep.table(data)
+    assert rows[0]['failed'] == {'separation': 1}
+    assert rows[1]['failed'] == {'radius': 1}
+    assert sweep.format_table(rows).splitlines()[1].endswith('separation 1')
 
 
 def test_wilson_interval():
