@@ -83,8 +83,12 @@ demo: setup
 	ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-37} $(VENV)/bin/formation-control swarm \
 		config/rigid_circular.yaml --duration 60 --out demo.npz --plot demo.png
 
+# Two pytest workers (pytest-xdist), each taking whole test files: the integration tests wait
+# on DDS and processes much of the time, the unit tests compute. JOBS=0 runs them in this one
+# process.
+JOBS ?= 2
 test: setup
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile
 
 # The unit tests but the long simulations (test/unit: pure, no DDS; the tests marked slow
 # are left out), in under a minute.

@@ -84,7 +84,7 @@ def formation_rate(sc: Scenario) -> float:
     ``(|K| + K_pattern) lambda_max(L) / nu``: the Jacobian of phi in the phases is the sum of
     the formation's ``-|K| L / nu`` (all-to-all ``-|K| (I - 1 1^T / N)``: ``lambda_max / nu = 1``)
     and the pattern potential's Hessian, whose eigenvalues are at most the slot gain times
-    ``lambda_max(L) / nu`` or the largest moment gain |K_m| (docs/errata.md).
+    ``lambda_max(L) / nu`` or the largest moment gain ``|K_m|`` (docs/errata.md).
     """
     spread = 1.0
     if not sc.all_to_all:

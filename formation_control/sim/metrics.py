@@ -259,11 +259,11 @@ def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
 
 def pattern_moments_reached(sc: Scenario, orders: Any) -> Any:
     """
-    Return whether the moduli ``orders`` (|p_1|, |p_2|, ...) are those of the pattern.
+    Return whether the moduli ``orders`` (``|p_1|, |p_2|, ...``) are those of the pattern.
 
     Splay: every ``|p_m| < MOMENT_TOL``; (M, N) pattern: ``|p_m| < MOMENT_TOL`` for m < M and
     ``|p_M|`` within MOMENT_TOL of ``1/M`` (M clusters of equal size: the zero moments m < M
-    make the cluster sizes equal). Moments beyond those reported (:data:`PHASE_ORDERS`) are
+    make the cluster sizes equal). Moments beyond those reported (``PHASE_ORDERS``) are
     not tested; the splay's separation test covers them.
     """
     ok: Any = True
