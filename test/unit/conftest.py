@@ -16,11 +16,12 @@
 The unit tests: pure, no DDS.
 
 They run in a plain numpy venv; those needing a tool that is not installed there (the ament
-linters) are left out with the reason.
+linters, mypy, rosidl's parser) are left out with the reason.
 """
 import importlib.util
 
-NEEDS = {'test_flake8.py': 'ament_flake8', 'test_pep257.py': 'ament_pep257'}
+NEEDS = {'test_flake8.py': 'ament_flake8', 'test_pep257.py': 'ament_pep257',
+         'test_mypy.py': 'mypy', 'test_interface_definitions.py': 'rosidl_adapter'}
 collect_ignore = [name for name, module in NEEDS.items()
                   if importlib.util.find_spec(module) is None]
 for name in collect_ignore:
