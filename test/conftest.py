@@ -116,6 +116,8 @@ def colcon_workspace(tmp_path_factory):
         '*.png', '.pytest_cache'))
     command = colcon_build_command(src, msgs=not MSGS_TOOLS)
     env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}')
+    for var in ('AMENT_PREFIX_PATH', 'CMAKE_PREFIX_PATH'):     # the venv holds the ROS wheels
+        env[var] = os.pathsep.join(filter(None, [sys.prefix, os.environ.get(var)]))
     result = subprocess.run(command, cwd=ws, env=env, capture_output=True, text=True,
                             timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr

@@ -37,7 +37,7 @@ ROS2 = str(BIN / 'ros2') if (BIN / 'ros2').exists() else shutil.which('ros2')
 ROUND_TRIP = r"""
 import json, math, sys
 from rclpy.serialization import deserialize_message, serialize_message
-from rosidl_runtime_py.utilities import get_message
+import formation_control_msgs.msg as interfaces
 
 def filled(cls, seed):
     msg = cls()
@@ -66,7 +66,7 @@ def filled(cls, seed):
 
 out = {}
 for name in sys.argv[1:]:
-    cls = get_message(f'formation_control_msgs/msg/{name}')
+    cls = getattr(interfaces, name)
     msg = filled(cls, seed=len(name))
     data = serialize_message(msg)
     back = deserialize_message(data, cls)
