@@ -85,10 +85,11 @@ demo: setup
 
 # Two pytest workers (pytest-xdist), each taking whole test files: the integration tests wait
 # on DDS and processes much of the time, the unit tests compute. JOBS=0 runs them in this one
-# process.
+# process. The tests marked serial (the TLS fleet) run alone afterwards.
 JOBS ?= 2
 test: setup
-	$(PY) -m pytest -q -n $(JOBS) --dist loadfile
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m 'not serial'
+	$(PY) -m pytest -q -m serial
 
 # The unit tests but the long simulations (test/unit: pure, no DDS; the tests marked slow
 # are left out), in under a minute.
