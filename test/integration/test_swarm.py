@@ -105,16 +105,21 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
     assert last.child_frame_id == 'vehicle_2/base_link'
 
 
-def _fleet_pids(domain_id):
-    """Return the processes of this test's domain running the plant, a vehicle or the monitor."""
+def _fleet_pids(domain_id, parent):
+    """
+    Return the processes ``parent`` started in this test's domain: the plant, vehicles, monitor.
+
+    By parent, not by domain alone: a domain id is reused once a test has released it.
+    """
     pids = []
     for entry in Path('/proc').iterdir():
         try:
             environ = (entry / 'environ').read_bytes().split(b'\0')
             cmdline = (entry / 'cmdline').read_bytes().split(b'\0')
-        except (OSError, ValueError):
+            ppid = int((entry / 'stat').read_text().rpartition(')')[2].split()[1])
+        except (OSError, ValueError, IndexError):
             continue
-        if (f'ROS_DOMAIN_ID={domain_id}'.encode() in environ
+        if (ppid == parent and f'ROS_DOMAIN_ID={domain_id}'.encode() in environ
                 and any(arg.endswith((b'/plant', b'/vehicle', b'/monitor')) for arg in cmdline)):
             pids.append(int(entry.name))
     return pids
@@ -129,7 +134,7 @@ def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
                             '-p', 'num_vehicles:=3', '--duration', '600')
     cmds = ros.probe.collect(WrenchStamped, '/vehicle_3/cmd', STATE_QOS)
     assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
-    fleet = _fleet_pids(ros.domain_id)
+    fleet = _fleet_pids(ros.domain_id, swarm.pid)
     assert len(fleet) == 5
     swarm.send_signal(sig)
     code = swarm.wait(timeout=30)
