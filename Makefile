@@ -8,8 +8,9 @@ STAMP := $(VENV)/.installed
 CONSTRAINTS := constraints.txt
 # What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
 # (sweeps on a cluster; its tests run with a LocalCluster), test/linter tools, Sphinx for the
-# docs site and the wheels that build formation_control_msgs (setup.py's extras).
-EXTRAS := .[ros,view,cluster,test,docs,msgs-build]
+# docs site, the wheels that build formation_control_msgs and pytest-benchmark (setup.py's
+# extras).
+EXTRAS := .[ros,view,cluster,test,docs,msgs-build,bench]
 # The interface package, built with cmake from those wheels and installed into the venv (its
 # Python modules into site-packages, its libraries into lib/, which the ROS wheels put on the
 # library path): `import formation_control_msgs.msg` and `ros2 interface show` then work in
@@ -32,7 +33,8 @@ ROS2_TOOLS ?= $(firstword $(wildcard ../shared/ros2-tools))
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
-.PHONY: setup upgrade demo test test-fast docs lint copyright bench clean
+.PHONY: setup upgrade demo test test-fast docs lint copyright bench bench-scripts bench-compare \
+	clean
 
 setup: $(STAMP) $(MSGS_STAMP)
 
@@ -110,7 +112,18 @@ lint: setup
 copyright:
 	$(PYTHON) tools/add_copyright.py
 
+# The tracked benchmarks (bench/suite, pytest-benchmark): each run is saved under .benchmarks/
+# (numbered, with the commit); `make bench-compare BASE=<rev>` times a base commit against the
+# work tree and fails on a regression over 20 %. bench-scripts: the detailed studies whose
+# tables docs/benchmarks.md quotes.
 bench: setup
+	$(PY) -m pytest -q bench/suite --benchmark-autosave --benchmark-columns=median,iqr,rounds
+
+BASE ?= HEAD
+bench-compare: setup
+	$(PY) tools/bench_compare.py $(BASE)
+
+bench-scripts: setup
 	$(PY) bench/sim_throughput.py
 	$(PY) bench/law_cost.py
 	$(PY) bench/fleet.py rtf --sizes 5 16
@@ -130,4 +143,4 @@ bench: setup
 	$(PY) bench/sweep.py
 
 clean:
-	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png docs/_build
+	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png docs/_build .benchmarks

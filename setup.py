@@ -74,6 +74,7 @@ test_requires = [
 ]
 
 docs_requires = ['sphinx', 'myst-parser', 'numpydoc']   # docs/conf.py, make docs
+bench_requires = ['pytest-benchmark']                   # bench/suite: make bench, bench-compare
 
 setup(
     name=package_name,
@@ -90,7 +91,7 @@ setup(
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags', 'cryptography'],
     extras_require={'ros': ros_requires, 'view': view_requires, 'cluster': cluster_requires,
                     'test': test_requires, 'docs': docs_requires,
-                    'msgs-build': msgs_build_requires},
+                    'msgs-build': msgs_build_requires, 'bench': bench_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',
