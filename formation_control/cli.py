@@ -371,9 +371,10 @@ def build_parser():
     swarm.add_argument('--bag', help='record every topic to this new rosbag2 directory (MCAP)')
     swarm.add_argument('--timeout', type=float,
                        help='give up after this many wall seconds (default 60 + 20 x duration)')
-    swarm.add_argument('--vehicles-per-process', type=int, default=1, metavar='M',
+    swarm.add_argument('--vehicles-per-process', default='auto', metavar='M',
                        help='run M vehicle nodes per process (still one node per vehicle, '
-                            'talking through topics only)')
+                            'talking through topics only); auto (the default): 1 with --secure '
+                            'or a process fault, else the fleet over 2 processes per core')
     swarm.add_argument('--foxglove', type=int, metavar='PORT',
                        help="serve a Foxglove live view on this port (the monitor's "
                             'foxglove_port)')

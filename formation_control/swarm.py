@@ -100,9 +100,9 @@ class Swarm:
     def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
                  wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
                  env=None, monitor_params=(), restart_dead=None, namespace='/', secure=None,
-                 stop=None):
+                 stop=None, process_faults=False):
         plan = FleetPlan(sc.num_vehicles, mode, per_process, namespace, secure is not None,
-                         wait_for_start)
+                         wait_for_start, process_faults=process_faults)
         self.sc, self.mode = sc, mode
         self.place = place or (lambda name: [])
         self.stop = stop
@@ -441,7 +441,9 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     ``monitor_params`` (``name:=value``) go to the monitor only (``foxglove_port``).
     ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
     ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
-    ``env`` replaces the environment of every process. ``fault_script`` lists the faults
+    ``env`` replaces the environment of every process. ``per_process``: vehicle nodes per
+    process, or ``'auto'`` (:func:`~formation_control.protocol.fleet_plan.auto_per_process`).
+    ``fault_script`` lists the faults
     (:func:`faults.schedule`), ``restart_dead`` the fleet seconds after which a vehicle or
     monitor process that died by itself is started again (None: never). ``secure`` is the
     directory of a TLS fleet (:mod:`formation_control.ops.security`): each process runs as its
@@ -454,7 +456,8 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     if bag is not None and Path(bag).exists():
         raise FileExistsError(f'bag directory {bag} exists already')
     swarm = Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
-                  per_process, place, env, monitor_params, restart_dead, namespace, secure, stop)
+                  per_process, place, env, monitor_params, restart_dead, namespace, secure, stop,
+                  schedule.acts_on_processes)
     if secure is not None:
         os.environ.update(security.environment(secure, 'swarm'))
         for name in security.UNSET:

@@ -186,6 +186,11 @@ class Schedule:
     def __bool__(self) -> bool:
         return bool(self.pending)
 
+    @property
+    def acts_on_processes(self) -> bool:
+        """Return whether a pending fault kills, restarts, stops or continues a process."""
+        return any(f.kind in PROCESS_KINDS for f in self.pending)
+
     def due(self, t: float) -> list[Fault]:
         """Return the faults whose time has come at fleet time ``t`` (s), in time order, once."""
         count = next((i for i, f in enumerate(self.pending) if f.time > t), len(self.pending))

@@ -24,6 +24,8 @@ into command lines, ``fleet.launch.py`` into launch Nodes.
 from __future__ import annotations
 
 from collections.abc import Mapping
+import math
+import os
 from os import PathLike
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -104,11 +106,36 @@ class Process(NamedTuple):
         return 'swarm' if self.name == 'recorder' else self.name
 
 
+PROCESSES_PER_CORE = 2
+"""``per_process='auto'``: about this many vehicle processes per core (measured: N = 16 on a
+ring, lockstep, 2 cores: 1.8x real time one per process, 2.8x four per process;
+docs/benchmarks.md section 3 and 6)."""
+
+
+def auto_per_process(num_vehicles: int, cores: int, one_each: bool = False) -> int:
+    """
+    Return the vehicle nodes per process ``per_process='auto'`` stands for.
+
+    One each when ``one_each`` (a TLS fleet: one member is one process; scripted process
+    faults: a fault acts on one vehicle's process); otherwise the fleet spread over
+    :data:`PROCESSES_PER_CORE` processes per core, so that the nodes of a process share its
+    executor instead of waking one process each per message.
+    """
+    if one_each:
+        return 1
+    return max(1, math.ceil(num_vehicles / (PROCESSES_PER_CORE * max(1, cores))))
+
+
+def cores() -> int:
+    """Return the number of cores this process may run on."""
+    return len(os.sched_getaffinity(0))
+
+
 def _count(value: int | str, label: str) -> int:
     """Return ``value`` (an int or its digits) as an int >= 1."""
     number = int(value) if isinstance(value, str) and value.isdigit() else value
     if isinstance(number, bool) or not isinstance(number, int) or number < 1:
-        raise ScenarioError(f'{label} {value!r} is invalid: an integer >= 1')
+        raise ScenarioError(f"{label} {value!r} is invalid: an integer >= 1 or 'auto'")
     return number
 
 
@@ -124,7 +151,8 @@ class FleetPlan:
         ``lockstep`` or ``realtime``: in lockstep the monitor and the recorder take the fleet's
         time (``use_sim_time``).
     per_process : int or str
-        Vehicle nodes per process, >= 1 (1: a ``vehicle`` process each).
+        Vehicle nodes per process, >= 1 (1: a ``vehicle`` process each), or ``'auto'``
+        (:func:`auto_per_process` for the machine's cores).
     namespace : str
         The fleet's namespace.
     secure : bool
@@ -136,22 +164,30 @@ class FleetPlan:
         (:data:`SWARM_LABELS`, :data:`LAUNCH_LABELS`).
     frames : dict, optional
         ``world_frame`` and ``base_frame`` of every node that takes them (empty: the defaults).
+    process_faults : bool
+        Scripted faults act on vehicles' processes (kill, restart, stop, cont).
 
     Raises
     ------
     ScenarioError
-        ``per_process`` is not an integer >= 1, or not 1 with ``secure``.
+        ``per_process`` is not an integer >= 1 or ``'auto'``, or not 1 with ``secure`` or
+        ``process_faults``.
 
     """
 
     def __init__(self, num_vehicles: int, mode: str = 'lockstep', per_process: int | str = 1,
                  namespace: str = '/', secure: bool = False, recorded: bool = False,
                  labels: tuple[str, str] = SWARM_LABELS,
-                 frames: Mapping[str, str] | None = None) -> None:
-        self.per_process = _count(per_process, labels[0])
+                 frames: Mapping[str, str] | None = None, process_faults: bool = False) -> None:
+        self.per_process = (auto_per_process(num_vehicles, cores(), secure or process_faults)
+                            if per_process == 'auto' else _count(per_process, labels[0]))
         if secure and self.per_process != 1:
             raise ScenarioError(f'{labels[0]} {self.per_process} with {labels[1]}: a member of a '
                                 f'TLS fleet is one process, 1 only')
+        if process_faults and self.per_process != 1:
+            raise ScenarioError(f'{labels[0]} {self.per_process} with a process fault (kill, '
+                                f'restart, stop, cont): a fault acts on the process of one '
+                                f'vehicle, 1 only')
         self.num_vehicles, self.mode, self.recorded = num_vehicles, mode, recorded
         self.prefix = names.namespace_prefix(namespace)
         self.clock = ('/clock', self.prefix + 'clock')

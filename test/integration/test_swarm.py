@@ -258,3 +258,27 @@ def test_swarm_notes_dead_processes_restarts_them_and_applies_process_faults(tmp
         stopped = swarm.procs[2]
     assert stopped.returncode is not None                  # a frozen process is stopped too
     assert [f['fault'] for f in swarm.faults] == ['stop:2@1.5', 'kill:3@1.5']
+
+
+def test_a_process_fault_with_several_vehicles_per_process_is_refused_before_any_start(ros):
+    result = ros.procs.run('formation-control', 'swarm', CONFIG / 'particle_parallel.yaml',
+                           '-p', 'num_vehicles:=8', '--vehicles-per-process', '4',
+                           '--fault', 'kill:2@1')
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines()[-1] == (
+        'error: --vehicles-per-process 4 with a process fault (kill, restart, stop, cont): a '
+        'fault acts on the process of one vehicle, 1 only')
+    assert 'started' not in result.stdout + result.stderr
+
+
+def test_the_default_swarm_groups_vehicle_nodes_by_the_cores(ros, tmp_path):
+    from formation_control.protocol.fleet_plan import auto_per_process, cores
+    overrides = ['num_vehicles:=9', 'duration:=1.0']
+    out, _ = _swarm(ros, tmp_path, 'particle_circular', '-p', overrides[0], '-p', overrides[1],
+                    '--no-monitor')
+    m = auto_per_process(9, cores())
+    expected = ['plant.log'] + ([f'vehicle_{k}.log' for k in range(1, 10)] if m == 1 else
+                                [f'vehicles_{k}-{min(k + m - 1, 9)}.log' for k in range(1, 10, m)])
+    assert sorted(p.name for p in Path(out['logs']).glob('*.log')) == sorted(expected)
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    assert_equal_runs(fleet, offline_run(CONFIG / 'particle_circular.yaml', overrides))

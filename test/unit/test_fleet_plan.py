@@ -14,8 +14,9 @@
 
 """The fleet described once: its processes and their parameters (swarm and launch files)."""
 from formation_control.core.errors import ScenarioError
-from formation_control.protocol.fleet_plan import (FleetPlan, LAUNCH_LABELS, ros_arguments,
-                                                   SWARM_LABELS)
+from formation_control.protocol import fleet_plan
+from formation_control.protocol.fleet_plan import (auto_per_process, FleetPlan, LAUNCH_LABELS,
+                                                   ros_arguments, SWARM_LABELS)
 import pytest
 
 
@@ -65,7 +66,7 @@ def test_in_real_time_nothing_takes_the_fleet_time_and_the_plant_does_not_wait()
 @pytest.mark.parametrize('value', [0, -1, '0', 'two', '', 1.0, True])
 def test_vehicles_per_process_must_be_an_integer_from_1(value):
     with pytest.raises(ScenarioError, match=rf'^--vehicles-per-process {value!r} is invalid: '
-                                            r'an integer >= 1$'):
+                                            r"an integer >= 1 or 'auto'$"):
         FleetPlan(3, per_process=value)
     with pytest.raises(ScenarioError, match=rf'^vehicles_per_process {value!r} is invalid'):
         FleetPlan(3, per_process=value, labels=LAUNCH_LABELS)
@@ -78,6 +79,24 @@ def test_a_secure_fleet_runs_one_vehicle_per_process():
         FleetPlan(3, per_process=2, secure=True, labels=SWARM_LABELS)
     with pytest.raises(ScenarioError, match='^vehicles_per_process 2 with secure:'):
         FleetPlan(3, per_process='2', secure=True, labels=LAUNCH_LABELS)
+
+
+@pytest.mark.parametrize('n, cores, per_process', [
+    (16, 2, 4), (17, 2, 5), (4, 2, 1), (5, 2, 2), (16, 1, 8), (16, 8, 1), (1, 2, 1), (64, 2, 16)])
+def test_auto_spreads_the_fleet_over_two_processes_per_core(n, cores, per_process):
+    assert auto_per_process(n, cores) == per_process
+    assert auto_per_process(n, cores, one_each=True) == 1
+
+
+def test_auto_runs_one_vehicle_per_process_in_a_secure_fleet_or_with_process_faults(monkeypatch):
+    monkeypatch.setattr(fleet_plan, 'cores', lambda: 2)
+    assert FleetPlan(16, per_process='auto').per_process == 4
+    assert FleetPlan(16, per_process='auto', secure=True).per_process == 1
+    assert FleetPlan(16, per_process='auto', process_faults=True).per_process == 1
+    with pytest.raises(ScenarioError, match=r'^--vehicles-per-process 4 with a process fault '
+                                            r'\(kill, restart, stop, cont\): a fault acts on the '
+                                            r'process of one vehicle, 1 only$'):
+        FleetPlan(16, per_process=4, process_faults=True)
 
 
 def test_parameters_as_ros_arguments():
