@@ -19,6 +19,7 @@ They measure the code of whichever ``formation_control`` is imported (``PYTHONPA
 with the scenario files of that tree, so the same definitions time a base commit and the work
 tree alike (tools/bench_compare.py).
 """
+import os
 from pathlib import Path
 
 import formation_control
@@ -39,3 +40,12 @@ def load():
     def loaded(name, n, *overrides):
         return scenario.load(CONFIG / f'{name}.yaml', [f'num_vehicles:={n}', *overrides])
     return loaded
+
+
+@pytest.fixture
+def one_core():
+    """Run the benchmark pinned to one core (as bench/sim_throughput.py), then restore."""
+    cores = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cores)})
+    yield
+    os.sched_setaffinity(0, cores)

@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The offline simulator: a control period, the batch path, the law of one vehicle, a metric."""
+"""The offline simulator, one core: a period, the batch path, the law of one vehicle, a metric."""
 from formation_control.core import laws
 from formation_control.core.control import Controller
 from formation_control.core.scenario import initial_state
@@ -20,6 +20,7 @@ from formation_control.sim import metrics, simulator
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.usefixtures('one_core')
 SCENARIOS = ('rigid_circular_flow', 'particle_circular')
 
 
