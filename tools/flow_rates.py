@@ -19,7 +19,8 @@ Runs particle_circular (16 particles, backstepping) in the shear and the vortex 
 test_flow.py (seeds 101-105, 100 s, one batch each), and 6 particles in the turning flow of
 the same file (seeds 1-3, 150 s), once with the laws as they are and once with the laws that
 take the known flow as uniform and steady (``Controller.rates = False``, the laws before
-issue 28, item 4). Prints the steady-state figures and draws docs/flow_rates.png.
+issue 28, item 4). Prints the steady-state figures (the last 20 s; the turning flow's last
+60 s) and draws docs/flow_rates.png.
 
     PYTHONPATH=. MPLBACKEND=Agg python tools/flow_rates.py [docs/flow_rates.png]
 """
@@ -45,45 +46,46 @@ CASES = {
 }
 
 
-def run_centres(name, rates):
-    """Return the sample times (T,) and the true circle centres (T, B, N) of a case."""
+def run_case(name, rates):
+    """Return the sample times (T,), true circle centres (T, B, N), course-rate errors (T, B)."""
     config, overrides, seeds, duration = CASES[name]
     sc = scenario.load(CONFIG / f'{config}.yaml', overrides, seed=seeds[0], duration=duration)
     st, truth = Stepper(sc, initial_states(sc, seeds)), Controller(sc)
     st.ctrl.rates = rates
-    times, out = [], []
+    times, out, errors = [], [], []
     for n in range(sc.periods + 1):
         U = st.command()
         if n % sc.record_every == 0:
-            flow = truth.plant.flow(st.t, st.X[0], st.X[1])
+            view = truth.view(st.X, U[1], truth.plant.flow(st.t, st.X[0], st.X[1]))
             times.append(st.t)
-            out.append(truth.formation.centres(truth.view(st.X, U[1], flow)))
+            out.append(truth.formation.centres(view))
+            errors.append(np.max(abs(view.rate - sc.omega0 * view.speed), axis=-1))
         if n < sc.periods:
             st.advance()
-    return np.array(times), np.array(out)
+    return np.array(times), np.array(out), np.array(errors)
 
 
-def figures(t, c, window):
-    """Return each fleet's centre spread (m) and centre loop or drift (m) over the window."""
+def figures(t, c, errors, window):
+    """Return each fleet's centre spread (m), centre loop (m), course-rate error (rad/s)."""
     late = t >= t[-1] - window
     spread = np.max(abs(c[late] - c[late].mean(axis=-1, keepdims=True)), axis=(0, 2))
     mean = c[late].mean(axis=-1)
-    return spread, np.max(abs(mean - mean.mean(axis=0)), axis=0)
+    return spread, np.max(abs(mean - mean.mean(axis=0)), axis=0), np.max(errors[late], axis=0)
 
 
 def main(path='docs/flow_rates.png'):
     """Print the table and draw the figure at ``path``."""
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
-    print('| flow | law | centre spread (m) | centre loop (m) |')
-    print('|---|---|---|---|')
+    print('| flow | law | centre spread (m) | centre loop (m) | course-rate error (rad/s) |')
+    print('|---|---|---|---|---|')
     for ax, name in zip(axes, CASES):
         window = 60.0 if name == 'turning' else 20.0
         for rates, label, colour in ((False, 'uniform-flow law', 'tab:red'),
                                      (True, 'with df/dt, grad f', 'tab:blue')):
-            t, c = run_centres(name, rates)
-            spread, loop = figures(t, c, window)
-            print(f'| {name} | {label} | {spread.min():.2g}-{spread.max():.2g} | '
-                  f'{loop.min():.2g}-{loop.max():.2g} |', flush=True)
+            t, c, errors = run_case(name, rates)
+            values = figures(t, c, errors, window)
+            cells = ' | '.join(f'{v.min():.2g}-{v.max():.2g}' for v in values)
+            print(f'| {name} | {label} | {cells} |', flush=True)
             curves = np.max(abs(c - c.mean(axis=-1, keepdims=True)), axis=-1)
             for b in range(curves.shape[1]):
                 ax.semilogy(t, curves[:, b], color=colour, lw=0.8,
