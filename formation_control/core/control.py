@@ -437,7 +437,7 @@ class Controller:
         Return the known flow's derivatives at the vehicles ``X`` (6, n), or None.
 
         ``flow`` (n,) is the flow each of them has (:meth:`flow`); None where the laws take the
-        flow as uniform and steady (:attr:`rates` false).
+        flow as uniform and steady (``rates`` false).
         """
         if not self.rates:
             return None
@@ -460,7 +460,7 @@ class Controller:
         Returns
         -------
         complex or ndarray of complex
-            ``flow`` itself where the laws take it as steady (:attr:`rates` false) or nothing
+            ``flow`` itself where the laws take it as steady (``rates`` false) or nothing
             is predicted; otherwise the flow one lead later along the path, to first order
             (``f'`` of the sampled velocity, :meth:`flowfields.Jet.rate`).
 
