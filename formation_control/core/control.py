@@ -629,9 +629,9 @@ class Controller:
         """
         sc = self.sc
         U = np.zeros((2,) + X.shape[1:])
-        flow = self.flow(flow)
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
+            flow = self.flow(flow)
             U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow, self.jet(X, flow))
             return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
@@ -639,6 +639,7 @@ class Controller:
             U[0] = self.thrust(X)
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
+            flow = self.flow(flow)
             U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow,
                                             self.jet(X, flow))
         return self.saturate(U)
