@@ -527,7 +527,8 @@ Checks across parameters, for every model (errata.md, issue 28):
   faster than 0.1 of the laws' rate (|omega0| (s - |f|) circular, |K| parallel) and every
   flow that varies in space are warned about, and an estimating filter whose lag bound
   |grad f| (speed + max |f|) / lambda_f reaches half the speed margin speed - max |f| is
-  refused;
+  refused; a known shear, vortex or grid whose gradient jumps (layer edges, core rim, cell
+  edges) by more than 0.1 of the laws' rate is warned about (the laws hold between crossings);
 - a slot pattern is refused on a graph whose phase potential has stable states other than
   synchrony (a ring or circulant graph with a stable twisted state, or one found by a census
   of 64 random phase starts);
@@ -768,6 +769,34 @@ def _uniform_view_note(sc: Scenario) -> str | None:
             f'flow_source: known for the laws with grad f')
 
 
+KINKS = {'shear': ('the edges |y| = flow_shear_width of the layer', 1.0),
+         'vortex': ('the rim of the core (flow_radius)', 2.0),
+         'grid': ('the edges of the grid cells', 2.0)}
+"""Where each flow's gradient jumps, and the largest jump in units of ``max |grad f|``."""
+
+
+def _kink_note(sc: Scenario) -> str | None:
+    """
+    Return the warning of a known flow whose gradient jumps by more than the laws can ignore.
+
+    Where ``grad f`` jumps by D the true course rate jumps by up to D (``<i v, D v> / s^2``) and
+    the law's V_c with it (errata, (E28.2)); warned above SLOW_FLOW of the laws' rate.
+    """
+    if sc.flow_model not in KINKS or not uses_flow_rates(sc):
+        return None
+    flow = flowfield(sc)
+    where, share = KINKS[sc.flow_model]
+    jump = share * flow.max_gradient()
+    s_min = vehicle_speed(sc) - flow.max_speed
+    rate = abs(sc.omega0) * s_min if sc.formation == 'circular' else abs(sc.K)
+    if jump <= SLOW_FLOW * rate:
+        return None
+    return (f'flow_model {sc.flow_model}: the gradient of the flow jumps at {where}, so a vehicle '
+            f'crossing it has its course rate kicked by up to {jump:.3g} rad/s, more than '
+            f'{SLOW_FLOW:g} of the rate of the laws, {rate:.3g} rad/s: the laws (with grad f) '
+            f'hold between crossings only; expect the formation to be kept approximately there')
+
+
 def _check_pattern(sc: Scenario) -> None:
     """Refuse a symmetric pattern that cannot exist or that the laws do not reach."""
     if sc.pattern == 'none':
@@ -871,7 +900,8 @@ def held_force_loop_gain(sc: Scenario) -> float:
 
 def _check_physics(sc: Scenario) -> tuple[str, ...]:
     """Check the conditions the rigid-body laws need (errata); return the warnings."""
-    notes = [note for note in (_slow_flow_note(sc), _uniform_view_note(sc)) if note]
+    notes = [note for note in (_slow_flow_note(sc), _uniform_view_note(sc), _kink_note(sc))
+             if note]
     if sc.model in ('rigid', 'rigid_cop'):
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
         if zero < 0.5 * band:

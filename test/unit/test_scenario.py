@@ -520,6 +520,20 @@ def test_a_shear_the_laws_take_as_uniform_is_warned_about(params, note):
         assert re.search(note, notes[0]), notes[0]
 
 
+@pytest.mark.parametrize('params, warned', [
+    ({'flow_circulation': 2.0, 'flow_radius': 1.5}, True),       # 2 k = 0.283 > 0.1 x 0.788
+    ({'flow_circulation': 1.0, 'flow_radius': 2.0}, False),      # 2 k = 0.080 < 0.1 x 0.92
+    ({'flow_circulation': 2.0, 'flow_radius': 1.5, 'flow_source': 'estimated'}, False),
+])
+def test_a_vortex_rim_that_kicks_the_course_rate_is_warned_about(params, warned):
+    sc = resolve({'formation': 'circular', 'flow_model': 'vortex', **params})
+    notes = [w for w in sc.warnings if 'the gradient of the flow jumps at the rim' in w]
+    assert len(notes) == warned
+    if warned:
+        assert 'kicked by up to 0.283 rad/s, more than 0.1 of the rate of the laws, 0.788' in \
+            notes[0]
+
+
 def test_an_estimate_lagging_by_half_the_speed_margin_is_refused():
     """|grad f| (1 + 0.4) / lambda_f = 0.1 x 1.4 / 0.4 = 0.35 >= (1 - 0.4) / 2: no bound."""
     params = {'formation': 'circular', 'flow_model': 'shear', 'flow_shear': 0.1,
