@@ -66,7 +66,7 @@ def _true_view(ctrl, X, F, t):
     return ctrl.view(X, F, ctrl.plant.flow(t, X[models.ROW_X], X[models.ROW_Y]))
 
 
-def _samples(sc, times=(0.0, 1.3, 4.0)):
+def _samples(sc, times=(0.0, 0.5, 1.2)):
     """Return (t, X, U) on a closed-loop trajectory of ``sc``: the state and the input held."""
     st, out = Stepper(sc), []
     for target in times:
