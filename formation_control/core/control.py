@@ -25,11 +25,12 @@ from dataclasses import replace
 from typing import Any
 
 from formation_control.core import laws
+from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
-from formation_control.core.scenario import Scenario, uses_held_force
+from formation_control.core.scenario import Scenario, uses_flow_rates, uses_held_force
 import numpy as np
 
 
@@ -59,7 +60,18 @@ def particle_speed_terms(theta: RealArray,
     return np.sqrt(s2), np.angle(vel), (1.0 + inner(flow, e)) / s2
 
 
-def particle_view(X: RealArray, flow: complex | ComplexArray) -> laws.View:
+def flow_course_rate(v: ComplexArray, f_dot: ComplexArray | float) -> RealArray:
+    """
+    Return the part of the course rate that the flow's own change makes, ``<i v, f'> / s^2``.
+
+    ``v`` is the ground velocity (complex m/s) and ``f_dot`` the rate of the flow met along
+    the path (:meth:`flowfields.Jet.rate`), 0 in a uniform steady flow.
+    """
+    return inner(1j * v, f_dot) / abs(v) ** 2
+
+
+def particle_view(X: RealArray, flow: complex | ComplexArray,
+                  jet: Jet | None = None) -> laws.View:
     """
     Return the particle view of unit-speed particles.
 
@@ -69,22 +81,34 @@ def particle_view(X: RealArray, flow: complex | ComplexArray) -> laws.View:
         States (rows of :mod:`models`); omega is the body turn rate theta'.
     flow : complex or array_like of complex, shape (N,)
         The flow f at each vehicle (m/s): known or estimated.
+    jet : flowfields.Jet, optional
+        The flow's derivatives at each vehicle, where it is known and not uniform and steady;
+        None: taken as uniform and steady.
 
     Returns
     -------
     laws.View
-        Phase gamma, rate ``Omega = g omega``, speed s and ``s' = <f, i e^{i theta}> omega / s``
-        (1.8), (4.9); without flow theta, xi, 1, 0 (1.3).
+        Phase gamma, rate ``Omega = g omega + <i v, f'> / s^2``, speed s and
+        ``s' = (<f, i e^{i theta}> omega + <v, f'>) / s`` with ``v = e^{i theta} + f`` and
+        ``f' = f_t + (grad f) v`` (1.8), (4.9) with the flow's change (errata, "Known
+        time-varying and non-uniform flows"); without flow theta, xi, 1, 0 (1.3).
 
     """
     s, gamma, g = particle_speed_terms(X[ROW_THETA], flow)
     w = X[ROW_OMEGA]
-    s_dot = inner(flow, 1j * np.exp(1j * X[ROW_THETA])) * w / s
-    return laws.View(position(X), gamma, g * w, s, s_dot)
+    e = np.exp(1j * X[ROW_THETA])
+    s_dot = inner(flow, 1j * e) * w / s
+    rate = g * w
+    if jet is not None:
+        v = e + flow
+        f_dot = jet.rate(v)
+        rate = rate + flow_course_rate(v, f_dot)
+        s_dot = s_dot + inner(v, f_dot) / s
+    return laws.View(position(X), gamma, rate, s, s_dot)
 
 
 def body_rate_from_inertial(w: RealArray, theta: RealArray,
-                            flow: complex | ComplexArray) -> RealArray:
+                            flow: complex | ComplexArray, jet: Jet | None = None) -> RealArray:
     """
     Return the body turn rate that gives the inertial course rate ``w``, (5.1).
 
@@ -96,19 +120,26 @@ def body_rate_from_inertial(w: RealArray, theta: RealArray,
         Body headings (rad).
     flow : complex or array_like of complex
         The flow f at each vehicle (m/s): known or estimated.
+    jet : flowfields.Jet, optional
+        The known flow's derivatives at each vehicle (:func:`particle_view`).
 
     Returns
     -------
     ndarray
-        ``u_k = w_k / g`` (rad/s), g of :func:`particle_speed_terms`.
+        ``u_k = (w_k - <i v, f'> / s^2) / g`` (rad/s), g of :func:`particle_speed_terms`;
+        ``w_k / g`` in a uniform steady flow.
 
     """
-    return w / particle_speed_terms(theta, flow)[2]
+    g = particle_speed_terms(theta, flow)[2]
+    if jet is None:
+        return w / g
+    v = np.exp(1j * theta) + flow
+    return (w - flow_course_rate(v, jet.rate(v))) / g
 
 
 def body_accel_from_inertial(lam: RealArray, theta: RealArray,
                              omega: RealArray,
-                             flow: complex | ComplexArray) -> RealArray:
+                             flow: complex | ComplexArray, jet: Jet | None = None) -> RealArray:
     """
     Return the body angular acceleration that gives the inertial one ``lam``, (5.3)/(5.4).
 
@@ -119,21 +150,39 @@ def body_accel_from_inertial(lam: RealArray, theta: RealArray,
     theta, omega : array_like
         Body headings (rad) and turn rates (rad/s).
     flow : complex or array_like of complex
-        The flow f at each vehicle (m/s): known or estimated (taken as steady).
+        The flow f at each vehicle (m/s): known or estimated.
+    jet : flowfields.Jet, optional
+        The known flow's derivatives at each vehicle; None: the flow is taken as steady and
+        uniform.
 
     Returns
     -------
     ndarray
-        ``a_k = (lambda_k - g' omega_k) / g`` (rad/s^2): from ``gamma' = g theta'``,
-        ``lambda = g a + g' omega`` with
-        ``g' = <f, i e^{i theta}> omega (s^2 - 2 (1 + <f, e^{i theta}>)) / s^4``.
+        ``a_k = (lambda_k - g' omega_k - h') / g`` (rad/s^2): from
+        ``gamma' = g theta' + h``, ``h = <i v, f'> / s^2`` (:func:`particle_view`),
+        ``lambda = g a + g' omega + h'`` with ``v = e^{i theta} + f``,
+        ``v' = i omega e^{i theta} + f'``, ``n = 1 + <f, e^{i theta}>``, ``g = n / s^2``,
+        ``g' = (<f', e^{i theta}> + <f, i e^{i theta}> omega - g (s^2)') / s^2``,
+        ``h' = (<i v', f'> + <i v, f''> - h (s^2)') / s^2``, ``(s^2)' = 2 <v, v'>``. In a uniform
+        steady flow (f' = 0) ``g' = <f, i e^{i theta}> omega (s^2 - 2 n) / s^4``, h = 0:
+        (5.4).
 
     """
     e = np.exp(1j * theta)
-    s2 = abs(e + flow) ** 2
+    v = e + flow
+    s2 = abs(v) ** 2
     n = 1.0 + inner(flow, e)
-    g_dot = inner(flow, 1j * e) * omega * (s2 - 2.0 * n) / s2 ** 2
-    return (lam - g_dot * omega) * s2 / n
+    if jet is None:
+        g_dot = inner(flow, 1j * e) * omega * (s2 - 2.0 * n) / s2 ** 2
+        return (lam - g_dot * omega) * s2 / n
+    f_dot = jet.rate(v)
+    v_dot = 1j * omega * e + f_dot
+    s2_dot = 2.0 * inner(v, v_dot)
+    g = n / s2
+    g_dot = (inner(f_dot, e) + inner(flow, 1j * e) * omega - g * s2_dot) / s2
+    h = inner(1j * v, f_dot) / s2
+    h_dot = (inner(1j * v_dot, f_dot) + inner(1j * v, jet.accel(v, v_dot)) - h * s2_dot) / s2
+    return (lam - g_dot * omega - h_dot) / g
 
 
 def thrust(X: RealArray, u0: float, K_f: float, plant: Plant) -> RealArray:
@@ -162,7 +211,8 @@ def thrust(X: RealArray, u0: float, K_f: float, plant: Plant) -> RealArray:
 
 
 def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
-               flow: complex | ComplexArray, use_heading: bool, full: bool) -> laws.View:
+               flow: complex | ComplexArray, use_heading: bool, full: bool,
+               jet: Jet | None = None) -> laws.View:
     """
     Return the particle view of rigid bodies.
 
@@ -181,6 +231,9 @@ def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
     full : bool
         Otherwise, compute the exact course rate and s' from the model with ``U_applied``;
         the thesis' practical law (text after 7.12) uses omega and ``s' = 0``.
+    jet : flowfields.Jet, optional
+        The known flow's derivatives at each vehicle: the exact rates then include the
+        flow's change ``f'`` in ``r''`` (the practical law drops it with the other rates).
 
     Returns
     -------
@@ -200,6 +253,8 @@ def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
     du, dv, _ = body_accel(X, U_applied, plant)
     rel = X[ROW_U] + 1j * X[ROW_V]
     acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * rel) * np.exp(1j * X[ROW_THETA])   # r''
+    if jet is not None:
+        acc = acc + jet.rate(vel)
     rate = inner(1j * vel, acc) / speed ** 2
     return laws.View(r, np.angle(vel), rate, speed, inner(vel, acc) / speed)
 
@@ -327,6 +382,9 @@ class Controller:
         :func:`command_limits`.
     integral : ndarray or None
         The PI integrator of each commanded vehicle (rad/s s), created at the first command.
+    rates : bool
+        Whether the laws take the flow's change along each path into account (:meth:`jet`,
+        :func:`scenario.uses_flow_rates`): a known flow that is not uniform and steady.
 
     """
 
@@ -346,6 +404,7 @@ class Controller:
         self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
         self.full = uses_held_force(sc)
+        self.rates = uses_flow_rates(sc)
         self.integral: RealArray | None = None
         self.limits = command_limits(sc)
 
@@ -372,6 +431,46 @@ class Controller:
             raise ValueError(f'the {self.plant.flow.model} flow is not uniform: give each '
                              f"vehicle's flow")
         return self.plant.flow.value
+
+    def jet(self, X: RealArray, flow: complex | ComplexArray | None) -> Jet | None:
+        """
+        Return the known flow's derivatives at the vehicles ``X`` (6, n), or None.
+
+        ``flow`` (n,) is the flow each of them has (:meth:`flow`); None where the laws take the
+        flow as uniform and steady (``rates`` false).
+        """
+        if not self.rates:
+            return None
+        return self.plant.flow.jet(X[ROW_X], X[ROW_Y], np.asarray(self.flow(flow)))
+
+    def flow_ahead(self, X: RealArray, flow: complex | ComplexArray | None,
+                   delay: float = 0.0) -> complex | ComplexArray:
+        """
+        Return the flow at the state :meth:`predict` gives: ``f + lead f'`` where it is known.
+
+        Parameters
+        ----------
+        X : array_like, shape (6, n)
+            The sampled states (not predicted).
+        flow : complex or array_like of complex, shape (n,), optional
+            The flow each vehicle has at its sample (:meth:`flow`).
+        delay : float, optional
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        complex or ndarray of complex
+            ``flow`` itself where the laws take it as steady (``rates`` false) or nothing
+            is predicted; otherwise the flow one lead later along the path, to first order
+            (``f'`` of the sampled velocity, :meth:`flowfields.Jet.rate`).
+
+        """
+        flow = self.flow(flow)
+        jet = self.jet(X, flow)
+        if jet is None or self.sc.hold_prediction == 'none':
+            return flow
+        lead = delay + self.sc.command_lead
+        return flow + lead * jet.rate(ground_velocity(X, flow))
 
     def predict(self, X: RealArray, U_held: RealArray,
                 flow: complex | ComplexArray | None = None,
@@ -430,15 +529,17 @@ class Controller:
         Returns
         -------
         laws.View
-            :func:`particle_view` or :func:`rigid_view`.
+            :func:`particle_view` or :func:`rigid_view`, with the known flow's derivatives
+            (:meth:`jet`).
 
         """
         flow = self.flow(flow)
+        jet = self.jet(X, flow)
         if not self.rigid:
-            return particle_view(X, flow)
+            return particle_view(X, flow, jet)
         held = np.zeros(X.shape[1:]) if F_held is None else F_held
         U_applied = np.stack([self.thrust(X), held])
-        return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full)
+        return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full, jet)
 
     def formation_of(self, members: BoolArray | None = None) -> laws.Formation:
         """
@@ -530,15 +631,17 @@ class Controller:
         U = np.zeros((2,) + X.shape[1:])
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
-            U[1] = body_rate_from_inertial(w, X[ROW_THETA], self.flow(flow))
+            flow = self.flow(flow)
+            U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow, self.jet(X, flow))
             return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
             U[0] = self.thrust(X)
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
-            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA],
-                                            self.flow(flow))
+            flow = self.flow(flow)
+            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow,
+                                            self.jet(X, flow))
         return self.saturate(U)
 
     def saturate(self, U: RealArray) -> RealArray:

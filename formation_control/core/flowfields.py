@@ -33,11 +33,16 @@ background ``flow`` a term that varies in time or space:
                    at the border value outside); the background ``flow`` is added too
 =================  ==========================================================================
 
+Along a vehicle's path ``r(t)`` the flow it meets changes at ``f' = f_t + (grad f) r'``
+(:meth:`Flowfield.jet`, :class:`Jet`): the laws' views need it where the flow is known
+(docs/errata.md, "Known time-varying and non-uniform flows").
+
 A grid file is an ``.npz`` with ``x`` (nx,), ``y`` (ny,) increasing, and ``fx, fy`` (ny, nx);
 or a CSV with a header ``x,y,fx,fy`` and one row per grid node (any order).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
 from typing import NoReturn, TYPE_CHECKING
@@ -51,6 +56,38 @@ if TYPE_CHECKING:
 FLOW_MODELS = ('uniform', 'time_varying', 'shear', 'vortex', 'grid')
 Grid = tuple[RealArray, RealArray, ComplexArray]
 """The lines x, y (m) of a gridded flow and the flow at its nodes (m/s), shape (ny, nx)."""
+
+
+@dataclass(frozen=True)
+class Jet:
+    """
+    The partial derivatives of the flow at each vehicle, to second order (complex m/s per s, m).
+
+    ``f_t, f_tt`` in time at a fixed place, ``f_x, f_y, f_xx, f_xy, f_yy`` in space; the mixed
+    time-space ones are zero for every model (the turning flow is uniform, the others steady).
+    """
+
+    f_t: ComplexArray
+    f_x: ComplexArray
+    f_y: ComplexArray
+    f_tt: ComplexArray
+    f_xx: ComplexArray
+    f_xy: ComplexArray
+    f_yy: ComplexArray
+
+    def rate(self, v: ComplexArray) -> ComplexArray:
+        """Return ``f' = f_t + f_x v_x + f_y v_y`` along a path of velocity v (complex m/s^2)."""
+        return self.f_t + self.f_x * v.real + self.f_y * v.imag
+
+    def accel(self, v: ComplexArray, v_dot: ComplexArray) -> ComplexArray:
+        """
+        Return ``f''`` along a path of velocity v and acceleration v_dot (complex m/s^3).
+
+        ``f_tt + f_xx v_x^2 + 2 f_xy v_x v_y + f_yy v_y^2 + f_x v_x' + f_y v_y'``.
+        """
+        x, y = v.real, v.imag
+        return (self.f_tt + self.f_xx * x * x + 2.0 * self.f_xy * x * y + self.f_yy * y * y
+                + self.f_x * v_dot.real + self.f_y * v_dot.imag)
 
 
 class FlowfieldError(ValueError):
@@ -201,3 +238,90 @@ class Flowfield:
     def max_rate(self) -> float:
         """Return a bound of ``|df/dt|`` at a fixed place (m/s^2): 2 pi A / T, else 0."""
         return self.amplitude * self.rate if self.model == 'time_varying' else 0.0
+
+    def max_gradient(self) -> float:
+        """
+        Return a bound of the Jacobian's norm ``|grad f|`` over every place (1/s).
+
+        Shear ``|G|``; vortex ``|Gamma| / (2 pi R^2)`` (a rotation inside the core, and the
+        anti-holomorphic ``|d f / d conj(z)| = |Gamma| / (2 pi rho^2)`` outside); grid the
+        largest slope along x plus the largest along y (bilinear: a cell's slopes lie
+        between those of its edges); 0 for the others.
+        """
+        if self.model == 'shear':
+            return abs(self.shear)
+        if self.model == 'vortex':
+            return abs(self.circulation) / (2.0 * np.pi * self.radius ** 2)
+        if self.model != 'grid':
+            return 0.0
+        g = self.grid
+        fx = abs(np.diff(g, axis=1)) / np.diff(self.x)
+        fy = abs(np.diff(g, axis=0)) / np.diff(self.y)[:, None]
+        return float(np.max(fx) + np.max(fy))
+
+    def jet(self, x: RealArray, y: RealArray, f: ComplexArray) -> Jet:
+        """
+        Return the derivatives of the flow at the positions x, y where the flow is ``f``.
+
+        Parameters
+        ----------
+        x, y : array_like, same shape
+            Positions (m, map frame).
+        f : array_like of complex, shape of ``x``
+            The flow there (m/s), as measured or told: the turning flow's time derivatives
+            follow from it, ``f_t = i w (f - flow)``, ``f_tt = -w^2 (f - flow)``, so no clock
+            is needed.
+
+        Returns
+        -------
+        Jet
+            Shear: ``f_y = G`` inside the layer ``|y| < w``. Vortex, ``d = r - c``: inside the
+            core ``f = i k d``, ``f_x = i k``, ``f_y = -k`` (``k = Gamma / (2 pi R^2)``);
+            outside ``f = q / conj(d)`` (``q = i Gamma / (2 pi)``), ``f_x = -q / conj(d)^2``,
+            ``f_y = i q / conj(d)^2``, ``f_xx = -f_yy = 2 q / conj(d)^3``,
+            ``f_xy = -2 i q / conj(d)^3``. Grid: the bilinear cell's slopes and its
+            ``f_xy``, zero across a border the flow is held at. The second derivatives
+            jump (shear, vortex: f' itself jumps) where the layer's edge, the core's rim or a
+            cell edge is crossed.
+
+        """
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        zero = np.zeros(np.shape(x), complex)
+        parts = dict.fromkeys(('f_t', 'f_x', 'f_y', 'f_tt', 'f_xx', 'f_xy', 'f_yy'), zero)
+        if self.model == 'time_varying':
+            d = np.asarray(f, complex) - self.value
+            parts.update(f_t=1j * self.rate * d, f_tt=-self.rate ** 2 * d)
+        elif self.model == 'shear':
+            parts['f_y'] = np.where(abs(y) < self.width, self.shear, 0.0) + zero
+        elif self.model == 'vortex':
+            parts.update(self._vortex_jet(x + 1j * y - self.centre))
+        elif self.model == 'grid':
+            parts.update(self._grid_jet(x, y))
+        return Jet(**parts)
+
+    def _vortex_jet(self, d: ComplexArray) -> dict[str, ComplexArray]:
+        """Return the Rankine vortex's partial derivatives at the offsets d from its centre."""
+        inside = abs(d) < self.radius
+        k = self.circulation / (2.0 * np.pi * self.radius ** 2)
+        cd = np.conj(np.where(inside, 1.0, d))
+        q = 1j * self.circulation / (2.0 * np.pi)
+        second = np.where(inside, 0.0, 2.0 * q / cd ** 3)
+        return {'f_x': np.where(inside, 1j * k, -q / cd ** 2),
+                'f_y': np.where(inside, -k, 1j * q / cd ** 2),
+                'f_xx': second, 'f_xy': -1j * second, 'f_yy': -second}
+
+    def _grid_jet(self, x: RealArray, y: RealArray) -> dict[str, ComplexArray]:
+        """Return the bilinear cell's partial derivatives at x, y (zero where held)."""
+        xs, ys = np.clip(x, self.x[0], self.x[-1]), np.clip(y, self.y[0], self.y[-1])
+        i = np.clip(np.searchsorted(self.x, xs) - 1, 0, self.x.size - 2)
+        j = np.clip(np.searchsorted(self.y, ys) - 1, 0, self.y.size - 2)
+        dx, dy = self.x[i + 1] - self.x[i], self.y[j + 1] - self.y[j]
+        a, b = (xs - self.x[i]) / dx, (ys - self.y[j]) / dy
+        g = self.grid
+        g00, g01, g10, g11 = g[j, i], g[j, i + 1], g[j + 1, i], g[j + 1, i + 1]
+        in_x = (x > self.x[0]) & (x < self.x[-1])
+        in_y = (y > self.y[0]) & (y < self.y[-1])
+        f_x = np.where(in_x, ((1 - b) * (g01 - g00) + b * (g11 - g10)) / dx, 0.0)
+        f_y = np.where(in_y, ((1 - a) * (g10 - g00) + a * (g11 - g01)) / dy, 0.0)
+        f_xy = np.where(in_x & in_y, (g11 - g10 - g01 + g00) / (dx * dy), 0.0)
+        return {'f_x': f_x, 'f_y': f_y, 'f_xy': f_xy}

@@ -521,8 +521,14 @@ Checks across parameters, for every model (errata.md, issue 28):
   `graph_edges` applies to `graph: explicit` only, `graph_offsets` to `circulant` only;
 - `flow_model` `time_varying`, `shear` or `vortex` needs a non-zero strength (`flow_amplitude`,
   `flow_shear`, `flow_circulation`); `flow_source: estimated` needs max |f| below 0.95 of the
-  vehicle speed (the estimate's clamp); a `time_varying` flow that turns the course faster
-  than 0.1 of the laws' rate (|omega0| (s - |f|) circular, |K| parallel) is warned about;
+  vehicle speed (the estimate's clamp). Known flows that vary are taken into the laws (df/dt,
+  grad f; errata); where a law takes the flow as uniform and steady (`flow_source: estimated`,
+  or the rigid bodies' `law_variant: practical`), a `time_varying` flow that turns the course
+  faster than 0.1 of the laws' rate (|omega0| (s - |f|) circular, |K| parallel) and every
+  flow that varies in space are warned about, and an estimating filter whose lag bound
+  |grad f| (speed + max |f|) / lambda_f reaches half the speed margin speed - max |f| is
+  refused; a known shear, vortex or grid whose gradient jumps (layer edges, core rim, cell
+  edges) by more than 0.1 of the laws' rate is warned about (the laws hold between crossings);
 - a slot pattern is refused on a graph whose phase potential has stable states other than
   synchrony (a ring or circulant graph with a stable twisted state, or one found by a census
   of 64 random phase starts);
@@ -679,9 +685,42 @@ SLOW_FLOW = 0.1
 """A time-varying flow is slow when it turns the course below this share of the laws' rate."""
 
 
+def uses_flow_rates(sc: Scenario) -> bool:
+    """
+    Return whether the laws take the flow's change along each path (its rate and gradient).
+
+    A known flow that is not uniform and steady, for every law but the rigid bodies' practical
+    one, which drops every rate (beta', s') and the flow's with them (errata, "Known
+    time-varying and non-uniform flows"). An estimate's derivatives are not known.
+    """
+    return (sc.flow_source == 'known' and sc.flow_model != 'uniform'
+            and (sc.model not in RIGID_MODELS or uses_held_force(sc)))
+
+
+def _steady_view_why(sc: Scenario) -> str:
+    """Return why the laws of ``sc`` take its flow as uniform and steady."""
+    if sc.flow_source == 'estimated':
+        return 'flow_source estimated: an estimate has no known rate or gradient'
+    return 'law_variant practical drops the rates'
+
+
+def estimate_lag(sc: Scenario) -> float:
+    """
+    Return a bound of the estimate's lag ``|fhat - f|`` once settled (m/s), the filter's.
+
+    ``e' = -lambda_f e - f'`` (errata): ``A w / sqrt(lambda_f^2 + w^2)`` in the turning flow,
+    ``sup |f'| / lambda_f`` with ``|f'| <= |grad f| (speed + max |f|)`` along any path in a
+    flow that varies in space.
+    """
+    flow = flowfield(sc)
+    if sc.flow_model == 'time_varying':
+        return sc.flow_amplitude * flow.rate / float(np.hypot(sc.flow_gain, flow.rate))
+    return flow.max_gradient() * (vehicle_speed(sc) + flow.max_speed) / sc.flow_gain
+
+
 def _slow_flow_note(sc: Scenario) -> str | None:
-    """Return the warning of a time-varying flow too fast for the laws' steady view, or None."""
-    if sc.flow_model != 'time_varying':
+    """Return the warning of a time-varying flow too fast for a law's steady view, or None."""
+    if sc.flow_model != 'time_varying' or uses_flow_rates(sc):
         return None
     flow = flowfield(sc)
     s_min = vehicle_speed(sc) - flow.max_speed
@@ -693,11 +732,69 @@ def _slow_flow_note(sc: Scenario) -> str | None:
     if turn <= SLOW_FLOW * rate:
         return None
     period = 2.0 * np.pi * sc.flow_amplitude / (SLOW_FLOW * rate * s_min)
-    return (f'flow_period = {sc.flow_period:g} s: the laws treat the flow as steady (no df/dt), '
+    return (f'flow_period = {sc.flow_period:g} s: the laws treat the flow as steady (no df/dt; '
+            f'{_steady_view_why(sc)}), '
             f'and |df/dt| = 2 pi A / T = {flow.max_rate():.3g} m/s^2 turns the course by up to '
             f'|df/dt| / (s - |f|) = {turn:.3g} rad/s, more than {SLOW_FLOW:g} of {what} = '
             f'{rate:.3g} rad/s: expect the formation to lag the flow. Use flow_period >= '
             f'{period:.3g} s or a smaller flow_amplitude')
+
+
+def _uniform_view_note(sc: Scenario) -> str | None:
+    """
+    Return the warning of a flow varying in space that a law takes as uniform, or None.
+
+    Refuses (ScenarioError) an estimating filter whose lag bound reaches half the speed
+    margin ``s - max |f|``: the believed course is then within no angle of the true one.
+    """
+    if sc.flow_model in ('uniform', 'time_varying') or uses_flow_rates(sc):
+        return None
+    flow, own = flowfield(sc), vehicle_speed(sc)
+    margin = own - flow.max_speed
+    text = (f'flow_model {sc.flow_model} (|grad f| up to {flow.max_gradient():.3g} 1/s): the '
+            f'laws take the flow at each vehicle as uniform and steady '
+            f'({_steady_view_why(sc)})')
+    if sc.flow_source == 'known':
+        return (f'{text}: the circle is kept only approximately (docs/laws.md, "Flowfields"); '
+                f'use law_variant: full or controller: pi for the laws with grad f')
+    lag = estimate_lag(sc)
+    if sc.flow_estimator == 'filter' and lag >= 0.5 * margin:
+        _fail('flow_model', sc.flow_model,
+              f'{text}, and the estimate lags the flow met along the path by up to '
+              f'|grad f| (speed + max |f|) / lambda_f = {lag:.3g} m/s, at least half the speed '
+              f'margin speed - max |f| = {margin:.3g} m/s: no course bound holds. Raise '
+              f'flow_gain, lower the gradient, or use flow_source: known')
+    return (f'{text}: the true circle is kept only to within the lag of the estimate, '
+            f'|fhat - f| <= |grad f| (speed + max |f|) / lambda_f = {lag:.3g} m/s; use '
+            f'flow_source: known for the laws with grad f')
+
+
+KINKS = {'shear': ('the edges |y| = flow_shear_width of the layer', 1.0),
+         'vortex': ('the rim of the core (flow_radius)', 2.0),
+         'grid': ('the edges of the grid cells', 2.0)}
+"""Where each flow's gradient jumps, and the largest jump in units of ``max |grad f|``."""
+
+
+def _kink_note(sc: Scenario) -> str | None:
+    """
+    Return the warning of a known flow whose gradient jumps by more than the laws can ignore.
+
+    Where ``grad f`` jumps by D the true course rate jumps by up to D (``<i v, D v> / s^2``) and
+    the law's V_c with it (errata, (E28.2)); warned above SLOW_FLOW of the laws' rate.
+    """
+    if sc.flow_model not in KINKS or not uses_flow_rates(sc):
+        return None
+    flow = flowfield(sc)
+    where, share = KINKS[sc.flow_model]
+    jump = share * flow.max_gradient()
+    s_min = vehicle_speed(sc) - flow.max_speed
+    rate = abs(sc.omega0) * s_min if sc.formation == 'circular' else abs(sc.K)
+    if jump <= SLOW_FLOW * rate:
+        return None
+    return (f'flow_model {sc.flow_model}: the gradient of the flow jumps at {where}, so a vehicle '
+            f'crossing it has its course rate kicked by up to {jump:.3g} rad/s, more than '
+            f'{SLOW_FLOW:g} of the rate of the laws, {rate:.3g} rad/s: the laws (with grad f) '
+            f'hold between crossings only; expect the formation to be kept approximately there')
 
 
 def _check_pattern(sc: Scenario) -> None:
@@ -803,7 +900,8 @@ def held_force_loop_gain(sc: Scenario) -> float:
 
 def _check_physics(sc: Scenario) -> tuple[str, ...]:
     """Check the conditions the rigid-body laws need (errata); return the warnings."""
-    notes = [note for note in (_slow_flow_note(sc),) if note]
+    notes = [note for note in (_slow_flow_note(sc), _uniform_view_note(sc), _kink_note(sc))
+             if note]
     if sc.model in ('rigid', 'rigid_cop'):
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
         if zero < 0.5 * band:

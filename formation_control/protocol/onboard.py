@@ -30,7 +30,7 @@ from typing import Any
 
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator
-from formation_control.core.geometry import BoolArray, RealArray
+from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
 from formation_control.core.scenario import Scenario
@@ -144,6 +144,9 @@ class Onboard:
         Its own s' (m/s^2) at ``X``.
     flow : (1,) complex
         The flow it commands with (m/s, map frame): the known local flow or its estimate.
+    ahead : (1,) complex
+        That flow carried to ``X`` (:meth:`control.Controller.flow_ahead`): what its view and
+        command use.
     estimator : estimation.FlowEstimator or None
         Its flow estimator (``flow_source: estimated``).
 
@@ -155,6 +158,7 @@ class Onboard:
         self.U_held: RealArray = np.zeros((2, 1))
         self.speed_dot = 0.0
         self.flow = np.full(1, complex(sc.flow_c))
+        self.ahead: complex | ComplexArray = self.flow
         self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
 
     @property
@@ -202,7 +206,8 @@ class Onboard:
         else:
             self.flow = self.estimator.update(sampled, np.full(1, v_ground)).copy()
         self.X = self.ctrl.predict(sampled, self.U_held, self.flow, delay)
-        view = self.ctrl.view(self.X, self.U_held[1], self.flow)
+        self.ahead = self.ctrl.flow_ahead(sampled, self.flow, delay)
+        view = self.ctrl.view(self.X, self.U_held[1], self.ahead)
         self.speed_dot = float(view.speed_dot[0])
         return view.r[0], view.phase[0], view.rate[0], view.speed[0]
 
@@ -226,6 +231,6 @@ class Onboard:
             limit.
 
         """
-        U = self.ctrl.command(view, self.predicted, [own], members=members, flow=self.flow)
+        U = self.ctrl.command(view, self.predicted, [own], members=members, flow=self.ahead)
         self.U_held = U.copy()
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

@@ -311,17 +311,48 @@ def vehicles_converged(ctrl: Controller, view: laws.View) -> BoolArray:
     -------
     ndarray of bool, shape (N,)
         Parallel: phase within ``acos(ORDER_TOL)`` of the mean phase and ``|rate| < RATE_TOL``;
-        circular: centre within SPREAD_TOL of the mean centre and radius within RADIUS_TOL.
+        circular: centre within SPREAD_TOL of the mean centre and radius within RADIUS_TOL;
+        with a pattern also the fleet's ``phase_moments`` (:func:`pattern_moments_reached`:
+        no vehicle is in its place while the pattern is not reached) and, for a splay, its
+        nearest vehicle at least ``1 - SEPARATION_TOL`` of the chord away
+        (:func:`nearest_distance`), as :func:`conditions` asks of the fleet.
 
     """
-    f = ctrl.formation
+    f, sc = ctrl.formation, ctrl.sc
     if isinstance(f, laws.Circular):
         c = f.centres(view)
         radius_error = abs(abs(view.r - c.mean()) * abs(f.omega0) - 1.0)
-        return (abs(c - c.mean()) < SPREAD_TOL) & (radius_error < RADIUS_TOL)
+        ok = (abs(c - c.mean()) < SPREAD_TOL) & (radius_error < RADIUS_TOL)
+        if sc.pattern != 'none':
+            ok = ok & pattern_moments_reached(sc, phase_orders(view.phase))
+        if sc.pattern == 'splay':
+            chord = 2.0 * np.sin(np.pi / sc.num_vehicles) / abs(sc.omega0)
+            ok = ok & (nearest_distance(view.r) >= (1.0 - SEPARATION_TOL) * chord)
+        return np.asarray(ok, bool)
     p = view.e.mean()
     aligned = np.cos(view.phase - np.angle(p)) > ORDER_TOL
     return aligned & (abs(view.rate) < RATE_TOL)
+
+
+NEAREST_ROWS = 1024
+"""Vehicles whose distances to all others :func:`nearest_distance` holds at once."""
+
+
+def nearest_distance(r: ComplexArray) -> RealArray:
+    """
+    Return each vehicle's distance to its nearest other vehicle (m), shape (N,).
+
+    All pairs, ``NEAREST_ROWS`` vehicles at a time (O(N^2) time, O(N) memory per row); inf
+    for a vehicle alone.
+    """
+    r = np.asarray(r, complex)
+    out = np.full(r.shape, np.inf)
+    for start in range(0, r.size, NEAREST_ROWS):
+        rows = np.arange(start, min(start + NEAREST_ROWS, r.size))
+        d = abs(r[rows, None] - r[None, :])
+        d[np.arange(rows.size), rows] = np.inf
+        out[rows] = d.min(axis=1, initial=np.inf)
+    return out
 
 
 def convergence_time(t: ArrayLike, flags: ArrayLike) -> float | None:

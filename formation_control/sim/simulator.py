@@ -207,13 +207,14 @@ class Stepper:
         Compute every vehicle's command, hold and return it (2, N).
 
         It is computed for the state :meth:`control.Controller.predict` gives from the current
-        state, the inputs held so far and the flow each vehicle has, as each vehicle node
-        computes its own.
+        state, the inputs held so far and the flow each vehicle has (carried to the predicted
+        state, :meth:`control.Controller.flow_ahead`), as each vehicle node computes its own.
         """
         self.flow_hat = flow = self.vehicles_flow()
         X = self.ctrl.predict(self.X, self.U, flow)
-        view = self.ctrl.view(X, self.U[1], flow)
-        return self.hold(self.ctrl.command(view, X, flow=flow))
+        ahead = self.ctrl.flow_ahead(self.X, flow)
+        view = self.ctrl.view(X, self.U[1], ahead)
+        return self.hold(self.ctrl.command(view, X, flow=ahead))
 
     def advance(self, steps: int | None = None) -> RealArray:
         """

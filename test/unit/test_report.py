@@ -18,6 +18,8 @@ The report and figure data of a run, and the command limits.
 Final values meet the steady state the thesis predicts, per-vehicle convergence agrees with the
 fleet's test, limits clip and flag.
 """
+from dataclasses import replace
+
 from formation_control.core import scenario
 from formation_control.core.control import Controller
 from formation_control.core.scenario import ScenarioError
@@ -100,6 +102,26 @@ def test_vehicles_converged_agrees_with_the_fleet_test_at_the_end():
         assert metrics.vehicles_converged(ctrl, ctrl.view(X, U[1])).all()
         early = metrics.vehicles_converged(ctrl, ctrl.view(run.X[0], run.U[0][1]))
         assert not early.all()
+
+
+@pytest.mark.parametrize('paired', [False, True])
+def test_vehicles_converged_refuses_a_splay_in_coincident_pairs(paired):
+    """The twisted state 4 pi k / N of a ring: N/2 pairs on one circle, centres together."""
+    sc = scenario.load(CONFIG / 'particle_circular_splay.yaml')
+    n, ctrl = sc.num_vehicles, Controller(sc)
+    phase = 2 * np.pi * np.arange(n) / n * (2 if paired else 1)
+    r = -1j * np.exp(1j * phase) / sc.omega0               # c_k = r_k + i e_k / omega0 = 0
+    X = np.zeros((6, n))
+    X[0], X[1], X[2], X[3], X[4] = r.real, r.imag, phase, sc.omega0, 1.0
+    view = ctrl.view(X)
+    np.testing.assert_allclose(ctrl.formation.centres(view), 0, atol=1e-12)
+    ok = metrics.vehicles_converged(ctrl, view)
+    assert ok.shape == (n,)
+    assert bool(metrics.converged(sc, metrics.snapshot(ctrl, X, np.zeros((2, n))))) != paired
+    assert not ok.any() if paired else ok.all()
+    if paired:
+        separated = replace(sc, pattern='symmetric', pattern_M=n // 2)
+        assert metrics.vehicles_converged(Controller(separated), view).all()
 
 
 @pytest.mark.parametrize('model, limit, row', [

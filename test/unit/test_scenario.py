@@ -22,6 +22,7 @@ from dataclasses import fields
 import json
 import math
 from pathlib import Path
+import re
 
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
@@ -490,11 +491,54 @@ def test_the_largest_degree_is_a_valid_nu_and_the_estimate_below_its_clamp_runs(
 
 
 @pytest.mark.parametrize('period, warned', [(0.5, True), (38.0, True), (39.0, False)])
-def test_a_flow_turning_too_fast_for_the_steady_view_is_warned_about(period, warned):
+@pytest.mark.parametrize('source', ['known', 'estimated'])
+def test_a_flow_turning_too_fast_for_the_steady_view_is_warned_about(period, warned, source):
+    """An estimate's rate is not known; a known flow's is taken into the laws: no warning."""
     sc = resolve({'formation': 'circular', 'flow_model': 'time_varying', 'flow_amplitude': 0.3,
-                  'flow_period': period})
+                  'flow_period': period, 'flow_source': source})
     notes = [w for w in sc.warnings if w.startswith(f'flow_period = {period:g} s')]
-    assert bool(notes) is warned
-    if warned:
+    assert bool(notes) is (warned and source == 'estimated')
+    if notes:
+        assert 'flow_source estimated: an estimate has no known rate' in notes[0]
         assert f'|df/dt| = 2 pi A / T = {2 * math.pi * 0.3 / period:.3g} m/s^2' in notes[0]
         assert 'Use flow_period >= 38.5 s' in notes[0]
+
+
+@pytest.mark.parametrize('params, note', [
+    ({'flow_source': 'estimated'}, r'the true circle is kept only to within the lag of the '
+     r'estimate, \|fhat - f\| <= \|grad f\| \(speed \+ max \|f\|\) / lambda_f = 0.0625 m/s'),
+    ({'model': 'rigid', 'flow_source': 'known'}, r'law_variant practical drops the rates\): the '
+     r'circle is kept only approximately'),
+    ({'flow_source': 'known'}, None),
+    ({'model': 'rigid_couple', 'controller': 'pi', 'flow_source': 'known'}, None),
+])
+def test_a_shear_the_laws_take_as_uniform_is_warned_about(params, note):
+    sc = resolve({'formation': 'circular', 'flow_model': 'shear', 'flow_shear': 0.05, **params})
+    notes = [w for w in sc.warnings if w.startswith('flow_model shear (|grad f| up to 0.05 1/s)')]
+    assert len(notes) == (note is not None)
+    if note:
+        assert re.search(note, notes[0]), notes[0]
+
+
+@pytest.mark.parametrize('params, warned', [
+    ({'flow_circulation': 2.0, 'flow_radius': 1.5}, True),       # 2 k = 0.283 > 0.1 x 0.788
+    ({'flow_circulation': 1.0, 'flow_radius': 2.0}, False),      # 2 k = 0.080 < 0.1 x 0.92
+    ({'flow_circulation': 2.0, 'flow_radius': 1.5, 'flow_source': 'estimated'}, False),
+])
+def test_a_vortex_rim_that_kicks_the_course_rate_is_warned_about(params, warned):
+    sc = resolve({'formation': 'circular', 'flow_model': 'vortex', **params})
+    notes = [w for w in sc.warnings if 'the gradient of the flow jumps at the rim' in w]
+    assert len(notes) == warned
+    if warned:
+        assert 'kicked by up to 0.283 rad/s, more than 0.1 of the rate of the laws, 0.788' in \
+            notes[0]
+
+
+def test_an_estimate_lagging_by_half_the_speed_margin_is_refused():
+    """|grad f| (1 + 0.4) / lambda_f = 0.1 x 1.4 / 0.4 = 0.35 >= (1 - 0.4) / 2: no bound."""
+    params = {'formation': 'circular', 'flow_model': 'shear', 'flow_shear': 0.1,
+              'flow_shear_width': 4.0, 'flow_source': 'estimated', 'flow_gain': 0.4}
+    with pytest.raises(scenario.ScenarioError, match=r"'flow_model' = 'shear' is invalid: .*"
+                       r'= 0.35 m/s, at least half the speed margin speed - max \|f\| = 0.6 m/s'):
+        resolve(params)
+    assert resolve({**params, 'flow_gain': 0.5}).flow_gain == 0.5
