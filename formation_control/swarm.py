@@ -482,6 +482,8 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         raise FileExistsError(f'bag directory {bag} exists already')
     swarm = Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
                   per_process, place, env, monitor_params, restart_dead, namespace, secure, stop)
+    print(f"swarm: logs and the plant's record {swarm.record} in {swarm.dir}", file=sys.stderr,
+          flush=True)
     if secure is not None:
         os.environ.update(security.environment(secure, 'swarm'))
         for name in security.UNSET:

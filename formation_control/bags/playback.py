@@ -94,7 +94,7 @@ class Topic:
 
 def _corrupt(path, err):
     return BagError(f'{path}: the bag is truncated or corrupt ({type(err).__name__}: {err}); a '
-                    f'bag whose recorder was killed may need `ros2 bag reindex`')
+                    f'bag whose recorder was killed: `formation-control repair {path}`')
 
 
 class Bag:

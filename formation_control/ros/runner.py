@@ -32,11 +32,16 @@ from rclpy.node import Node
 
 
 class _StopFlag:
-    """SIGINT / SIGTERM set a flag the loop checks: a signal at any moment stops the node."""
+    """
+    SIGINT / SIGTERM / SIGHUP set a flag the loop checks: a signal at any moment stops the node.
+
+    SIGHUP too: the kernel sends it to a process group left orphaned with a frozen member (a
+    swarm killed during a ``stop`` fault), and the node stops as cleanly as on Ctrl-C.
+    """
 
     def __init__(self):
         self.raised = False
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, self._raise)
 
     def _raise(self, *_):
