@@ -156,6 +156,21 @@ class Scan:
         return None
 
 
+def finish_chunk(writer):
+    """
+    Write the pending messages of a rosbags MCAP ``writer`` out as a finished chunk.
+
+    The recorder's side of the contract: after this, a kill loses nothing written so far (the
+    chunk and its message index are whole on disk); :func:`repair` reads them back.
+    """
+    storage = writer.storage
+    if storage is None:
+        return
+    if storage.chunk.bio.tell():
+        storage.close_chunk()
+    storage.bio.flush()
+
+
 def _digest(store, msgtype, msgdef, encoding):
     """Return the RIHS01 type hash of ``msgtype`` from its recorded definition."""
     if msgtype not in store.fielddefs:

@@ -21,6 +21,7 @@ its publishers offer.
 """
 from pathlib import Path
 
+from formation_control.bags.repair import finish_chunk
 from formation_control.protocol import names
 from formation_control.protocol.names import START_TOPIC
 from formation_control.ros import interface as itf
@@ -129,14 +130,11 @@ class BagRecorder(Node):
         self.count += 1
 
     def flush(self):
-        """Write the pending messages out as a finished chunk (rosbags' MCAP storage)."""
-        storage = self.writer.storage
-        if self.failure is not None or storage is None:
+        """Write the pending messages out as a finished chunk (:func:`repair.finish_chunk`)."""
+        if self.failure is not None:
             return
         try:
-            if storage.chunk.bio.tell():
-                storage.close_chunk()
-            storage.bio.flush()
+            finish_chunk(self.writer)
         except OSError as err:
             self._fail(err)
 
