@@ -56,7 +56,7 @@ RESTART_AFTER, CONT_AFTER, CUT_FOR = 10.0, 5.0, 5.0
 SAMPLE_PERIOD = 5.0
 """Wall seconds between two samples of every process's memory and CPU."""
 WARM_UP = 0.2
-"""The fraction of the run before the memory figure growth is measured from."""
+"""The fraction of each process's life (its longest-lived pid) before its memory growth counts."""
 ORPHAN_DEADLINE = 20.0
 
 
@@ -124,14 +124,15 @@ class Sampler:
             except psutil.Error:
                 continue
 
-    def table(self, end):
+    def table(self):
         """Per process name: RSS after warm-up and at the end, growth %, mean CPU %."""
         out = {}
         for name in sorted({r[1] for r in self.rows if r[1]}):
             rows = [r for r in self.rows if r[1] == name]
             pid = max({r[2] for r in rows}, key=lambda p: sum(r[2] == p for r in rows))
             life = [r for r in rows if r[2] == pid]
-            warm = [r for r in life if r[0] >= WARM_UP * end] or life
+            born, died = life[0][0], life[-1][0]
+            warm = [r for r in life if r[0] >= born + WARM_UP * (died - born)] or life
             rss0, rss1 = warm[0][3], warm[-1][3]
             out[name] = {'rss_warm_MB': round(rss0, 1), 'rss_end_MB': round(rss1, 1),
                          'growth_pct': round(100 * (rss1 - rss0) / rss0, 1),
@@ -200,7 +201,7 @@ def soak(args):
         'unrecovered': [p['process'] for p in out.get('lost', []) if p['restarted'] is None],
         'survivors': out.get('survivors'), 'converged_at_end': out.get('survivors_converged'),
         'reconvergence': reconvergence(run, episodes, args.duration) if run else None,
-        'processes': sampler.table(wall), 'left_running': left,
+        'processes': sampler.table(), 'left_running': left,
         'bag': {'closed': (bag / 'metadata.yaml').exists(),
                 'messages': sum(1 for _ in Bag(bag).messages()),
                 'faults_recorded': faults_topic},
