@@ -31,7 +31,6 @@ calls :func:`die_with_parent` first thing:
 A process started without :data:`PARENT_ENV` (``ros2 run`` from a shell) is not tied.
 """
 import ctypes
-import ctypes.util
 import os
 import signal
 import sys
@@ -77,7 +76,7 @@ def parent_death_signal(sig=signal.SIGTERM):
     """Ask the kernel for ``sig`` when the parent dies (Linux); return whether it was set."""
     if not sys.platform.startswith('linux'):
         return False
-    libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6', use_errno=True)
+    libc = ctypes.CDLL(None, use_errno=True)           # the process's own symbols: libc's
     return libc.prctl(PR_SET_PDEATHSIG, int(sig), 0, 0, 0) == 0
 
 
