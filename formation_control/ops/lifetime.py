@@ -22,8 +22,9 @@ calls :func:`die_with_parent` first thing:
 
 - on Linux, ``prctl(PR_SET_PDEATHSIG, SIGTERM)``: the kernel sends SIGTERM the moment the
   parent dies, even by SIGKILL, and the node stops as on Ctrl-C (the plant writes its record);
-- everywhere, a thread watches the parent (its pid, and the starter's pid when a wrapper such
-  as ``ip netns exec`` stands between them, every :data:`WATCH_PERIOD` s); when it is gone,
+- everywhere, a thread watches the parent and the starter (they differ when a wrapper that
+  forks, such as ``sudo``, stands between them), every :data:`WATCH_PERIOD` s; when either is
+  gone,
   the thread sends SIGCONT to the fleet's group (a member frozen by a ``stop`` fault handles
   no SIGTERM until continued), SIGTERM to its own process, and ends the process with exit
   code :data:`ORPHAN_EXIT` if it is still alive :data:`GRACE` s later.
