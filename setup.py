@@ -58,6 +58,7 @@ test_requires = [
     'protobuf',                          # test/integration/test_live.py: foxglove.SceneUpdate
     'ros-jazzy-domain-coordinator',      # domain_coordinator (test/rosutil.py)
     'colcon-common-extensions',          # test/integration/test_colcon.py
+    'mcap',                              # test/integration/test_record.py: an indexed MCAP reader
     # ament_flake8 and ament_pep257 declare no Python dependencies in their wheels; these are
     # the ones their package.xml names (python3-flake8, its plugins, pydocstyle).
     'ros-jazzy-ament-flake8',

@@ -13,12 +13,13 @@
 # limitations under the License.
 
 """
-Command line: ``formation-control`` sim, swarm, set, plot, report, play, doctor, params, layout.
+Command line: the ``formation-control`` commands (sim, swarm, report, play, repair, ...).
 
 ``sim`` runs the offline simulator, ``swarm`` runs a fleet as ROS 2 processes (plant + one
 process per vehicle + monitor); ``set`` changes run-time gains on every vehicle of a running
 fleet; ``plot`` and ``report`` read a run back from a simulator/plant ``.npz`` or a rosbag2
-bag; ``play`` republishes a bag; ``doctor`` checks a running fleet; ``sweep`` runs a grid of
+bag; ``play`` republishes a bag; ``repair`` makes a bag its recorder did not close readable;
+``doctor`` checks a running fleet; ``sweep`` runs a grid of
 parameter values x seeds; ``params`` prints the table of scenario parameters
 (docs/parameters.md); ``layout`` prints the Foxglove layout (foxglove/formation_control.json).
 """
@@ -237,8 +238,9 @@ def load_source(path):
             return simulator.load_run(path)
         except (OSError, ValueError, KeyError) as err:
             raise UsageError(f'{path}: not a run .npz ({err})') from None
-    raise UsageError(f'SOURCE {path!r} is neither a run .npz nor a rosbag2 bag '
-                     f'directory (one with metadata.yaml)')
+    from formation_control.bags.repair import unclosed
+    raise UsageError(unclosed(path) or f'SOURCE {path!r} is neither a run .npz nor a rosbag2 '
+                     f'bag directory (one with metadata.yaml)')
 
 
 def cmd_plot(args):
@@ -250,6 +252,20 @@ def cmd_plot(args):
 
 def cmd_report(args):
     _report(load_source(args.source), args.source, 'recorded', summary_path=args.summary)
+    return 0
+
+
+def cmd_repair(args):
+    from formation_control.bags.repair import repair
+    try:
+        kept = repair(args.bag, args.out)
+    except OSError as err:
+        print(f'error: writing the repaired bag failed ({err}): free some room, or give '
+              f'--out DIR on another disk', file=sys.stderr)
+        return 1
+    print(f'repaired {args.out or args.bag}' + ('' if args.out else
+                                                f' (the original: {args.bag}.unrepaired)'))
+    print('\n'.join(kept.lines()))
     return 0
 
 
@@ -427,6 +443,13 @@ def build_parser():
     rep.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
     rep.add_argument('--summary', help='write the figures to this .json')
     rep.set_defaults(func=cmd_report)
+    fix = sub.add_parser('repair', help='make a bag its recorder did not close readable again '
+                                        '(summary, index, metadata.yaml); says what was kept')
+    fix.add_argument('bag', help='the bag directory (one .mcap, metadata.yaml or none)')
+    fix.add_argument('--out', metavar='DIR',
+                     help='write the repaired bag to this new directory and leave BAG as it '
+                          'is (default: in place, the original kept as BAG.unrepaired)')
+    fix.set_defaults(func=cmd_repair)
     params = sub.add_parser('params', help='print the table of scenario parameters (Markdown, '
                                            'docs/parameters.md)')
     params.set_defaults(func=cmd_params)

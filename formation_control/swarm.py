@@ -28,7 +28,7 @@ import sys
 import tempfile
 import time
 
-from formation_control.ops import security
+from formation_control.ops import lifetime, security
 from formation_control.protocol import faults, names
 from formation_control.protocol.fleet_plan import FleetPlan, ros_arguments, write_params
 from formation_control.sim import simulator
@@ -132,6 +132,7 @@ class Swarm:
                      for name in self.names}
         self.process_of = {k: i for i, group in enumerate(self.members) for k in group}
         self.procs, self.state, self.cause = [], [], {}
+        self.group = 0
         self.restart_dead, self.restarts = restart_dead, []
         self.t = None
         self.lost, self.faults, self.survivors = [], [], None
@@ -151,11 +152,24 @@ class Swarm:
         stop(self.procs)
 
     def _start(self, i, mode='a'):
+        """
+        Start process ``i`` in the fleet's process group, tied to this process.
+
+        The group (the first process's pid) is the fleet's alone: a frozen member is continued
+        through it when this process dies (:mod:`formation_control.ops.lifetime`). A group
+        whose members have all exited is made anew.
+        """
         with open(self.dir / self.logs[i], mode) as log:
-            self.procs[i] = subprocess.Popen(self.place(self.names[i]) + self.commands[i],
-                                             stdout=log, stderr=subprocess.STDOUT,
-                                             env=self.envs[self.names[i]],
-                                             stdin=subprocess.DEVNULL)
+            for group in dict.fromkeys((self.group, 0)):
+                try:
+                    self.procs[i] = subprocess.Popen(
+                        self.place(self.names[i]) + self.commands[i], stdout=log,
+                        stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, process_group=group,
+                        env=lifetime.tied_env(self.envs[self.names[i]] or os.environ, True))
+                    break
+                except PermissionError:
+                    continue
+        self.group = group or self.procs[i].pid
         self.state[i] = 'running'
 
     @property
@@ -275,6 +289,8 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
             time.sleep(0.05)
             continue
         supervisor.spin_once(0.02)
+        if supervisor.recorder is not None and supervisor.recorder.failure is not None:
+            raise RuntimeError(supervisor.recorder.failure)
         swarm.t = supervisor.t
         for fault in schedule.due(swarm.t) if schedule and swarm.t is not None else ():
             swarm.apply(fault)
@@ -339,10 +355,14 @@ class Supervisor:
             topics.append((prefix + names.FAULTS_TOPIC, 'std_msgs/msg/String', itf.FAULTS_QOS))
             self.topics = [t for t, _, _ in topics
                            if mode == 'lockstep' or t != prefix + names.CLOCK_TOPIC]
-            self.recorder = BagRecorder(str(bag), topics, context=self.context,
-                                        cli_args=['--ros-args', '-r', f'/clock:={prefix}clock'],
-                                        parameter_overrides=[
-                                            Parameter('use_sim_time', value=mode == 'lockstep')])
+            try:
+                self.recorder = BagRecorder(
+                    str(bag), topics, context=self.context,
+                    cli_args=['--ros-args', '-r', f'/clock:={prefix}clock'],
+                    parameter_overrides=[Parameter('use_sim_time', value=mode == 'lockstep')])
+            except RuntimeError:
+                self.close()
+                raise
             self.start = self.node.create_publisher(Empty, prefix + names.START_TOPIC,
                                                     itf.LATCHED_QOS)
             self.recording = EventsExecutor(context=self.context)
@@ -420,15 +440,22 @@ class Supervisor:
         Left to the end of the process, a TLS participant is destroyed after OpenSSL's own
         clean-up, and Fast DDS 2.14 crashes reconnecting to its peers (seen: SIGSEGV).
         """
+        failed = None
         if self.recorder is not None:
-            self.spin(drain)
-            self.recorder.close()
+            if self.recorder.failure is None:
+                self.spin(drain)
+            try:
+                self.recorder.close()
+            except RuntimeError as err:
+                failed = err
             self.recording.shutdown()
             self.recorder.destroy_node()
         self.executor.shutdown()
         self.node.destroy_node()
         self.context.try_shutdown()
         self.context.destroy()
+        if failed is not None:
+            raise failed
 
 
 def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
@@ -458,6 +485,8 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
     swarm = Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
                   per_process, place, env, monitor_params, restart_dead, namespace, secure, stop,
                   schedule.acts_on_processes)
+    print(f"swarm: logs and the plant's record {swarm.record} in {swarm.dir}", file=sys.stderr,
+          flush=True)
     if secure is not None:
         os.environ.update(security.environment(secure, 'swarm'))
         for name in security.UNSET:

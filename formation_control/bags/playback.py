@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 import struct
 
+from formation_control.bags.repair import unclosed
 from rosbags.rosbag2 import Reader, ReaderError
 
 CLOCK_TOPIC = 'clock'
@@ -93,7 +94,7 @@ class Topic:
 
 def _corrupt(path, err):
     return BagError(f'{path}: the bag is truncated or corrupt ({type(err).__name__}: {err}); a '
-                    f'bag whose recorder was killed may need `ros2 bag reindex`')
+                    f'bag whose recorder was killed: `formation-control repair {path}`')
 
 
 class Bag:
@@ -115,7 +116,8 @@ class Bag:
         topics = None if topics is None else {resolve_name(t, namespace) for t in topics}
         skip = {resolve_name(t, namespace) for t in skip}
         if not (self.path / 'metadata.yaml').is_file():
-            raise BagError(f'{path}: not a rosbag2 bag (a directory with metadata.yaml)')
+            raise BagError(unclosed(path) or f'{path}: not a rosbag2 bag (a directory with '
+                           f'metadata.yaml)')
         try:
             with Reader(self.path) as reader:
                 conns = list(reader.connections)

@@ -119,8 +119,9 @@ PLANT = {
     'mode': ('lockstep', _MODE),
     'real_time_factor': (1.0, Spec('', 'realtime mode: simulated seconds per wall second',
                                    low=0.01, high=1000.0)),
-    'record_path': ('', Spec('', 'write the run here as .npz (simulator layout) when it ends; '
-                             'empty = no record')),
+    'record_path': ('', Spec('', 'write the run here as .npz (simulator layout) when it ends, '
+                             'and the run so far every few seconds and when stopped early '
+                             '(meta complete: false); empty = no record')),
     'exit_when_done': (True, Spec('', 'exit once duration is simulated')),
     'wait_for_start': (False, Spec('', 'hold step 0 until a std_msgs/Empty on '
                                    '/formation/start (lets a recorder discover every topic '

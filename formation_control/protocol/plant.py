@@ -185,6 +185,12 @@ class Plant:
             self.failed = True
             self._finish()
 
+    def progress(self) -> dict[str, float]:
+        """Return the meta data of the record so far: the wall and simulated time reached."""
+        wall = 0.0 if self.wall_start is None else self.clock() - self.wall_start
+        return {'wall_time': self.wall if self.finished else wall,
+                'simulated_time': self.fleet.time}
+
     def summary(self) -> tuple[dict[str, float], str]:
         """Return the meta data of the run's record and its one-line summary, once finished."""
         simulated, wall = self.fleet.time, self.wall

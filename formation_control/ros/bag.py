@@ -21,6 +21,7 @@ its publishers offer.
 """
 from pathlib import Path
 
+from formation_control.bags.repair import finish_chunk
 from formation_control.protocol import names
 from formation_control.protocol.names import START_TOPIC
 from formation_control.ros import interface as itf
@@ -30,6 +31,10 @@ from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, Q
                                 QosTime)
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
+
+
+FLUSH_PERIOD = 1.0
+"""Wall seconds between two finished chunks of the bag: what a kill can lose."""
 
 
 def fleet_topics(n, namespace='/'):
@@ -77,15 +82,34 @@ def msg_class(type_name):
         raise ImportError(f'no message {type_name} in the installed {package}') from None
 
 
+class RecordError(RuntimeError):
+    """The bag could not be created or written: what failed, and what was kept."""
+
+
 class BagRecorder(Node):
-    """A node writing every message of ``topics`` ((name, type, QoS)) to a bag at ``path``."""
+    """
+    A node writing every message of ``topics`` ((name, type, QoS)) to a bag at ``path``.
+
+    Every :data:`FLUSH_PERIOD` wall seconds the messages so far are written out as a finished
+    chunk, so a recorder killed at any moment leaves them whole in the ``.mcap`` (without the
+    summary and ``metadata.yaml`` its close writes: ``formation-control repair`` rebuilds
+    those). A write that fails (a full disk, an unwritable directory) stops the recording:
+    :attr:`failure` says what failed and what was kept; nothing written before is lost.
+    """
 
     def __init__(self, path, topics, **kwargs):
-        super().__init__('formation_bag_recorder', **kwargs)
+        self.path = path
         self.writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self.writer.open()
+        try:
+            self.writer.open()
+        except OSError as err:
+            raise RecordError(f'bag {path}: cannot be created ({err.strerror}): give a '
+                              f'directory on a writable disk') from None
+        super().__init__('formation_bag_recorder', **kwargs)
         typestore = get_typestore(Stores.ROS2_JAZZY)
         self.count = 0
+        self.failure = None
+        self.done, self.exit_code = False, 0
         self.readers = {}
         for name, type_name, qos in topics:
             conn = self.writer.add_connection(name, type_name, typestore=typestore,
@@ -93,13 +117,47 @@ class BagRecorder(Node):
             self.readers[name] = self.create_subscription(
                 msg_class(type_name), name, lambda data, conn=conn: self._write(conn, data),
                 _record_qos(qos), raw=True)
+        from formation_control.ros.common import wall_clock
+        self.flush_timer = self.create_timer(FLUSH_PERIOD, self.flush, clock=wall_clock()[0])
 
     def _write(self, conn, data):
-        self.writer.write(conn, self.get_clock().now().nanoseconds, data)
+        if self.failure is not None:
+            return
+        try:
+            self.writer.write(conn, self.get_clock().now().nanoseconds, data)
+        except OSError as err:
+            return self._fail(err)
         self.count += 1
 
+    def flush(self):
+        """Write the pending messages out as a finished chunk (:func:`repair.finish_chunk`)."""
+        if self.failure is not None:
+            return
+        try:
+            finish_chunk(self.writer)
+        except OSError as err:
+            self._fail(err)
+
+    def _fail(self, err):
+        self.failure = (f'bag {self.path}: writing failed after {self.count} messages '
+                        f'({err.strerror}); recording stopped. The messages before are kept: '
+                        f'`formation-control repair {self.path}` (with --out DIR on a disk '
+                        f'with room) makes the bag readable')
+        self.get_logger().error(self.failure)
+        self.done, self.exit_code = True, 1
+
     def close(self):
-        self.writer.close()
+        """Close the bag: its summary and ``metadata.yaml``; a failure says so (RecordError)."""
+        if self.writer.storage is None:
+            return
+        try:
+            self.writer.close()
+        except OSError as err:
+            self.writer.storage = None
+            if self.failure is None:
+                self._fail(err)
+        if self.failure is not None:
+            raise RecordError(self.failure)
 
 
 class FleetRecorder(BagRecorder):
@@ -132,7 +190,10 @@ class FleetRecorder(BagRecorder):
             self.destroy_timer(self.timer)
 
     def destroy_node(self):
-        self.close()
+        try:
+            self.close()
+        except RecordError:
+            pass                                   # logged by _fail
         return super().destroy_node()
 
 

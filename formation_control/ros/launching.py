@@ -21,12 +21,13 @@ fleet takes, and the nodes are those ``formation-control swarm`` starts: the pla
 ``vehicle`` node per vehicle (or ``vehicles`` processes of several nodes), the monitor and,
 with ``record``, the bag ``recorder``, all in the ``namespace``.
 """
+import os
 from pathlib import Path
 import tempfile
 
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
-from formation_control.ops import security
+from formation_control.ops import lifetime, security
 from formation_control.protocol.fleet_plan import FleetPlan, LAUNCH_LABELS, write_params
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration
@@ -91,8 +92,14 @@ def _scenario(a, recorded=False):
 
 
 def _node(executable, a, params, member, **kwargs):
-    """Return the Node of ``executable``; with a ``secure`` fleet it runs as ``member``."""
-    env = security.environment(a['secure'], member) if a['secure'] else None
+    """
+    Return the Node of ``executable``; with a ``secure`` fleet it runs as ``member``.
+
+    The node stops when the launch dies, even by SIGKILL
+    (:func:`~formation_control.ops.lifetime.die_with_parent`).
+    """
+    env = security.environment(a['secure'], member) if a['secure'] else {}
+    env[lifetime.PARENT_ENV] = str(os.getpid())
     return Node(package=PACKAGE, executable=executable, namespace=a['namespace'] or None,
                 parameters=params, output='screen', emulate_tty=True, additional_env=env,
                 **kwargs)

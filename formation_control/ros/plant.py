@@ -39,7 +39,10 @@ cause; once every vehicle is, the run ends (exit code 1). Counts and status:
 
 Every scenario parameter is read-only here: the plant uses no gain, the vehicles hold them.
 """
+import os
+from pathlib import Path
 import sys
+import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.protocol import intake, links, messages, names
@@ -57,6 +60,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
 REJECTS = ('non_finite', 'wrong_frame', 'stale', 'malformed')
+SNAPSHOT_PERIOD = 2.0
+"""Wall seconds between two snapshots of the record (at least; see :meth:`PlantNode._snapshot`)."""
 LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
           'error': DiagnosticStatus.ERROR}
 
@@ -90,10 +95,20 @@ class PlantNode(Node):
         if self.mode == 'lockstep':
             self.create_timer(min(0.05, self.plant.gate.liveness.timeout / 4), self._advance,
                               clock=self.wall)
+        self.snapshot_timer = None
+        if self.p['record_path']:
+            self.snapshot_timer = self.create_timer(SNAPSHOT_PERIOD, self._snapshot,
+                                                    clock=self.wall)
         if self.p['wait_for_start']:
             self.create_subscription(Empty, START_TOPIC, self._start, itf.LATCHED_QOS)
         else:
             self._start()
+
+    def destroy_node(self):
+        """Keep the record so far when stopped before the end (Ctrl-C, SIGTERM, the swarm gone)."""
+        if self.p['record_path'] and not self.ended:
+            self._save({**self.plant.progress(), 'complete': False})
+        return super().destroy_node()
 
     def _create_topics(self):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
@@ -212,11 +227,30 @@ class PlantNode(Node):
         common.publish_diagnostics(self, self.diag_pub, [
             common.status('formation_control/plant', LEVELS[level], text, values)])
 
+    def _snapshot(self):
+        """Write the record so far (``complete: false``); the next one after 20 times as long."""
+        start = time.monotonic()
+        self._save({**self.plant.progress(), 'complete': False})
+        took = time.monotonic() - start
+        self.destroy_timer(self.snapshot_timer)
+        self.snapshot_timer = self.create_timer(max(SNAPSHOT_PERIOD, 20 * took), self._snapshot,
+                                                clock=self.wall)
+
+    def _save(self, meta):
+        """Write the record to ``record_path`` atomically: a kill leaves the last one whole."""
+        if not self.fleet.recorder.t:
+            return
+        path = Path(self.p['record_path'])
+        part = path.with_name(path.name + '.part')
+        with open(part, 'wb') as out:
+            self.fleet.run({'mode': self.mode, **meta}).save(out)
+        os.replace(part, path)
+
     def _finish(self):
         self.ended = True
         meta, summary = self.plant.summary()
         if self.p['record_path']:
-            self.fleet.run({'mode': self.mode, **meta}).save(self.p['record_path'])
+            self._save({**meta, 'complete': True})
         self.get_logger().info(summary)
         self.done, self.exit_code = (True, 1) if self.plant.failed else (
             self.p['exit_when_done'], 0)

@@ -22,6 +22,7 @@ import sys
 import tempfile
 
 from formation_control.core.errors import ScenarioError, UsageError
+from formation_control.ops.lifetime import die_with_parent
 from formation_control.ops.security import check_environment
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -31,11 +32,16 @@ from rclpy.node import Node
 
 
 class _StopFlag:
-    """SIGINT / SIGTERM set a flag the loop checks: a signal at any moment stops the node."""
+    """
+    SIGINT / SIGTERM / SIGHUP set a flag the loop checks: a signal at any moment stops the node.
+
+    SIGHUP too: the kernel sends it to a process group left orphaned with a frozen member (a
+    swarm killed during a ``stop`` fault), and the node stops as cleanly as on Ctrl-C.
+    """
 
     def __init__(self):
         self.raised = False
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, self._raise)
 
     def _raise(self, *_):
@@ -79,13 +85,16 @@ def run(make_node, args=None):
     The nodes share one events executor until one is done, SIGINT or SIGTERM arrives or the
     context shuts down (exit code 0, or the ``exit_code`` of a node that is done); a bad
     scenario, or an environment that would open a TLS fleet to anyone
-    (:func:`~formation_control.ops.security.check_environment`), exits 2 with the reason.
+    (:func:`~formation_control.ops.security.check_environment`), exits 2 with the reason. A
+    process started by a swarm or a launch stops when its starter dies
+    (:func:`~formation_control.ops.lifetime.die_with_parent`).
     """
+    stop = _StopFlag()
+    die_with_parent()
     unsafe = check_environment(os.environ)
     if unsafe:
         print(f'error: {unsafe}', file=sys.stderr)
         return 2
-    stop = _StopFlag()
     nodes, code = [], 0
     try:
         with one_participant_at_a_time():
