@@ -15,6 +15,10 @@
 """
 The monitor's Foxglove live view: a Foxglove WebSocket server (``foxglove-sdk``).
 
+Its public port is a :class:`~formation_control.ros.relay.Relay`, so that clients of both names
+of the protocol connect: ``foxglove.sdk.v1`` (the Foxglove app) and ``foxglove.websocket.v1``
+(Foxglove Studio 1.x, Lichtblick).
+
 Channels, named as the monitor resolves its topics (absolute: a fleet in ``/fleet_a`` has
 ``/fleet_a/formation/metrics``):
 
@@ -31,6 +35,7 @@ Each message is logged at the fleet time of the state it shows (ns).
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
 from formation_control.protocol.names import WORLD_FRAME
+from formation_control.ros.relay import Relay
 from formation_control.view import scene
 import foxglove
 from foxglove.channels import SceneUpdateChannel
@@ -65,10 +70,12 @@ class LiveView:
     def __init__(self, node, host, port, frame=WORLD_FRAME):
         self.frame = frame
         self.context = foxglove.Context()
+        self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
+                                            host='127.0.0.1', port=0, context=self.context)
         try:
-            self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
-                                                host=host, port=port, context=self.context)
-        except RuntimeError as err:          # FoxgloveError: Failed to bind port: ...
+            self.relay = Relay(host, port, self.server.port)
+        except OSError as err:
+            self.server.stop()
             raise UsageError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
                              f'{host}:{port} ({err})') from None
         self.scene = SceneUpdateChannel(node.resolve_topic_name(names.SCENE_TOPIC),
@@ -82,7 +89,7 @@ class LiveView:
 
     @property
     def port(self):
-        return self.server.port
+        return self.relay.port
 
     def wants_scene(self):
         return self.scene.has_sinks()
@@ -101,4 +108,5 @@ class LiveView:
             self.diagnostics.log(data, log_time=int(ns))
 
     def close(self):
+        self.relay.close()
         self.server.stop()

@@ -139,12 +139,14 @@ def _free_port():
 POSES = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0), 3: (0.0, -1.5, -2.5)}
 
 
-def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
+@pytest.mark.parametrize('subprotocol', ['foxglove.sdk.v1', 'foxglove.websocket.v1'])
+def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, subprotocol):
     """
     A monitor with ``foxglove_port``: what a Foxglove client receives equals its topics.
 
     The monitor is in the namespace ``/fleet_a`` with the world frame ``odom``: the channels
-    are its resolved names, the scene is in its frame.
+    are its resolved names, the scene is in its frame. A client of either name of the protocol
+    (the Foxglove app's, Foxglove Studio's and Lichtblick's) is served alike.
     """
     sc = scenario.load(CONFIG / 'particle_circular.yaml', [], num_vehicles=3, c0=[1.0, -2.0],
                        informed=[1])
@@ -155,7 +157,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
         f'foxglove_port:={port}']))
     scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
     ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
-    with client(port) as fox:
+    with client(port, subprotocols=[subprotocol]) as fox:
         topics = (scene_topic, metrics_topic, names.DIAGNOSTICS_TOPIC)
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
         assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
