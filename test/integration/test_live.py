@@ -34,6 +34,7 @@ from formation_control.ros.monitor import MonitorNode
 from formation_control.view import layout, picture, scene
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
+from json_schema_rules import check
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
@@ -100,7 +101,7 @@ def test_scene_shows_each_vehicle_its_velocity_trail_links_and_centres():
 def test_metrics_message_is_json_with_every_metric_by_name():
     msg = scene.metrics_message(3_000_000_007, {'order_parameter': 0.5, 'radius': math.nan})
     assert json.loads(json.dumps(msg, allow_nan=False)) == {
-        'timestamp': {'sec': 3, 'nsec': 7}, 'order_parameter': 0.5, 'radius': None}
+        'timestamp': {'sec': 3, 'nsec': 7}, 'order_parameter': 0.5}
     schema = scene.metrics_schema(messages.METRIC_DOC)
     assert set(schema['properties']) == {'timestamp', *messages.METRIC_DOC}
 
@@ -162,6 +163,9 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
         assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
         assert fox.channels[names.DIAGNOSTICS_TOPIC]['schemaEncoding'] == 'ros2msg'
+        for channel in fox.channels.values():
+            if channel['encoding'] == 'json':
+                check(json.loads(channel['schema']), channel['topic'])
         fox.subscribe(topics)
         node = nodes.node
         node.create_publisher(String, '/fleet_a/formation/scenario', itf.LATCHED_QOS).publish(
@@ -186,7 +190,8 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
     (log_time, live), = got[metrics_topic]
     assert log_time == stamp == messages.stamp_ns(ros_metrics[0].header.stamp)
     assert live.pop('timestamp') == {'sec': 4, 'nsec': 200_000_000}
-    assert live == dict(zip(ros_metrics[0].name, ros_metrics[0].position))
+    assert live == {k: v for k, v in zip(ros_metrics[0].name, ros_metrics[0].position)
+                    if math.isfinite(v)}
     log_time, update = got[scene_topic][-1]
     assert log_time == stamp
     assert {e.frame_id for e in update.entities} == {'odom'}
