@@ -26,6 +26,8 @@ Channels, named as the monitor resolves its topics (absolute: a fleet in ``/flee
   ``world_frame``, :func:`scene.fleet_scene`;
 - ``<ns>/formation/metrics``: JSON, ``timestamp`` and each metric of :data:`interface.METRIC_DOC`
   by name (plot ``/formation/metrics.order_parameter``);
+- ``<ns>/formation/markers``: the RViz ``visualization_msgs/msg/MarkerArray`` as CDR, the same
+  picture as the scene, so that a layout made for bags (which record the markers) works live;
 - ``/diagnostics``: ``diagnostic_msgs/msg/DiagnosticArray`` as CDR (schema encoding
   ``ros2msg``, what ``foxglove_bridge`` serves), for the Diagnostics panels.
 
@@ -42,6 +44,7 @@ from foxglove.channels import SceneUpdateChannel
 from rosbags.typesys import get_typestore, Stores
 
 DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
+MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 
 
 def ros2msg_schema(type_name):
@@ -83,6 +86,9 @@ class LiveView:
         self.metrics = foxglove.Channel(node.resolve_topic_name(names.METRICS_TOPIC),
                                         schema=scene.metrics_schema(messages.METRIC_DOC),
                                         context=self.context)
+        self.markers = foxglove.Channel(node.resolve_topic_name(names.MARKERS_TOPIC),
+                                        schema=ros2msg_schema(MARKER_ARRAY),
+                                        message_encoding='cdr', context=self.context)
         self.diagnostics = foxglove.Channel(node.resolve_topic_name(names.DIAGNOSTICS_TOPIC),
                                             schema=ros2msg_schema(DIAGNOSTIC_ARRAY),
                                             message_encoding='cdr', context=self.context)
@@ -93,6 +99,13 @@ class LiveView:
 
     def wants_scene(self):
         return self.scene.has_sinks()
+
+    def wants_markers(self):
+        return self.markers.has_sinks()
+
+    def log_markers(self, ns, data):
+        """Log a serialized MarkerArray (CDR bytes) at the stamp of its picture."""
+        self.markers.log(data, log_time=int(ns))
 
     def log_scene(self, picture):
         """Log the scene of a :class:`~formation_control.view.picture.Picture` at its stamp."""

@@ -42,6 +42,7 @@ from rclpy.serialization import deserialize_message
 from rosutil import CONFIG
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -131,6 +132,17 @@ def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
     assert three_d['config']['followTf'] == frame
 
 
+def _layout_topics(node):
+    """Return the topics a layout (the Foxglove format) names."""
+    if node['type'] == 'split':
+        return {t for item in node['items'] for t in _layout_topics(item['content'])}
+    config = node['config']
+    named = {'ThreeDee': lambda: set(config['topics']),
+             'Plot': lambda: {p['value'].split('.', 1)[0] for p in config['paths']},
+             'DiagnosticsSummary': lambda: {config['topicToRender']}}
+    return named[node['panelType']]()
+
+
 def _free_port():
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
@@ -157,12 +169,15 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
         '-p', 'diagnostics_period:=0.1', '-p', 'world_frame:=odom', '-p',
         f'foxglove_port:={port}']))
     scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
+    markers_topic = '/fleet_a/formation/markers'
     ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
     with client(port, subprotocols=[subprotocol]) as fox:
-        topics = (scene_topic, metrics_topic, names.DIAGNOSTICS_TOPIC)
+        topics = (scene_topic, metrics_topic, markers_topic, names.DIAGNOSTICS_TOPIC)
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
         assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
         assert fox.channels[names.DIAGNOSTICS_TOPIC]['schemaEncoding'] == 'ros2msg'
+        named = _layout_topics(json.loads(layout.layout_json('fleet_a', 'odom'))['content'])
+        assert named <= set(fox.channels), f'named, not served: {named - set(fox.channels)}'
         for channel in fox.channels.values():
             if channel['encoding'] == 'json':
                 check(json.loads(channel['schema']), channel['topic'])
@@ -204,6 +219,9 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
                 POSES.values()]
     assert [_xy(s.pose.position) for s in by_id['centres'].spheres] == pytest.approx(expected)
     assert _xy(by_id['centres'].cylinders[0].pose.position) == 1 - 2j
+    marker_array = deserialize_message(got[markers_topic][-1][1], MarkerArray)
+    assert {m.header.frame_id for m in marker_array.markers} == {'odom'}
+    assert got[markers_topic][-1][0] == stamp
     statuses = {s.name for _, data in got[names.DIAGNOSTICS_TOPIC]
                 for s in deserialize_message(data, DiagnosticArray).status}
     assert 'fleet_a/formation_control/formation' in statuses         # /diagnostics: shared
