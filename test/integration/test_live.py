@@ -29,7 +29,7 @@ from formation_control import cli
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
-from formation_control.ros import interface as itf
+from formation_control.ros import interface as itf, live as live_view
 from formation_control.ros.monitor import MonitorNode
 from formation_control.view import layout, picture, scene
 from foxglove.messages import SceneUpdate
@@ -172,7 +172,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
     markers_topic = '/fleet_a/formation/markers'
     ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
     with client(port, subprotocols=[subprotocol]) as fox:
-        topics = (scene_topic, metrics_topic, markers_topic, names.DIAGNOSTICS_TOPIC)
+        topics = (scene_topic, metrics_topic, markers_topic, names.DIAGNOSTICS_TOPIC, '/tf')
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
         assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
         assert fox.channels[names.DIAGNOSTICS_TOPIC]['schemaEncoding'] == 'ros2msg'
@@ -222,6 +222,15 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
     marker_array = deserialize_message(got[markers_topic][-1][1], MarkerArray)
     assert {m.header.frame_id for m in marker_array.markers} == {'odom'}
     assert got[markers_topic][-1][0] == stamp
+    log_time, data = got['/tf'][-1]
+    tf = live_view.TYPES.deserialize_cdr(data, live_view.TF_MESSAGE)
+    assert log_time == stamp
+    assert [(t.header.frame_id, t.child_frame_id) for t in tf.transforms] == [
+        ('map', 'odom')] + [('odom', f'vehicle_{k}/base_link') for k in POSES]
+    for t, (x, y, theta) in zip(tf.transforms[1:], POSES.values()):
+        assert (t.transform.translation.x, t.transform.translation.y) == pytest.approx((x, y))
+        assert _yaw(t.transform.rotation) == pytest.approx(theta)
+        assert messages.stamp_ns(t.header.stamp) == stamp
     statuses = {s.name for _, data in got[names.DIAGNOSTICS_TOPIC]
                 for s in deserialize_message(data, DiagnosticArray).status}
     assert 'fleet_a/formation_control/formation' in statuses         # /diagnostics: shared
