@@ -53,10 +53,13 @@ def _plot(metrics, metric, title, low, high):
 
 
 def _scene_panel(prefix, frame):
-    camera = fl.ThreeDeeCameraState(perspective=False, distance=20.0, phi=0.0,
+    camera = fl.ThreeDeeCameraState(perspective=False, distance=10.0, phi=0.0, theta_offset=0.0,
                                     target=(0.0, 0.0, 0.0))
+    frames = fl.BaseRendererSceneSettings(transforms=fl.BaseRendererTransforms(
+        show_label=False, axis_size=0.3))
     return fl.ThreeDeePanel(title=f'fleet ({frame})', config=fl.ThreeDeeConfig(
         fixed_frame=frame, follow_tf=frame, follow_mode='follow-none', camera_state=camera,
+        scene=frames,
         topics={prefix + names.SCENE_TOPIC: fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 prefix + names.MARKERS_TOPIC: fl.BaseRendererRosMarkerTopicSettings(
                     visible=True)},
