@@ -16,7 +16,7 @@
 // prints what the app shows as JSON: whether every topic of TOPICS was listed before the timeout,
 // the page's text, the text of the Problems tab, the console errors, the failed requests and
 // the box (CSS pixels) of each panel titled in TITLES; writes the screenshot OUT_DIR/app.png.
-// Usage: node drive.js URL CHROMIUM OUT_DIR TOPICS TITLES TIMEOUT_S  (lists: comma-separated)
+// Usage: node drive.js URL CHROMIUM OUT_DIR TOPICS TITLES TIMEOUT_S  (lists: JSON arrays)
 
 const { chromium } = require('playwright-core');
 
@@ -52,11 +52,11 @@ async function main() {
   await page.getByText('/formation_monitor').first().waitFor();   // connected: its name
   await page.getByRole('tab', { name: 'Topics' }).click();   // a passing problem shows its tab
   const listed = await page.waitForFunction(
-    (names) => names.every((name) => document.body.innerText.includes(name)), topics.split(','),
+    (names) => names.every((name) => document.body.innerText.includes(name)), JSON.parse(topics),
     { timeout: 1000 * Number(timeout), polling: 1000 }).then(() => true, () => false);
   await page.waitForTimeout(8000);                 // let the plots and the scene draw
   const panels = {};
-  for (const title of titles.split(',')) {
+  for (const title of JSON.parse(titles)) {
     panels[title] = await page.evaluate(panelBox, title);
   }
   await page.screenshot({ path: `${out}/app.png` });

@@ -154,9 +154,9 @@ def test_studio_lists_the_channels_plots_the_metrics_and_draws_the_fleet(ros, si
     if ARTEFACTS.exists():
         shutil.rmtree(ARTEFACTS)
     ARTEFACTS.mkdir(parents=True)
-    run = subprocess.run([NODE, 'drive.js', url, CHROMIUM, str(ARTEFACTS), ','.join(CHANNELS),
-                          ','.join([SCENE, *PLOTS]), '90'], cwd=BROWSER, capture_output=True,
-                         text=True, timeout=300)
+    run = subprocess.run([NODE, 'drive.js', url, CHROMIUM, str(ARTEFACTS),
+                          json.dumps(list(CHANNELS)), json.dumps([SCENE, *PLOTS]), '90'],
+                         cwd=BROWSER, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
     seen = json.loads(run.stdout)
     assert seen['listed'], f"not all of {list(CHANNELS)} listed:\n{seen['text'][:2000]}"
