@@ -62,8 +62,9 @@ def _missing():
     return f'the npm packages of test/browser are not installed ({absent[0]})' if absent else None
 
 
-pytestmark = pytest.mark.skipif(_missing() is not None,
-                                reason=f'{_missing()}: run make setup-browser')
+pytestmark = [pytest.mark.browser,
+              pytest.mark.skipif(_missing() is not None,
+                                 reason=f'{_missing()}: run make setup-browser')]
 
 CHANNELS = {'/formation/scene': 'foxglove.SceneUpdate',
             '/formation/metrics': 'formation_control.Metrics',
