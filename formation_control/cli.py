@@ -201,8 +201,9 @@ def _live_view(port, namespace='/'):
         return []
     prefix = names.namespace_prefix(namespace)
     layout = 'formation-control layout' + (f' --namespace {prefix[:-1]}' if prefix != '/' else '')
-    print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app (layout: '
-          f'{layout})', file=sys.stderr)
+    print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app, Foxglove Studio '
+          f'or Lichtblick (layout: {layout}, --format classic for Studio and Lichtblick)',
+          file=sys.stderr)
     return [f'foxglove_port:={port}']
 
 
@@ -325,7 +326,7 @@ def cmd_secure(args):
 
 def cmd_layout(args):
     from formation_control.view.layout import layout_json
-    text = layout_json(args.namespace, args.world_frame)
+    text = layout_json(args.namespace, args.world_frame, args.format)
     if args.out:
         Path(args.out).write_text(text)
         print(f'wrote {args.out}')
@@ -481,10 +482,13 @@ def build_parser():
                      help="seconds to wait for the plant's scenario (default 5)")
     doc.set_defaults(func=cmd_doctor)
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
-                                        'foxglove/formation_control.json)')
+                                        'foxglove/formation_control[.classic].json)')
     _namespace(lay, "the fleet's namespace: the topics are its absolute names (default /)")
     lay.add_argument('--world-frame', default=node_parameters.WORLD_FRAME, metavar='FRAME',
                      help="the 3D panel's frame: the monitor's world_frame (default map)")
+    lay.add_argument('--format', choices=('foxglove', 'classic'), default='foxglove',
+                     help="foxglove: the Foxglove app's format (default); classic: Foxglove "
+                          'Studio 1.x and Lichtblick (configById and a mosaic layout)')
     lay.add_argument('--out', help='write it to this file instead')
     lay.set_defaults(func=cmd_layout)
     return parser

@@ -114,7 +114,8 @@ class Swarm:
         remap = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
         fleet = ['--params-file', params, *ros_arguments(plan.common),
                  *(a for p in node_params for a in ('-p', p))]
-        world = dict(p.split(':=', 1) for p in node_params if p.startswith('world_frame:='))
+        world = dict(p.split(':=', 1) for p in node_params
+                     if p.startswith(('world_frame:=', 'base_frame:=')))
         processes = [plan.plant(record_path=self.record,
                                 real_time_factor=float(real_time_factor)), *plan.vehicles()]
         if monitor:

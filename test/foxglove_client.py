@@ -15,8 +15,9 @@
 """
 A headless Foxglove WebSocket client for the tests.
 
-It offers the subprotocols ``foxglove.sdk.v1`` (what foxglove-sdk 0.30's server accepts) and
-``foxglove.websocket.v1`` (the ws-protocol spec's name, same messages), reads the server's
+It offers one or both subprotocols ``foxglove.sdk.v1`` (the Foxglove app's) and
+``foxglove.websocket.v1`` (the ws-protocol spec's name, same messages: Foxglove Studio 1.x,
+Lichtblick), checks the server chose one of them, reads the server's
 ``advertise``, subscribes to channels by topic and decodes the binary ``messageData`` frames
 (opcode 1: subscription id u32, log time u64 ns, payload) as the Foxglove app does: JSON,
 protobuf from the advertised FileDescriptorSet, CDR bytes as they are.
@@ -44,19 +45,19 @@ def protobuf_class(schema_name, file_descriptor_set):
 
 
 @contextlib.contextmanager
-def client(port, host='127.0.0.1', timeout=10.0):
+def client(port, host='127.0.0.1', timeout=10.0, subprotocols=SUBPROTOCOLS):
     """Yield a :class:`Client` connected to ``ws://host:port`` (retried until ``timeout``)."""
     end = time.monotonic() + timeout
     while True:
         try:
-            ws = connect(f'ws://{host}:{port}', subprotocols=SUBPROTOCOLS, open_timeout=timeout)
+            ws = connect(f'ws://{host}:{port}', subprotocols=subprotocols, open_timeout=timeout)
             break
         except OSError:
             if time.monotonic() > end:
                 raise
             time.sleep(0.05)
     with ws:
-        assert ws.subprotocol in SUBPROTOCOLS
+        assert ws.subprotocol in subprotocols
         yield Client(ws)
 
 

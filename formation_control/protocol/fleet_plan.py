@@ -215,9 +215,8 @@ class FleetPlan:
                 for g in self.groups()]
 
     def monitor(self, **parameters: Any) -> Process:
-        """Return the monitor: the world frame and the fleet's time, not the fleet's file."""
-        world = {k: v for k, v in self.frames.items() if k == 'world_frame'}
-        return Process('monitor', 'monitor', (), {**world, **parameters, **self.sim_time},
+        """Return the monitor: the frames and the fleet's time, not the fleet's file."""
+        return Process('monitor', 'monitor', (), {**self.frames, **parameters, **self.sim_time},
                        fleet=False, clock=True)
 
     def recorder(self, bag: str, monitor: bool) -> Process:

@@ -162,6 +162,7 @@ MONITOR = {
     'foxglove_host': ('127.0.0.1', Spec('', 'address the Foxglove live view listens on '
                                         '(0.0.0.0: every interface)')),
     'world_frame': FRAMES['world_frame'],
+    'base_frame': FRAMES['base_frame'],
 }
 """``monitor``."""
 

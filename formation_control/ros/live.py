@@ -15,6 +15,10 @@
 """
 The monitor's Foxglove live view: a Foxglove WebSocket server (``foxglove-sdk``).
 
+Its public port is a :class:`~formation_control.ros.relay.Relay`, so that clients of both names
+of the protocol connect: ``foxglove.sdk.v1`` (the Foxglove app) and ``foxglove.websocket.v1``
+(Foxglove Studio 1.x, Lichtblick).
+
 Channels, named as the monitor resolves its topics (absolute: a fleet in ``/fleet_a`` has
 ``/fleet_a/formation/metrics``):
 
@@ -22,26 +26,53 @@ Channels, named as the monitor resolves its topics (absolute: a fleet in ``/flee
   ``world_frame``, :func:`scene.fleet_scene`;
 - ``<ns>/formation/metrics``: JSON, ``timestamp`` and each metric of :data:`interface.METRIC_DOC`
   by name (plot ``/formation/metrics.order_parameter``);
+- ``<ns>/formation/markers``: the RViz ``visualization_msgs/msg/MarkerArray`` as CDR, the same
+  picture as the scene, so that a layout made for bags (which record the markers) works live;
 - ``/diagnostics``: ``diagnostic_msgs/msg/DiagnosticArray`` as CDR (schema encoding
-  ``ros2msg``, what ``foxglove_bridge`` serves), for the Diagnostics panels.
+  ``ros2msg``, what ``foxglove_bridge`` serves), for the Diagnostics panels;
+- ``/tf``: ``tf2_msgs/msg/TFMessage`` as CDR with the frames of :mod:`~formation_control.view.
+  frames` (each vehicle's base frame in the world frame, ``map`` above it), at the scene's
+  stamps, so that a 3D panel draws in ``map`` or follows a vehicle's base frame.
 
 ``formation-control layout --namespace NS --world-frame F`` prints the layout of these names.
 Each message is logged at the fleet time of the state it shows (ns).
 """
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
-from formation_control.protocol.names import WORLD_FRAME
-from formation_control.view import scene
+from formation_control.protocol.names import BASE_FRAME, WORLD_FRAME
+from formation_control.ros.relay import Relay
+from formation_control.view import frames, scene
 import foxglove
 from foxglove.channels import SceneUpdateChannel
 from rosbags.typesys import get_typestore, Stores
 
 DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
+MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
+TF_MESSAGE = 'tf2_msgs/msg/TFMessage'
+TF_TOPIC = '/tf'
+TYPES = get_typestore(Stores.ROS2_JAZZY)
+
+
+def tf_message(ns, transforms):
+    """Return the TFMessage (CDR bytes) of :class:`~formation_control.view.frames.Transform` s."""
+    t = TYPES.types
+    sec, nsec = messages.stamp_parts(ns)
+    stamp = t['builtin_interfaces/msg/Time'](sec=sec, nanosec=nsec)
+
+    def stamped(tr):
+        pose = t['geometry_msgs/msg/Transform'](
+            translation=t['geometry_msgs/msg/Vector3'](*tr.translation),
+            rotation=t['geometry_msgs/msg/Quaternion'](*tr.rotation))
+        return t['geometry_msgs/msg/TransformStamped'](
+            header=t['std_msgs/msg/Header'](stamp=stamp, frame_id=tr.parent),
+            child_frame_id=tr.child, transform=pose)
+    message = t[TF_MESSAGE](transforms=[stamped(tr) for tr in transforms])
+    return bytes(TYPES.serialize_cdr(message, TF_MESSAGE))
 
 
 def ros2msg_schema(type_name):
     """Return the foxglove Schema of a ROS 2 message type (``ros2msg`` text, as in MCAP)."""
-    text, _ = get_typestore(Stores.ROS2_JAZZY).generate_msgdef(type_name, ros_version=2)
+    text, _ = TYPES.generate_msgdef(type_name, ros_version=2)
     return foxglove.Schema(name=type_name, encoding='ros2msg', data=text.encode())
 
 
@@ -59,16 +90,20 @@ class LiveView:
         TCP port (1..65535).
     frame : str, optional
         The world frame of the scene (the monitor's ``world_frame``).
+    base : str, optional
+        The vehicles' base frames (the monitor's ``base_frame``), for ``/tf``.
 
     """
 
-    def __init__(self, node, host, port, frame=WORLD_FRAME):
-        self.frame = frame
+    def __init__(self, node, host, port, frame=WORLD_FRAME, base=BASE_FRAME):
+        self.frame, self.base = frame, base
         self.context = foxglove.Context()
+        self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
+                                            host='127.0.0.1', port=0, context=self.context)
         try:
-            self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
-                                                host=host, port=port, context=self.context)
-        except RuntimeError as err:          # FoxgloveError: Failed to bind port: ...
+            self.relay = Relay(host, port, self.server.port)
+        except OSError as err:
+            self.server.stop()
             raise UsageError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
                              f'{host}:{port} ({err})') from None
         self.scene = SceneUpdateChannel(node.resolve_topic_name(names.SCENE_TOPIC),
@@ -76,20 +111,37 @@ class LiveView:
         self.metrics = foxglove.Channel(node.resolve_topic_name(names.METRICS_TOPIC),
                                         schema=scene.metrics_schema(messages.METRIC_DOC),
                                         context=self.context)
+        self.markers = foxglove.Channel(node.resolve_topic_name(names.MARKERS_TOPIC),
+                                        schema=ros2msg_schema(MARKER_ARRAY),
+                                        message_encoding='cdr', context=self.context)
+        self.tf = foxglove.Channel(TF_TOPIC, schema=ros2msg_schema(TF_MESSAGE),
+                                   message_encoding='cdr', context=self.context)
         self.diagnostics = foxglove.Channel(node.resolve_topic_name(names.DIAGNOSTICS_TOPIC),
                                             schema=ros2msg_schema(DIAGNOSTIC_ARRAY),
                                             message_encoding='cdr', context=self.context)
 
     @property
     def port(self):
-        return self.server.port
+        return self.relay.port
 
     def wants_scene(self):
-        return self.scene.has_sinks()
+        return self.scene.has_sinks() or self.tf.has_sinks()
+
+    def wants_markers(self):
+        return self.markers.has_sinks()
+
+    def log_markers(self, ns, data):
+        """Log a serialized MarkerArray (CDR bytes) at the stamp of its picture."""
+        self.markers.log(data, log_time=int(ns))
 
     def log_scene(self, picture):
-        """Log the scene of a :class:`~formation_control.view.picture.Picture` at its stamp."""
-        self.scene.log(scene.fleet_scene(*picture, frame=self.frame), log_time=int(picture.ns))
+        """Log the scene and frames of a :class:`~formation_control.view.picture.Picture`."""
+        if self.scene.has_sinks():
+            self.scene.log(scene.fleet_scene(*picture, frame=self.frame),
+                           log_time=int(picture.ns))
+        if self.tf.has_sinks():
+            transforms = frames.fleet_transforms(picture, self.frame, self.base)
+            self.tf.log(tf_message(picture.ns, transforms), log_time=int(picture.ns))
 
     def log_metrics(self, ns, values):
         if self.metrics.has_sinks():
@@ -101,4 +153,5 @@ class LiveView:
             self.diagnostics.log(data, log_time=int(ns))
 
     def close(self):
+        self.relay.close()
         self.server.stop()

@@ -86,7 +86,7 @@ class MonitorNode(Node):
         if self.p['foxglove_port']:
             from formation_control.ros.live import LiveView
             self.live = LiveView(self, self.p['foxglove_host'], self.p['foxglove_port'],
-                                 self.p['world_frame'])
+                                 self.p['world_frame'], self.p['base_frame'])
             self.get_logger().info(f"Foxglove live view on ws://{self.p['foxglove_host']}:"
                                    f'{self.live.port}')
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
@@ -184,15 +184,19 @@ class MonitorNode(Node):
         """Publish the markers and the live view's scene, to whichever has a subscriber."""
         rviz = self.markers_pub.get_subscription_count() > 0
         live = self.live is not None and self.live.wants_scene()
-        shown = self.watch.picture() if rviz or live else None
+        live_markers = self.live is not None and self.live.wants_markers()
+        shown = self.watch.picture() if rviz or live or live_markers else None
         if shown is None:
             return
         X, ns, trails, ground, centres, target = shown
         pic = picture.of_states(ns, X, ground, trails, self.watch.live_graph()[1], centres,
                                 target)
-        if rviz:
-            self.markers_pub.publish(markers.fleet_markers(pic, self.watch.values,
-                                                           self.p['world_frame']))
+        if rviz or live_markers:
+            msg = markers.fleet_markers(pic, self.watch.values, self.p['world_frame'])
+            if rviz:
+                self.markers_pub.publish(msg)
+            if live_markers:
+                self.live.log_markers(ns, serialize_message(msg))
         if live:
             self.live.log_scene(pic)
 

@@ -13,21 +13,29 @@
 # limitations under the License.
 
 """
-The Foxglove layout of a fleet, built with ``foxglove.layouts``.
+The Foxglove layout of a fleet, built with ``foxglove.layouts``, in two formats.
 
-``foxglove/formation_control.json`` (installed to ``share/formation_control/foxglove/``) is
-what :func:`layout_json` returns for a fleet in ``/`` with the world frame ``map``
-(``formation-control layout`` prints it; a test checks the file is up to date). Left: a
-top-down 3D panel in the world frame with the live view's scene (``/formation/scene``) and the
-RViz markers of a bag (``/formation/markers``). Right: plots of |p|, V_c, the centre spread and
+``foxglove/formation_control.json`` (the Foxglove app's format) and
+``foxglove/formation_control.classic.json`` (Foxglove Studio 1.x and Lichtblick: the same
+layout by :mod:`formation_control.view.classic`), installed to
+``share/formation_control/foxglove/``, are what :func:`layout_json` returns for a fleet in ``/``
+with the world frame ``map`` (``formation-control layout --format foxglove|classic`` prints them;
+a test checks the files are up to date). Left: a top-down 3D panel in the world frame with the
+live view's scene (``/formation/scene``) and the RViz markers (``/formation/markers``; the live
+view serves both, a bag records the markers). Right: plots of |p|, V_c, the centre spread and
 the speed error, and the diagnostics. The topics are the absolute names a fleet's namespace
 gives (``formation-control layout --namespace /fleet_a``: ``/fleet_a/formation/metrics``).
 """
 import json
 
+from formation_control.core.errors import UsageError
 from formation_control.protocol import names
 from formation_control.protocol.node_parameters import WORLD_FRAME
+from formation_control.view.classic import classic
 import foxglove.layouts as fl
+
+FILES = {'foxglove': 'formation_control.json', 'classic': 'formation_control.classic.json'}
+"""The installed layout of each format, in ``share/formation_control/foxglove/``."""
 
 PLOTS = (('order_parameter', '|p| (order parameter)', 0.0, 1.0),
          ('lyapunov', 'V_c (composite Lyapunov value)', 0.0, None),
@@ -37,7 +45,7 @@ PLOTS = (('order_parameter', '|p| (order parameter)', 0.0, 1.0),
 
 
 def _plot(metrics, metric, title, low, high):
-    series = fl.PlotSeries(value=f'{metrics}.{metric}', label=metric,
+    series = fl.PlotSeries(value=f'{metrics}.{metric}', label=metric, enabled=True,
                            timestamp_method='receiveTime')
     return fl.PlotPanel(title=title, config=fl.PlotConfig(
         paths=[series], min_y_value=low, max_y_value=high, show_legend=False,
@@ -45,10 +53,13 @@ def _plot(metrics, metric, title, low, high):
 
 
 def _scene_panel(prefix, frame):
-    camera = fl.ThreeDeeCameraState(perspective=False, distance=20.0, phi=0.0,
+    camera = fl.ThreeDeeCameraState(perspective=False, distance=10.0, phi=0.0, theta_offset=0.0,
                                     target=(0.0, 0.0, 0.0))
+    frames = fl.BaseRendererSceneSettings(transforms=fl.BaseRendererTransforms(
+        show_label=False, axis_size=0.3))
     return fl.ThreeDeePanel(title=f'fleet ({frame})', config=fl.ThreeDeeConfig(
         fixed_frame=frame, follow_tf=frame, follow_mode='follow-none', camera_state=camera,
+        scene=frames,
         topics={prefix + names.SCENE_TOPIC: fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 prefix + names.MARKERS_TOPIC: fl.BaseRendererRosMarkerTopicSettings(
                     visible=True)},
@@ -72,7 +83,16 @@ def layout(namespace='/', world_frame=WORLD_FRAME):
         fl.SplitItem(proportion=2, content=_column(plots + [diagnostics]))]))
 
 
-def layout_json(namespace='/', world_frame=WORLD_FRAME):
-    """Return the layout as indented JSON (the defaults: ``foxglove/formation_control.json``)."""
-    return json.dumps(json.loads(layout(namespace, world_frame).to_json()), indent=2,
+def layout_json(namespace='/', world_frame=WORLD_FRAME, fmt='foxglove'):
+    """
+    Return the layout as indented JSON in the format ``fmt``, one of :data:`FILES`.
+
+    ``foxglove`` is the Foxglove app's format, ``classic`` the one of Foxglove Studio 1.x and
+    Lichtblick (:func:`~formation_control.view.classic.classic` of the same layout). The
+    defaults give the installed files.
+    """
+    if fmt not in FILES:
+        raise UsageError(f"layout format {fmt!r}: one of {', '.join(FILES)}")
+    text = json.loads(layout(namespace, world_frame).to_json())
+    return json.dumps(classic(text) if fmt == 'classic' else text, indent=2,
                       sort_keys=True) + '\n'

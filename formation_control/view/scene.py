@@ -159,18 +159,28 @@ def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres
 
 
 def metrics_schema(doc):
-    """Return the JSON schema of the metrics messages; ``doc``: {metric name: description}."""
+    """
+    Return the JSON schema of the metrics messages; ``doc``: {metric name: description}.
+
+    One plain ``"type"`` a field (no type arrays, which the parsers of Foxglove Studio 1.x and
+    Lichtblick reject with the whole channel); the description holds the unit.
+    """
     properties = {'timestamp': {'type': 'object', 'title': 'time',
                                 'properties': {'sec': {'type': 'integer'},
                                                'nsec': {'type': 'integer'}}}}
-    properties.update({name: {'type': ['number', 'null'], 'description': text}
+    properties.update({name: {'type': 'number', 'description': text}
                        for name, text in doc.items()})
     return {'type': 'object', 'title': 'formation_control.Metrics', 'properties': properties}
 
 
 def metrics_message(ns, values):
-    """Return a metrics sample as JSON: ``timestamp`` (sec, nsec) and each metric by name."""
+    """
+    Return a metrics sample as JSON: ``timestamp`` (sec, nsec) and each finite metric by name.
+
+    A metric without a value (NaN: not defined for the fleet, e.g. ``radius`` of a rigid-body
+    fleet) is left out, so every field present is a number, as the schema says.
+    """
     sec, nsec = stamp_parts(ns)
     out = {'timestamp': {'sec': sec, 'nsec': nsec}}
-    out.update({name: float(v) if math.isfinite(v) else None for name, v in values.items()})
+    out.update({name: float(v) for name, v in values.items() if math.isfinite(v)})
     return out

@@ -29,11 +29,12 @@ from formation_control import cli
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
-from formation_control.ros import interface as itf
+from formation_control.ros import interface as itf, live as live_view
 from formation_control.ros.monitor import MonitorNode
 from formation_control.view import layout, picture, scene
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
+from json_schema_rules import check
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
@@ -41,6 +42,7 @@ from rclpy.serialization import deserialize_message
 from rosutil import CONFIG
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -100,7 +102,7 @@ def test_scene_shows_each_vehicle_its_velocity_trail_links_and_centres():
 def test_metrics_message_is_json_with_every_metric_by_name():
     msg = scene.metrics_message(3_000_000_007, {'order_parameter': 0.5, 'radius': math.nan})
     assert json.loads(json.dumps(msg, allow_nan=False)) == {
-        'timestamp': {'sec': 3, 'nsec': 7}, 'order_parameter': 0.5, 'radius': None}
+        'timestamp': {'sec': 3, 'nsec': 7}, 'order_parameter': 0.5}
     schema = scene.metrics_schema(messages.METRIC_DOC)
     assert set(schema['properties']) == {'timestamp', *messages.METRIC_DOC}
 
@@ -130,6 +132,17 @@ def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
     assert three_d['config']['followTf'] == frame
 
 
+def _layout_topics(node):
+    """Return the topics a layout (the Foxglove format) names."""
+    if node['type'] == 'split':
+        return {t for item in node['items'] for t in _layout_topics(item['content'])}
+    config = node['config']
+    named = {'ThreeDee': lambda: set(config['topics']),
+             'Plot': lambda: {p['value'].split('.', 1)[0] for p in config['paths']},
+             'DiagnosticsSummary': lambda: {config['topicToRender']}}
+    return named[node['panelType']]()
+
+
 def _free_port():
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
@@ -139,12 +152,14 @@ def _free_port():
 POSES = {1: (0.5, 1.0, 0.3), 2: (-1.0, 2.0, 2.0), 3: (0.0, -1.5, -2.5)}
 
 
-def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
+@pytest.mark.parametrize('subprotocol', ['foxglove.sdk.v1', 'foxglove.websocket.v1'])
+def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, subprotocol):
     """
     A monitor with ``foxglove_port``: what a Foxglove client receives equals its topics.
 
     The monitor is in the namespace ``/fleet_a`` with the world frame ``odom``: the channels
-    are its resolved names, the scene is in its frame.
+    are its resolved names, the scene is in its frame. A client of either name of the protocol
+    (the Foxglove app's, Foxglove Studio's and Lichtblick's) is served alike.
     """
     sc = scenario.load(CONFIG / 'particle_circular.yaml', [], num_vehicles=3, c0=[1.0, -2.0],
                        informed=[1])
@@ -154,12 +169,18 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
         '-p', 'diagnostics_period:=0.1', '-p', 'world_frame:=odom', '-p',
         f'foxglove_port:={port}']))
     scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
+    markers_topic = '/fleet_a/formation/markers'
     ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
-    with client(port) as fox:
-        topics = (scene_topic, metrics_topic, names.DIAGNOSTICS_TOPIC)
+    with client(port, subprotocols=[subprotocol]) as fox:
+        topics = (scene_topic, metrics_topic, markers_topic, names.DIAGNOSTICS_TOPIC, '/tf')
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
         assert fox.channels[scene_topic]['schemaName'] == 'foxglove.SceneUpdate'
         assert fox.channels[names.DIAGNOSTICS_TOPIC]['schemaEncoding'] == 'ros2msg'
+        named = _layout_topics(json.loads(layout.layout_json('fleet_a', 'odom'))['content'])
+        assert named <= set(fox.channels), f'named, not served: {named - set(fox.channels)}'
+        for channel in fox.channels.values():
+            if channel['encoding'] == 'json':
+                check(json.loads(channel['schema']), channel['topic'])
         fox.subscribe(topics)
         node = nodes.node
         node.create_publisher(String, '/fleet_a/formation/scenario', itf.LATCHED_QOS).publish(
@@ -184,7 +205,8 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
     (log_time, live), = got[metrics_topic]
     assert log_time == stamp == messages.stamp_ns(ros_metrics[0].header.stamp)
     assert live.pop('timestamp') == {'sec': 4, 'nsec': 200_000_000}
-    assert live == dict(zip(ros_metrics[0].name, ros_metrics[0].position))
+    assert live == {k: v for k, v in zip(ros_metrics[0].name, ros_metrics[0].position)
+                    if math.isfinite(v)}
     log_time, update = got[scene_topic][-1]
     assert log_time == stamp
     assert {e.frame_id for e in update.entities} == {'odom'}
@@ -197,6 +219,18 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
                 POSES.values()]
     assert [_xy(s.pose.position) for s in by_id['centres'].spheres] == pytest.approx(expected)
     assert _xy(by_id['centres'].cylinders[0].pose.position) == 1 - 2j
+    marker_array = deserialize_message(got[markers_topic][-1][1], MarkerArray)
+    assert {m.header.frame_id for m in marker_array.markers} == {'odom'}
+    assert got[markers_topic][-1][0] == stamp
+    log_time, data = got['/tf'][-1]
+    tf = live_view.TYPES.deserialize_cdr(data, live_view.TF_MESSAGE)
+    assert log_time == stamp
+    assert [(t.header.frame_id, t.child_frame_id) for t in tf.transforms] == [
+        ('map', 'odom')] + [('odom', f'vehicle_{k}/base_link') for k in POSES]
+    for t, (x, y, theta) in zip(tf.transforms[1:], POSES.values()):
+        assert (t.transform.translation.x, t.transform.translation.y) == pytest.approx((x, y))
+        assert _yaw(t.transform.rotation) == pytest.approx(theta)
+        assert messages.stamp_ns(t.header.stamp) == stamp
     statuses = {s.name for _, data in got[names.DIAGNOSTICS_TOPIC]
                 for s in deserialize_message(data, DiagnosticArray).status}
     assert 'fleet_a/formation_control/formation' in statuses         # /diagnostics: shared

@@ -48,8 +48,8 @@ def test_the_plant_and_vehicles_take_the_fleet_file_the_monitor_and_recorder_the
     assert plant.parameters == {'record_path': 'run.npz', 'wait_for_start': True}
     monitor = plan.monitor(foxglove_port=8765)
     assert not monitor.fleet and monitor.clock
-    assert monitor.parameters == {'world_frame': 'odom', 'foxglove_port': 8765,
-                                  'use_sim_time': True}
+    assert monitor.parameters == {'world_frame': 'odom', 'base_frame': 'b{id}',
+                                  'foxglove_port': 8765, 'use_sim_time': True}
     recorder = plan.recorder('bag', monitor=False)
     assert (recorder.member, recorder.fleet, recorder.clock) == ('swarm', False, True)
     assert recorder.parameters == {'bag': 'bag', 'num_vehicles': 2, 'monitor': False,

@@ -1,0 +1,53 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The frames a viewer draws in (REP-105), from the fleet's picture.
+
+Each vehicle's base frame (``base_frame``, default ``vehicle_{id}/base_link``) is placed in the
+world frame at its pose (r_k, theta_k) of the picture; when the world frame is not ``map``,
+``map`` is its parent by identity (a fleet localised without drift: map = odom), so a ``map``
+frame is always there. The 3D panels of Foxglove-type apps and RViz draw in any of them: the
+world frame, or a vehicle's base frame to follow that vehicle.
+"""
+import math
+from typing import NamedTuple
+
+from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
+
+MAP_FRAME = 'map'
+
+
+class Transform(NamedTuple):
+    """The pose of ``child`` in ``parent``: translation (m) and rotation (unit quaternion)."""
+
+    parent: str
+    child: str
+    translation: tuple
+    rotation: tuple
+    """(x, y, z, w)."""
+
+
+def planar(parent, child, z, angle):
+    """Return the Transform of a planar pose: position ``z`` (complex, m), yaw ``angle``."""
+    return Transform(parent, child, (float(z.real), float(z.imag), 0.0),
+                     (0.0, 0.0, math.sin(0.5 * angle), math.cos(0.5 * angle)))
+
+
+def fleet_transforms(picture, world=WORLD_FRAME, base=BASE_FRAME):
+    """Return the Transforms of a Picture: ``map`` to the world frame, the world to each base."""
+    out = [] if world == MAP_FRAME else [planar(MAP_FRAME, world, 0j, 0.0)]
+    out += [planar(world, base_frame(base, k + 1), z, float(theta))
+            for k, (z, theta) in enumerate(zip(picture.positions, picture.headings))]
+    return out
