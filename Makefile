@@ -8,8 +8,9 @@ STAMP := $(VENV)/.installed
 CONSTRAINTS := constraints.txt
 # What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
 # (sweeps on a cluster; its tests run with a LocalCluster), test/linter tools, Sphinx for the
-# docs site and the wheels that build formation_control_msgs (setup.py's extras).
-EXTRAS := .[ros,view,cluster,test,docs,msgs-build]
+# docs site, the wheels that build formation_control_msgs and JSBSim (plant_backend: jsbsim)
+# (setup.py's extras).
+EXTRAS := .[ros,view,cluster,test,docs,msgs-build,aircraft]
 # The interface package, built with cmake from those wheels and installed into the venv (its
 # Python modules into site-packages, its libraries into lib/, which the ROS wheels put on the
 # library path): `import formation_control_msgs.msg` and `ros2 interface show` then work in
