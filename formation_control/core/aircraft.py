@@ -69,7 +69,7 @@ from functools import lru_cache
 import math
 from pathlib import Path
 import re
-from typing import Any, TYPE_CHECKING
+from typing import Any, Protocol, TYPE_CHECKING
 
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
@@ -90,6 +90,41 @@ LOG_KEPT = 100                   # JSBSim messages kept (the trim's reasons)
 CHANNELS = ('altitude', 'bank', 'airspeed_demand', 'turn_rate_demand')
 """What a run records of each aircraft beside the state: altitude above the ground (m), bank
 (rad, right wing down positive) and the autopilot demand (m/s, rad/s) held over the period."""
+
+
+class Flight(Protocol):
+    """What flying one aircraft reads of a scenario (a :class:`scenario.Scenario` has it)."""
+
+    @property
+    def jsbsim_aircraft(self) -> str: ...                               # noqa: D102
+    @property
+    def altitude(self) -> float: ...                                    # noqa: D102
+    @property
+    def airspeed(self) -> float: ...                                    # noqa: D102
+    @property
+    def dt_integration(self) -> float: ...                              # noqa: D102
+    @property
+    def turbulence_seed(self) -> int: ...                               # noqa: D102
+    @property
+    def bank_limit(self) -> float: ...                                  # noqa: D102
+    @property
+    def roll_rate_limit(self) -> float: ...                             # noqa: D102
+    @property
+    def turn_lag(self) -> float: ...                                    # noqa: D102
+
+
+@dataclass(frozen=True)
+class Trimmed:
+    """The :class:`Flight` of a trim check: the aircraft, altitude, airspeed and step."""
+
+    jsbsim_aircraft: str
+    altitude: float
+    airspeed: float
+    dt_integration: float
+    turbulence_seed: int = 0
+    bank_limit: float = 0.5
+    roll_rate_limit: float = 0.5
+    turn_lag: float = 0.5
 
 
 class AircraftError(ValueError):
@@ -119,7 +154,7 @@ def _said(fdm: Any) -> list[str]:
 
 def _logger(jsbsim: Any) -> Any:
     """Return a JSBSim logger that keeps the last messages instead of printing them."""
-    class Quiet(jsbsim.FGLogger):  # type: ignore[misc, name-defined]
+    class Quiet(jsbsim.FGLogger):
         def __init__(self) -> None:
             super().__init__()
             self.said: list[str] = []
@@ -198,10 +233,11 @@ def required_bank(sc: Scenario) -> float:
         In still air ``tan(phi) = V^2 / (g R)``, R = 1/|omega0|.
 
     """
-    from formation_control.core.control import particle_speed_terms
-    theta = np.linspace(-np.pi, np.pi, 721)
-    s, _, g = particle_speed_terms(theta, sc.flow_c / sc.airspeed)
-    rate = abs(sc.omega0) * sc.airspeed * s / g
+    e = np.exp(1j * np.linspace(-np.pi, np.pi, 721))
+    f = sc.flow_c / sc.airspeed
+    s2 = abs(e + f) ** 2
+    g = (1.0 + (f.conjugate() * e).real) / s2
+    rate = abs(sc.omega0) * sc.airspeed * np.sqrt(s2) / g
     return float(np.max(abs(bank_for_turn(sc.airspeed, rate))))
 
 
@@ -237,9 +273,9 @@ class MapFrame:
 
 
 # Gains of the inner loop (SI, normalised surfaces), tuned on c172x and the gliders.
-ROLL_P, ROLL_I = 0.8, 0.3        # aileron per rad/s of roll-rate error; per rad s of bank error
+ROLL_P, ROLL_I = 2.0, 0.3        # aileron per rad/s of roll-rate error; per rad s of bank error
 YAW_BETA = -2.0                  # rudder per rad of sideslip
-TURN_I = 0.3                     # turn-rate demand per rad of turn-rate error integral (1/s)
+TURN_I = 0.1                     # turn-rate demand per rad of turn-rate error integral (1/s)
 PITCH_P, PITCH_Q = 2.0, 0.6      # elevator per rad of pitch error; per rad/s of pitch rate
 PITCH_I = 0.2                    # elevator per rad s of pitch error
 INT_MAX = 1.0                    # bound of the pitch and bank integrals (rad s): no wind-up
@@ -291,7 +327,8 @@ class Aircraft:
 
     def __init__(self, sc: Scenario, frame: MapFrame, x: float, y: float, theta: float,
                  index: int, glide: tuple[float, float, float] | None = None) -> None:
-        self.sc, self.frame = sc, frame
+        self.sc: Flight = sc
+        self.frame = frame
         self.fdm = fdm = _new_fdm(sc, index)
         lat, lon = frame.geodetic(x, y)
         fdm['ic/lat-geod-rad'], fdm['ic/long-gc-rad'] = lat, lon
@@ -385,7 +422,7 @@ def _nodes(fdm: Any, names: dict[str, str]) -> dict[str, Any]:
     return {key: manager.get_node(path, True) for key, path in names.items()}
 
 
-def _new_fdm(sc: Scenario, index: int) -> Any:
+def _new_fdm(sc: Flight, index: int) -> Any:
     """Return a loaded FGFDMExec of the scenario's aircraft, dt and seed, before its ICs."""
     jsbsim = _jsbsim()
     fdm = jsbsim.FGFDMExec(None)
@@ -407,7 +444,7 @@ def powered(fdm: Any) -> bool:
     return bool(fdm.get_propulsion().get_num_engines() > 0)
 
 
-def _trim(fdm: Any, sc: Scenario) -> None:
+def _trim(fdm: Any, sc: Flight) -> None:
     """Trim a powered aircraft in straight and level flight, or raise AircraftError."""
     fdm['propulsion/set-running'] = -1
     heard = len(_said(fdm))
@@ -426,7 +463,7 @@ def _trim(fdm: Any, sc: Scenario) -> None:
         f'or altitude')
 
 
-def glide_trim(sc: Scenario) -> tuple[float, float, float]:
+def glide_trim(sc: Flight) -> tuple[float, float, float]:
     """
     Return (alpha, gamma, elevator) of the steady glide of a glider at the scenario's airspeed.
 
@@ -452,20 +489,19 @@ def glide_trim(sc: Scenario) -> tuple[float, float, float]:
 
 
 @lru_cache(maxsize=16)
-def _checked(name: str, altitude: float, airspeed: float, dt: float) -> tuple[float, ...]:
-    """Return the glide of a glider, () for a powered aircraft that trims; AircraftError if not."""
-    from formation_control.core.scenario import Scenario
+def _checked(name: str, altitude: float, airspeed: float,
+             dt: float) -> tuple[float, float, float] | None:
+    """Return the glide of a glider, None for a powered aircraft that trims; else AircraftError."""
     if name not in installed():
         raise AircraftError(f"parameter 'jsbsim_aircraft' = {name!r} is invalid: the installed "
                             f"JSBSim aircraft are {', '.join(installed())}")
-    sc = Scenario(jsbsim_aircraft=name, altitude=altitude, airspeed=airspeed,
-                  dt_integration=dt)
+    sc = Trimmed(name, altitude, airspeed, dt)
     fdm = _new_fdm(sc, 0)
     if not powered(fdm):
         return glide_trim(sc)
     fdm.run_ic()
     _trim(fdm, sc)
-    return ()
+    return None
 
 
 def check(sc: Scenario) -> None:
@@ -499,7 +535,7 @@ class Fleet:
         X0 = np.asarray(X0, float)
         self.sc, self.flow = sc, Flowfield(sc)
         self.planes = [Aircraft(sc, frame, X0[ROW_X, k], X0[ROW_Y, k], X0[ROW_THETA, k], k,
-                                glide if glide else None) for k in range(X0.shape[1])]
+                                glide) for k in range(X0.shape[1])]
         self.demand = np.stack([np.full(len(self.planes), sc.airspeed),
                                 np.zeros(len(self.planes))])
         self.X = np.zeros((6, len(self.planes)))
