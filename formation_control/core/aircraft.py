@@ -517,14 +517,16 @@ class Fleet:
     ----------
     sc : scenario.Scenario
         A scenario with ``plant_backend: jsbsim``.
-    X0 : array_like, shape (6, N)
-        Initial places and yaws (rows x, y, theta); the other rows come from the trim.
+    X0 : array_like, shape (6, N) or (6, B, N)
+        Initial places and yaws (rows x, y, theta) of a fleet or of a batch of B fleets; the
+        other rows come from the trim. Aircraft k of every fleet has the turbulence seed of
+        index k: a run does not depend on the batch it is in.
 
     Attributes
     ----------
-    X : ndarray, shape (6, N)
+    X : ndarray, shape of X0
         The fleet's state (the module docstring).
-    channels : dict of str to ndarray, shape (N,)
+    channels : dict of str to ndarray, shape ``X0.shape[1:]``
         Altitude (m), bank (rad) and the demands held (:data:`CHANNELS`).
 
     """
@@ -533,22 +535,23 @@ class Fleet:
         glide = _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
         frame = MapFrame.at(sc.geodetic_origin)
         X0 = np.asarray(X0, float)
+        self.shape = X0.shape[1:]
+        flat = X0.reshape(6, -1)
         self.sc, self.flow = sc, Flowfield(sc)
-        self.planes = [Aircraft(sc, frame, X0[ROW_X, k], X0[ROW_Y, k], X0[ROW_THETA, k], k,
-                                glide) for k in range(X0.shape[1])]
+        self.planes = [Aircraft(sc, frame, flat[ROW_X, k], flat[ROW_Y, k], flat[ROW_THETA, k],
+                                k % sc.num_vehicles, glide) for k in range(flat.shape[1])]
         self.demand = np.stack([np.full(len(self.planes), sc.airspeed),
                                 np.zeros(len(self.planes))])
-        self.X = np.zeros((6, len(self.planes)))
+        self.X = np.zeros(X0.shape)
         self.channels: dict[str, RealArray] = {}
         self._read()
         self._blow(0.0)
 
     def _read(self) -> None:
         rows = np.array([plane.state() for plane in self.planes]).T
-        self.X[:] = rows[:6]
-        self.channels = {'altitude': rows[6], 'bank': rows[7],
-                         'airspeed_demand': self.demand[0].copy(),
-                         'turn_rate_demand': self.demand[1].copy()}
+        self.X[:] = rows[:6].reshape((6,) + self.shape)
+        for name, row in zip(CHANNELS, (rows[6], rows[7], self.demand[0], self.demand[1])):
+            self.channels[name] = row.reshape(self.shape).copy()
 
     def _blow(self, t: float) -> None:
         """Set each aircraft's wind: the flow at its place at time t."""
@@ -561,10 +564,12 @@ class Fleet:
             plane.set_wind(complex(w))
 
     def hold(self, demand: RealArray) -> None:
-        """Hold the demands (2, N): airspeed (m/s) and turn rate (rad/s)."""
-        self.demand = np.array(demand, float)
-        self.channels['airspeed_demand'] = self.demand[0].copy()
-        self.channels['turn_rate_demand'] = self.demand[1].copy()
+        """Hold the demands (2, ...) of the state's shape: airspeed (m/s) and turn rate (rad/s)."""
+        sc = self.sc
+        self.demand = np.array(demand, float).reshape(2, -1)
+        self.demand[0] = np.clip(self.demand[0], sc.min_airspeed, sc.max_airspeed or np.inf)
+        self.channels['airspeed_demand'] = self.demand[0].reshape(self.shape).copy()
+        self.channels['turn_rate_demand'] = self.demand[1].reshape(self.shape).copy()
 
     def advance(self, t: float, steps: int) -> RealArray:
         """Integrate ``steps`` steps from time t with the demands held; return the state."""
