@@ -129,6 +129,10 @@ bench: setup
 	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
 	$(PY) bench/sweep.py
+	$(PY) bench/aircraft.py throughput
+	$(PY) bench/aircraft.py throughput -p dt_integration:=0.016666666666666666
+	$(PY) bench/aircraft.py lockstep
+	$(PY) bench/aircraft.py steady
 
 clean:
 	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png docs/_build

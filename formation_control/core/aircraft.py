@@ -67,6 +67,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 import math
+import os
 from pathlib import Path
 import re
 from typing import Any, Protocol, TYPE_CHECKING
@@ -86,6 +87,7 @@ WGS84_E2 = 6.69437999014e-3      # first eccentricity squared
 GUST_W20 = {0: 0.0, 1: 15.0, 2: 15.0, 3: 30.0, 4: 30.0, 5: 45.0, 6: 45.0, 7: 45.0}
 """MIL-F-8785C wind speed at 20 ft (kt) of each turbulence severity (light, moderate, severe)."""
 GLIDE_SETTLE = 60.0              # seconds a glider flies its speed hold to find its glide
+MAX_OUTPUTS = 16                 # <output> elements of a model sent to /dev/null
 LOG_KEPT = 100                   # JSBSim messages kept (the trim's reasons)
 CHANNELS = ('altitude', 'bank', 'airspeed_demand', 'turn_rate_demand')
 """What a run records of each aircraft beside the state: altitude above the ground (m), bank
@@ -431,7 +433,10 @@ def _new_fdm(sc: Flight, index: int) -> Any:
     if not fdm.load_model(sc.jsbsim_aircraft):
         raise AircraftError(f"parameter 'jsbsim_aircraft' = {sc.jsbsim_aircraft!r}: JSBSim "
                             f'could not load it')
-    fdm.disable_output()                               # no CSV files of the model's <output>
+    for n in range(MAX_OUTPUTS):                       # no files of the model's <output>s
+        if not fdm.set_output_filename(n, os.devnull):
+            break
+    fdm.disable_output()
     fdm.set_dt(sc.dt_integration)
     fdm['atmosphere/randomseed'] = sc.turbulence_seed * 65537 + index
     fdm['ic/h-agl-ft'] = sc.altitude / FT

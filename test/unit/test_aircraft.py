@@ -120,8 +120,10 @@ def test_the_same_turbulence_seed_gives_the_same_run():
     assert np.max(abs(runs[0].channels['bank'] - calm.channels['bank'])) > 0.01
 
 
-def test_a_run_records_altitude_bank_and_demand(tmp_path):
+def test_a_run_records_altitude_bank_and_demand(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     run = short(0)
+    assert list(tmp_path.iterdir()) == []              # JSBSim's <output> files: none
     assert set(run.channels) == set(aircraft.CHANNELS)
     assert run.channels['altitude'].shape == run.t.shape + (2,)
     np.testing.assert_allclose(run.channels['altitude'][0], 900.0, atol=0.5)
@@ -163,3 +165,23 @@ def test_four_aircraft_in_a_wind_reach_a_common_course(seed):
     spread = np.degrees(np.ptp(np.unwrap(course - course[0])))
     assert spread < 2.0
     assert metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1]).order > 0.999
+
+
+@pytest.mark.parametrize('flow', [
+    {'flow_model': 'shear', 'flow_shear': 0.01, 'flow_shear_width': 500.0},
+    {'flow_model': 'vortex', 'flow_circulation': 20000.0, 'flow_radius': 300.0},
+    {'flow_model': 'time_varying', 'flow_amplitude': 2.0, 'flow_period': 600.0},
+])
+def test_each_aircraft_flies_in_the_flow_at_its_own_place_and_time(flow):
+    sc = circle(num_vehicles=3, duration=1.0, **flow)
+    stepper = simulator.Stepper(sc)
+    stepper.command()
+    stepper.advance()
+    field = stepper.ctrl.plant.flow
+    places = np.array([plane.place() for plane in stepper.aircraft.planes]).T
+    expected = field(stepper.t, places[0], places[1])
+    wind = [complex(p.fdm['atmosphere/wind-east-fps'], p.fdm['atmosphere/wind-north-fps'])
+            * aircraft.FT for p in stepper.aircraft.planes]
+    np.testing.assert_allclose(wind, expected, rtol=0, atol=1e-9)
+    assert np.ptp(abs(np.asarray(wind))) > 0.01 or flow['flow_model'] == 'time_varying'
+    assert abs(wind[0] - sc.flow_c) > 0.01                       # not the background alone
