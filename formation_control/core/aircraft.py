@@ -117,7 +117,7 @@ class Flight(Protocol):
 
 @dataclass(frozen=True)
 class Trimmed:
-    """The :class:`Flight` of a trim check: the aircraft, altitude, airspeed and step."""
+    """What a trim check flies (a Flight): the aircraft, altitude, airspeed and step."""
 
     jsbsim_aircraft: str
     altitude: float
@@ -232,7 +232,7 @@ def required_bank(sc: Scenario) -> float:
         (rad): on the circle the course turns at ``omega0 s`` with the ground speed s, and the
         yaw at ``omega0 s / g_k`` (:func:`control.particle_speed_terms`, the wind normalised
         by V); the bank is :func:`bank_for_turn` of that, its largest value over the headings.
-        In still air ``tan(phi) = V^2 / (g R)``, R = 1/|omega0|.
+        In still air ``tan(phi) = V^2 / (g R)``, ``R = 1/|omega0|``.
 
     """
     e = np.exp(1j * np.linspace(-np.pi, np.pi, 721))

@@ -298,7 +298,7 @@ def law_units(sc: Scenario) -> tuple[float, float]:
     -------
     (float, float)
         (1, 1) but for aircraft (``plant_backend: jsbsim``), whose speed V is not 1: L / T = V
-        makes them unit-speed particles, and a circle of radius R = 1/|omega0| takes L = R,
+        makes them unit-speed particles, and a circle of radius ``R = 1/|omega0|`` takes L = R,
         T = R / V (the thesis' unit circle, flown in R / V seconds per radian); the parallel
         law has no length, T = 1 s, L = V. Only the cross term sigma of the circular
         backstepping law depends on the choice (:class:`laws.Circular`); docs/aircraft.md.

@@ -149,7 +149,11 @@ def steady(run, last=100.0):
 @pytest.mark.slow
 @pytest.mark.parametrize('seed', [4, 5])
 def test_five_aircraft_in_a_steady_wind_share_the_commanded_circle(seed):
-    """docs/aircraft.md: spread <= 15 m, radius error <= 1 %, altitude within 10 m (seeds 1-3)."""
+    """
+    Seeds 1-3 (docs/aircraft.md): spread 7.0-7.5 m, radius error 0.26-0.41 %, altitude 4.1 m.
+
+    Over the last 100 s of 300; the bounds leave a factor of about 4 for other seeds.
+    """
     spread, radius_error, altitude = steady(simulator.simulate(circle(seed=seed)))
     assert spread < 30.0
     assert radius_error < 0.02
@@ -159,6 +163,7 @@ def test_five_aircraft_in_a_steady_wind_share_the_commanded_circle(seed):
 @pytest.mark.slow
 @pytest.mark.parametrize('seed', [4, 5])
 def test_four_aircraft_in_a_wind_reach_a_common_course(seed):
+    """Seeds 1-3 (docs/aircraft.md): course error 0.10-0.23 deg over the last 60 s of 120."""
     run = simulator.simulate(resolve(dict(PARALLEL, seed=seed)))
     ground = (run.X[-1, 4] + 1j * run.X[-1, 5]) * np.exp(1j * run.X[-1, 2]) + run.sc.flow_c
     course = np.angle(ground)
