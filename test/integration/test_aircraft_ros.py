@@ -17,8 +17,13 @@ JSBSim aircraft in the ROS nodes: the plant flies them, lockstep equals the offl
 
 The plant node integrates each vehicle with its own FGFDMExec (plant_backend: jsbsim); each
 vehicle node commands from its odometry in the map frame, and the plant's autopilot turns the
-command into the turn-rate demand the offline simulator holds.
+command into the turn-rate demand the offline simulator holds. Each vehicle also publishes that
+demand, the interface of a guided autopilot mode, as geometry_msgs/TwistStamped on
+``vehicle_k/cmd_vel`` (linear.x airspeed, angular.z turn rate, its base frame).
 """
+from formation_control.protocol import messages, names
+from formation_control.ros import interface as itf
+from geometry_msgs.msg import TwistStamped
 import numpy as np
 import pytest
 from rosutil import CONFIG
@@ -31,6 +36,7 @@ pytest.importorskip('jsbsim')
 def test_lockstep_aircraft_equal_the_offline_simulator(nodes, tmp_path, cfg):
     cfg = CONFIG / f'{cfg}.yaml'
     overrides = ['num_vehicles:=3', 'duration:=2.0']
+    demands = nodes.collect(TwistStamped, names.topic(2, 'cmd_vel'), itf.STATE_QOS)
     fleet = nodes.lockstep_run(cfg, tmp_path / 'run.npz', *overrides)
     offline = offline_run(cfg, overrides)
     assert_equal_runs(fleet, offline)
@@ -38,3 +44,15 @@ def test_lockstep_aircraft_equal_the_offline_simulator(nodes, tmp_path, cfg):
         np.testing.assert_allclose(fleet.channels[name], offline.channels[name], rtol=0,
                                    atol=1e-6)
     assert np.ptp(offline.X[:, 2]) > 0.01                        # they turned
+    sent = {messages.stamp_ns(m.header.stamp): m for m in demands}
+    assert len(sent) >= offline.sc.periods // 2                  # depth 10 may drop a few
+    first, period = min(sent), round(offline.sc.dt_control * 1e9)
+    compared = 0
+    for t, rate in zip(offline.t, offline.channels['turn_rate_demand'][:, 1]):
+        msg = sent.get(first + round(t / offline.sc.dt_control) * period)
+        if msg is not None:
+            assert msg.header.frame_id == 'vehicle_2/base_link'
+            assert msg.twist.linear.x == offline.sc.airspeed
+            assert abs(msg.twist.angular.z - rate) < 1e-9
+            compared += 1
+    assert compared >= 3
