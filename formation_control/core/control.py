@@ -84,11 +84,13 @@ def particle_view(X: RealArray, flow: complex | ComplexArray,
         theirs.
 
     """
-    f = flow / speed
+    f = flow if speed == 1.0 else flow / speed
     s, gamma, g = particle_speed_terms(X[ROW_THETA], f)
     w = X[ROW_OMEGA]
     s_dot = inner(f, 1j * np.exp(1j * X[ROW_THETA])) * w / s
-    return laws.View(position(X), gamma, g * w, speed * s, speed * s_dot)
+    if speed != 1.0:
+        s, s_dot = speed * s, speed * s_dot
+    return laws.View(position(X), gamma, g * w, s, s_dot)
 
 
 def body_rate_from_inertial(w: RealArray, theta: RealArray,
