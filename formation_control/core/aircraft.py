@@ -55,11 +55,12 @@ angular acceleration a becomes the demand ``omega_cmd = omega + turn_lag a`` and
 turns as the second-order particle (1.3) would, within the bank and roll-rate limits.
 
 **The laws' units.** The particle laws are written for unit speed (1.4). At airspeed V they
-apply in units where a length is the distance flown in one second, time unchanged: ``r / V``,
-``f / V``, ``omega0 V`` (the circle's turn rate in still air), K and kappa as they are. The
-particle view (:func:`control.particle_view` with ``speed = V``) is that of the normalised
-particle with its lengths and speeds times V, and the circular law's cross term sigma takes the
-factor ``1 / V^2`` (:class:`laws.Circular` ``length``): docs/aircraft.md derives it.
+apply in units of length L and time T with ``L / T = V``: ``r / L``, ``f / V``, ``omega0 L``,
+``K T``, ``kappa T``. The particle view at speed V (:func:`control.particle_view` with
+``speed = V``) is the unit-speed view of the flow ``f / V`` with its speeds times V; phi and
+phi' do not depend on the units, and the circular law's cross term sigma takes the factor
+``1 / (L T)^2`` (:attr:`laws.Circular.cross_scale`, :func:`control.law_units`: L = R,
+T = R / V for a circle of radius R). docs/aircraft.md derives it.
 """
 from __future__ import annotations
 
