@@ -8,9 +8,9 @@ STAMP := $(VENV)/.installed
 CONSTRAINTS := constraints.txt
 # What is installed: the package with its ROS wheels, the Foxglove live view, Dask distributed
 # (sweeps on a cluster; its tests run with a LocalCluster), test/linter tools, Sphinx for the
-# docs site, the wheels that build formation_control_msgs and pytest-benchmark (setup.py's
-# extras).
-EXTRAS := .[ros,view,cluster,test,docs,msgs-build,bench]
+# docs site, the wheels that build formation_control_msgs, pytest-benchmark and JSBSim
+# (plant_backend: jsbsim) (setup.py's extras).
+EXTRAS := .[ros,view,cluster,test,docs,msgs-build,bench,aircraft]
 # The interface package, built with cmake from those wheels and installed into the venv (its
 # Python modules into site-packages, its libraries into lib/, which the ROS wheels put on the
 # library path): `import formation_control_msgs.msg` and `ros2 interface show` then work in
@@ -153,6 +153,10 @@ bench-scripts: setup
 	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
 	$(PY) bench/sweep.py
+	$(PY) bench/aircraft.py throughput
+	$(PY) bench/aircraft.py throughput -p dt_integration:=0.016666666666666666
+	$(PY) bench/aircraft.py lockstep
+	$(PY) bench/aircraft.py steady
 
 clean:
 	rm -rf $(VENV) build install log *.egg-info demo.npz demo.png docs/_build .benchmarks

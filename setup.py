@@ -26,8 +26,9 @@ package_name = 'formation_control'
 # cluster (formation-control sweep --scheduler). 'test' adds the test and linter dependencies,
 # 'docs' the Sphinx site (make docs). 'msgs-build' is what building the interface package
 # formation_control_msgs/ (ament_cmake, rosidl) takes without a ROS installation; the generator
-# wheels declare none of it. `make setup` installs '.[ros,view,cluster,test,docs,msgs-build]'
-# with the exact versions of constraints.txt.
+# wheels declare none of it. 'aircraft' is JSBSim, the flight dynamics of plant_backend: jsbsim
+# (its wheel ships the aircraft models). `make setup` installs
+# '.[ros,view,cluster,test,docs,msgs-build,aircraft]' with the exact versions of constraints.txt.
 ros_requires = [
     'ros-jazzy-rclpy[fastrtps]',         # rclpy, rcl_interfaces, builtin_interfaces, rosgraph_msgs
     'ros-jazzy-ament-index-python',      # ament_index_python
@@ -76,6 +77,7 @@ test_requires = [
 
 docs_requires = ['sphinx', 'myst-parser', 'numpydoc']   # docs/conf.py, make docs
 bench_requires = ['pytest-benchmark']                   # bench/suite: make bench, bench-compare
+aircraft_requires = ['jsbsim']                          # plant_backend: jsbsim (core/aircraft.py)
 
 setup(
     name=package_name,
@@ -92,7 +94,8 @@ setup(
     install_requires=['setuptools', 'numpy', 'pyyaml', 'matplotlib', 'rosbags', 'cryptography'],
     extras_require={'ros': ros_requires, 'view': view_requires, 'cluster': cluster_requires,
                     'test': test_requires, 'docs': docs_requires,
-                    'msgs-build': msgs_build_requires, 'bench': bench_requires},
+                    'msgs-build': msgs_build_requires, 'bench': bench_requires,
+                    'aircraft': aircraft_requires},
     zip_safe=True,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',

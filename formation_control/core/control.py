@@ -22,6 +22,7 @@ vehicles it knows into its own command (:meth:`Controller.command`).
 from __future__ import annotations
 
 from dataclasses import replace
+import math
 from typing import Any
 
 from formation_control.core import laws
@@ -30,7 +31,8 @@ from formation_control.core.geometry import BoolArray, ComplexArray, inner, Real
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
-from formation_control.core.scenario import Scenario, uses_flow_rates, uses_held_force
+from formation_control.core.scenario import (Scenario, uses_flow_rates, uses_held_force,
+                                              vehicle_speed)
 import numpy as np
 
 
@@ -71,9 +73,9 @@ def flow_course_rate(v: ComplexArray, f_dot: ComplexArray | float) -> RealArray:
 
 
 def particle_view(X: RealArray, flow: complex | ComplexArray,
-                  jet: Jet | None = None) -> laws.View:
+                  jet: Jet | None = None, speed: float = 1.0) -> laws.View:
     """
-    Return the particle view of unit-speed particles.
+    Return the particle view of particles of constant speed through the flow.
 
     Parameters
     ----------
@@ -84,6 +86,9 @@ def particle_view(X: RealArray, flow: complex | ComplexArray,
     jet : flowfields.Jet, optional
         The flow's derivatives at each vehicle, where it is known and not uniform and steady;
         None: taken as uniform and steady.
+    speed : float, optional
+        Their speed V through the flow (m/s): 1 for the thesis' particles, the airspeed of
+        aircraft (:mod:`aircraft`).
 
     Returns
     -------
@@ -91,16 +96,21 @@ def particle_view(X: RealArray, flow: complex | ComplexArray,
         Phase gamma, rate ``Omega = g omega + <i v, f'> / s^2``, speed s and
         ``s' = (<f, i e^{i theta}> omega + <v, f'>) / s`` with ``v = e^{i theta} + f`` and
         ``f' = f_t + (grad f) v`` (1.8), (4.9) with the flow's change (errata, "Known
-        time-varying and non-uniform flows"); without flow theta, xi, 1, 0 (1.3).
+        time-varying and non-uniform flows"); without flow theta, xi, 1, 0 (1.3). At speed V,
+        ``V e^{i theta} + f = V (e^{i theta} + f / V)``: gamma and g are those of the flow
+        f / V, s and the steady part of s' V times theirs, and v = V e^{i theta} + f.
 
     """
-    s, gamma, g = particle_speed_terms(X[ROW_THETA], flow)
+    f = flow if speed == 1.0 else flow / speed
+    s, gamma, g = particle_speed_terms(X[ROW_THETA], f)
     w = X[ROW_OMEGA]
     e = np.exp(1j * X[ROW_THETA])
-    s_dot = inner(flow, 1j * e) * w / s
+    s_dot = inner(f, 1j * e) * w / s
+    if speed != 1.0:
+        s, s_dot = speed * s, speed * s_dot
     rate = g * w
     if jet is not None:
-        v = e + flow
+        v = speed * e + flow
         f_dot = jet.rate(v)
         rate = rate + flow_course_rate(v, f_dot)
         s_dot = s_dot + inner(v, f_dot) / s
@@ -332,6 +342,33 @@ def command_limits(sc: Scenario) -> RealArray:
     return np.array([v if v > 0 else np.inf for v in limits])
 
 
+def law_units(sc: Scenario) -> tuple[float, float]:
+    """
+    Return the units of length L and time T (m, s) the particle laws are written in.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The scenario.
+
+    Returns
+    -------
+    (float, float)
+        (1, 1) but for aircraft (``plant_backend: jsbsim``), whose speed V is not 1: L / T = V
+        makes them unit-speed particles, and a circle of radius ``R = 1/|omega0|`` takes L = R,
+        T = R / V (the thesis' unit circle, flown in R / V seconds per radian); the parallel
+        law has no length, T = 1 s, L = V. Only the cross term sigma of the circular
+        backstepping law depends on the choice (:class:`laws.Circular`); docs/aircraft.md.
+
+    """
+    if sc.plant_backend != 'jsbsim':
+        return 1.0, 1.0
+    if sc.formation == 'circular':
+        radius = 1.0 / abs(sc.omega0)
+        return radius, radius / sc.airspeed
+    return sc.airspeed, 1.0
+
+
 def pattern_law(sc: Scenario) -> laws.Moments | laws.Slots | None:
     """
     Return the phase potential of the scenario's symmetric pattern.
@@ -393,13 +430,15 @@ class Controller:
         self.plant = Plant.of(sc)
         self.still = Plant.of(replace(sc, flow=(0.0, 0.0), flow_model='uniform'))
         self.rigid = sc.model in RIGID_MODELS
+        self.speed = vehicle_speed(sc) if not self.rigid else 1.0
         coupling = None if sc.all_to_all else sc.comm_graph.coupling()
         self.formation: laws.Formation
         if sc.formation == 'parallel':
             self.formation = laws.Parallel(sc.K, coupling)
         else:
+            cross = 1.0 / math.prod(law_units(sc)) ** 2
             self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
-                                           pattern_law(sc))
+                                           pattern_law(sc), cross)
         self._couplings: dict[bytes, laws.Coupling] = {}
         self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
@@ -504,7 +543,12 @@ class Controller:
         if self.sc.hold_prediction == 'none':
             return np.array(X, float)
         lead = delay + self.sc.command_lead
+        if self.speed != 1.0:                          # the laws' units (aircraft)
+            X = np.array(X, float)
+            X[ROW_X:ROW_Y + 1] /= self.speed
         X = integrate(X, U_held, lead, 1, self.still, plain=True)
+        if self.speed != 1.0:
+            X[ROW_X:ROW_Y + 1] *= self.speed
         drift = lead * np.asarray(self.flow(flow))
         X[ROW_X] += drift.real
         X[ROW_Y] += drift.imag
@@ -536,7 +580,7 @@ class Controller:
         flow = self.flow(flow)
         jet = self.jet(X, flow)
         if not self.rigid:
-            return particle_view(X, flow, jet)
+            return particle_view(X, flow, jet, self.speed)
         held = np.zeros(X.shape[1:]) if F_held is None else F_held
         U_applied = np.stack([self.thrust(X), held])
         return rigid_view(X, U_applied, self.plant, flow, self.use_heading, self.full, jet)
@@ -632,7 +676,8 @@ class Controller:
         if sc.controller == 'first_order':
             w = laws.first_order(self.formation_of(members), view, idx)
             flow = self.flow(flow)
-            U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow, self.jet(X, flow))
+            U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow / self.speed,
+                                           self.jet(X, flow))
             return self.saturate(U)
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
@@ -640,7 +685,7 @@ class Controller:
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
             flow = self.flow(flow)
-            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow,
+            U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow / self.speed,
                                             self.jet(X, flow))
         return self.saturate(U)
 

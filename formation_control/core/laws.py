@@ -402,6 +402,11 @@ class Circular:
         The communication graph among the view's vehicles; None = all-to-all.
     pattern : Moments or Slots or None
         The phase potential of a symmetric pattern (flow-free only); None = places free.
+    cross_scale : float
+        The factor ``1 / (L T)^2`` of sigma for laws written in units of length L and time T
+        (m, s; :func:`control.law_units`): phi and phi' do not depend on the units, sigma (the
+        gradient of the potential in units of L^2, an acceleration in units of 1/T^2) does.
+        1 in the thesis' units (unit-speed particles, T = 1 s).
 
     """
 
@@ -411,6 +416,7 @@ class Circular:
     informed: RealArray | None = None
     coupling: Coupling | None = None
     pattern: Moments | Slots | None = None
+    cross_scale: float = 1.0
 
     def centres(self, view: View) -> ComplexArray:
         """
@@ -482,6 +488,8 @@ class Circular:
             b, b_dot = self.pattern.gradient(view, idx, self.coupling)
             phi, phi_dot = phi - b, phi_dot - b_dot
             sigma = sigma - b / (self.K * self.omega0 ** 2)
+        if self.cross_scale != 1.0:
+            sigma = sigma * self.cross_scale
         return Terms(phi, phi_dot, sigma)
 
     def potential(self, view: View) -> Value:

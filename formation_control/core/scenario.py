@@ -49,6 +49,7 @@ CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
 LAW_VARIANTS = ('practical', 'full')
 PATTERNS = ('none', 'splay', 'symmetric')
 HOLD_PREDICTIONS = ('midpoint', 'none')
+PLANT_BACKENDS = ('native', 'jsbsim')
 PATTERN_GAIN = 0.5
 """Default K_m (rad/s) of the symmetric patterns (docs/laws.md, "Symmetric patterns")."""
 PATTERN_GAIN_M = 0.1
@@ -215,6 +216,38 @@ class Scenario:
                       **_RIGID_POSITIVE)
     l1: float = _param(0.0, 'm', 'centre of pressure l1 ahead of the centre of mass, rigid_cop '
                        '(A.1)')
+    # Real flight dynamics: JSBSim aircraft (core/aircraft.py, docs/aircraft.md)
+    plant_backend: str = _param('native', '', 'what integrates the vehicles: native (the '
+                                "model's equations, core/models.py) or jsbsim (each vehicle a "
+                                'JSBSim aircraft flying the particle laws at its airspeed)',
+                                choices=PLANT_BACKENDS, rule='jsbsim: model first_order or '
+                                'second_order; the rigid-body parameters are left out')
+    jsbsim_aircraft: str = _param('c172x', '', 'jsbsim: the aircraft model (gliders: sgs233, '
+                                  'sgs126, minisgs descend)', rule='an aircraft of the jsbsim '
+                                  'package that trims at altitude and airspeed')
+    altitude: float = _param(900.0, 'm', 'jsbsim: initial altitude above the ground (held by '
+                             'powered aircraft)', **_POSITIVE)
+    airspeed: float = _param(51.0, 'm/s', 'jsbsim: true airspeed V held; the particle laws '
+                             'fly with it as the vehicle speed', rule='> max |f|', **_POSITIVE)
+    min_airspeed: float = _param(0.0, 'm/s', 'jsbsim: lowest airspeed demand the autopilot '
+                                 'takes', low=0.0, zero='no limit', rule='<= airspeed')
+    max_airspeed: float = _param(0.0, 'm/s', 'jsbsim: highest airspeed demand the autopilot '
+                                 'takes', low=0.0, zero='no limit', rule='>= airspeed')
+    bank_limit: float = _param(0.5236, 'rad', 'jsbsim: bank limit of the autopilot (bank from '
+                               'tan(phi) = V omega / g)', rule='above the bank the circle '
+                               'needs, tan(phi) = V^2 / (g R) in still air', high=1.2,
+                               **_POSITIVE)
+    roll_rate_limit: float = _param(0.5, 'rad/s', 'jsbsim: roll-rate limit of the autopilot',
+                                    **_POSITIVE)
+    turn_lag: float = _param(0.5, 's', 'jsbsim: time constant of the bank hold; the '
+                             'second-order turn-rate demand is omega + turn_lag a', **_POSITIVE)
+    turbulence: int = _param(0, '', 'jsbsim: MIL-F-8785C turbulence severity (1-2 light, 3-4 '
+                             'moderate, 5-7 severe)', low=0, high=7, zero='none')
+    turbulence_seed: int = _param(0, '', 'jsbsim: seed of the turbulence (per aircraft: seed '
+                                  '65537 + index)', low=0)
+    geodetic_origin: tuple = _param((38.99, -76.94), 'deg', 'jsbsim: latitude, longitude of the '
+                                    'map origin (the map frame is the tangent plane there)',
+                                    rule='latitude within +-80')
     c0: tuple = _param((0.0, 0.0), 'm', 'prescribed circle centre c0 [x, y], map frame (7.17)',
                        runtime=True)
     informed: tuple = _param((), '', 'ids of the vehicles that know c0 (a_k0 = 1 in (7.17)); '
@@ -597,7 +630,7 @@ def _check_structure(sc: Scenario) -> None:
     if (sc.model == 'first_order') != (sc.controller == 'first_order'):
         _fail('controller', sc.controller, "model 'first_order' goes with controller "
               "'first_order' only, and controller 'first_order' with model 'first_order' only")
-    for name in ('flow', 'c0', 'flow_center'):
+    for name in ('flow', 'c0', 'flow_center', 'geodetic_origin'):
         if len(getattr(sc, name)) != 2:
             _fail(name, list(getattr(sc, name)), 'must be a list of 2 numbers [x, y] (m/s or m)')
     for name in INIT_ARRAYS:
@@ -614,6 +647,9 @@ def _check_structure(sc: Scenario) -> None:
         if sc.graph != kind and getattr(sc, name) != getattr(_DEFAULTS, name):
             _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
                   f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
+    if sc.plant_backend == 'jsbsim' and sc.model not in PARTICLE_MODELS:
+        _fail('model', sc.model, 'plant_backend jsbsim flies the particle laws: model '
+              'first_order or second_order')
     from formation_control.core.graphs import GraphError
     try:
         sc.comm_graph
@@ -659,7 +695,10 @@ def _check_flow(sc: Scenario) -> None:
     value = list(sc.flow) if where == 'flow' else sc.flow_model
     what = '|flow|' if where == 'flow' else \
         f'the {sc.flow_model} flow reaches {speed:.3g} m/s: max |f|'
-    if sc.model in PARTICLE_MODELS and speed >= 1:
+    if sc.plant_backend == 'jsbsim' and speed >= sc.airspeed:
+        _fail(where, value, f'aircraft need {what} < airspeed = {sc.airspeed} m/s (the wind '
+              f'must not blow them backwards)')
+    if sc.plant_backend == 'native' and sc.model in PARTICLE_MODELS and speed >= 1:
         _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
     if sc.model in RIGID_MODELS and speed >= sc.u0:
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
@@ -677,7 +716,9 @@ def _check_flow(sc: Scenario) -> None:
 
 
 def vehicle_speed(sc: Scenario) -> float:
-    """Return the vehicles' speed relative to the flow (m/s): 1 for particles, u0 rigid."""
+    """Return the vehicles' speed relative to the flow (m/s): 1 particles, u0 rigid, airspeed."""
+    if sc.plant_backend == 'jsbsim':
+        return sc.airspeed
     return sc.u0 if sc.model in RIGID_MODELS else 1.0
 
 
@@ -691,9 +732,12 @@ def uses_flow_rates(sc: Scenario) -> bool:
 
     A known flow that is not uniform and steady, for every law but the rigid bodies' practical
     one, which drops every rate (beta', s') and the flow's with them (errata, "Known
-    time-varying and non-uniform flows"). An estimate's derivatives are not known.
+    time-varying and non-uniform flows"). An estimate's derivatives are not known. Aircraft
+    (``plant_backend: jsbsim``) fly the laws in their own units (:mod:`aircraft`), where the
+    flow's rates are not built: they take the flow as uniform and steady.
     """
     return (sc.flow_source == 'known' and sc.flow_model != 'uniform'
+            and sc.plant_backend != 'jsbsim'
             and (sc.model not in RIGID_MODELS or uses_held_force(sc)))
 
 
@@ -701,6 +745,8 @@ def _steady_view_why(sc: Scenario) -> str:
     """Return why the laws of ``sc`` take its flow as uniform and steady."""
     if sc.flow_source == 'estimated':
         return 'flow_source estimated: an estimate has no known rate or gradient'
+    if sc.plant_backend == 'jsbsim':
+        return "plant_backend jsbsim: the aircraft's laws take no rate of the flow"
     return 'law_variant practical drops the rates'
 
 
@@ -849,6 +895,41 @@ def _check_slot_traps(sc: Scenario) -> None:
           f'graph (every degree >= {dense} = 3 (N - 1) / 4 synchronises from almost every start)')
 
 
+JSBSIM_OWNS = ('u0', 'K_f', 'K_P', 'K_I', 'm0', 'I0', 'l', 'h', 'l1', 'max_thrust',
+               'max_steering_force')
+"""The rigid-body parameters, which a JSBSim aircraft's own model (mass, drag, ...) replaces."""
+
+
+def _check_aircraft(sc: Scenario) -> None:
+    """Refuse a jsbsim scenario the aircraft cannot fly (docs/aircraft.md, "Bad input")."""
+    owned = [name for name in JSBSIM_OWNS if getattr(sc, name) != getattr(_DEFAULTS, name)]
+    if owned:
+        _fail(owned[0], getattr(sc, owned[0]), f'with plant_backend jsbsim the aircraft model '
+              f'{sc.jsbsim_aircraft!r} owns its mass, inertia, drag and thrust: leave out '
+              f"{', '.join(owned)}")
+    if not -80.0 <= sc.geodetic_origin[0] <= 80.0:
+        _fail('geodetic_origin', list(sc.geodetic_origin), 'the latitude must lie within '
+              '+-80 deg (the map frame is a tangent plane)')
+    for name, ok in (('min_airspeed', sc.min_airspeed <= sc.airspeed),
+                     ('max_airspeed', not sc.max_airspeed or sc.max_airspeed >= sc.airspeed)):
+        if not ok:
+            _fail(name, getattr(sc, name), f'the limit must admit airspeed = {sc.airspeed} m/s')
+    from formation_control.core import aircraft
+    if sc.formation == 'circular':
+        bank = aircraft.required_bank(sc)
+        if bank >= sc.bank_limit:
+            radius = 1.0 / abs(sc.omega0)
+            _fail('omega0', sc.omega0, f'a circle of radius {radius:.4g} m at airspeed '
+                  f'{sc.airspeed} m/s in the wind {list(sc.flow)} m/s needs a bank of '
+                  f'{math.degrees(bank):.3g} deg (tan(bank) = V^2 / (g R) in still air), '
+                  f'beyond bank_limit = {sc.bank_limit} rad = {math.degrees(sc.bank_limit):.3g} '
+                  f'deg: use a larger radius (smaller |omega0|) or a larger bank_limit')
+    try:
+        aircraft.check(sc)
+    except aircraft.AircraftError as err:
+        raise ScenarioError(str(err)) from None
+
+
 def rhp_zero(sc: Scenario) -> float:
     """
     Return the right-half-plane zero of tail steering, from the force F to the course.
@@ -963,6 +1044,8 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     _check_gains(sc)
     _check_pattern(sc)
     notes = _check_physics(sc)
+    if sc.plant_backend == 'jsbsim':
+        _check_aircraft(sc)
     hold, fallback = hold_fallback(sc)
     if fallback:
         sc, notes = replace(sc, hold_prediction=hold), notes + (fallback,)

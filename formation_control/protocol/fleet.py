@@ -106,7 +106,7 @@ class FleetPlant:
         self.pending[:, np.asarray(off) | self.stopped] = 0.0
         held = self.stepper.hold(self.pending)
         if boundary:
-            self.recorder.record(self.n, self.stepper.X, held)
+            self.recorder.record(self.n, self.stepper.X, held, channels=self.stepper.channels)
             if self.n >= self.recorder.steps:
                 return False
         return True

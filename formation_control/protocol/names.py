@@ -36,8 +36,9 @@ START_TOPIC = 'formation/start'
 SCENE_TOPIC = 'formation/scene'
 """The Foxglove live view's SceneUpdate channel (not a ROS topic), named as the monitor resolves
 it (``/fleet_a/formation/scene``)."""
-VEHICLE_TOPICS = ('odom', 'flow', 'water_velocity', 'formation_state', 'cmd')
-"""The topics of each vehicle k, ``vehicle_k/<name>`` (:func:`topic`)."""
+VEHICLE_TOPICS = ('odom', 'flow', 'water_velocity', 'formation_state', 'cmd', 'cmd_vel')
+"""The topics of each vehicle k, ``vehicle_k/<name>`` (:func:`topic`); ``cmd_vel``: an
+aircraft's autopilot demand (geometry_msgs/TwistStamped), plant_backend jsbsim only."""
 
 
 def namespace_prefix(namespace: str) -> str:

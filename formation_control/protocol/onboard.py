@@ -155,6 +155,7 @@ class Onboard:
     def __init__(self, sc: Scenario) -> None:
         self.ctrl = Controller(sc)
         self.X: RealArray | None = None
+        self.sampled: RealArray | None = None
         self.U_held: RealArray = np.zeros((2, 1))
         self.speed_dot = 0.0
         self.flow = np.full(1, complex(sc.flow_c))
@@ -200,7 +201,7 @@ class Onboard:
             rad/s, m/s).
 
         """
-        sampled = np.asarray(X, float)[:, None]
+        self.sampled = sampled = np.asarray(X, float)[:, None]
         if self.estimator is None:
             self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow), (1,)))
         else:

@@ -29,6 +29,7 @@ from collections.abc import Callable, Mapping, Sequence
 import math
 from typing import Any
 
+from formation_control.core import aircraft
 from formation_control.core.geometry import RealArray
 from formation_control.core.scenario import Scenario
 from formation_control.protocol import links
@@ -182,6 +183,19 @@ class Vehicle:
         first = self.known.commanded_ns < 0
         self.known.commanded()
         return self.known.odom_ns, u, first
+
+    def autopilot_demand(self, u: RealArray) -> tuple[float, float]:
+        """
+        Return an aircraft's autopilot demand for its input ``u`` (2,): airspeed, turn rate.
+
+        :func:`aircraft.turn_demand` of the state sampled for the command: what the plant's
+        autopilot holds (plant_backend jsbsim), the vehicle's ``cmd_vel``.
+        """
+        X = self.onboard.sampled
+        if X is None:
+            raise RuntimeError('no sampled state: a demand follows a command')
+        demand = aircraft.turn_demand(self.sc, X, np.asarray(u, float)[:, None])
+        return float(demand[0, 0]), float(demand[1, 0])
 
     def stalled(self, now: float, born: float,
                 limit: float) -> str | tuple[float, list[int]] | None:

@@ -99,6 +99,10 @@ class VehicleNode(Node):
                                                **qos())
         self.cmd_pub = self.create_publisher(WrenchStamped, names.topic(k, 'cmd'), **qos())
         self.cmd_wire = itf.cmd_wire(k, frames)
+        self.cmd_vel_pub = None
+        if sc.plant_backend == 'jsbsim':
+            self.cmd_vel_pub = self.create_publisher(TwistStamped, names.topic(k, 'cmd_vel'),
+                                                     **qos())
         self.odometry = common.Decoder(intake.odometry(itf.odom_wire(k, frames), k, frames.world,
                                                        frames.base(k)), Odometry, self.reject)
         self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
@@ -182,10 +186,20 @@ class VehicleNode(Node):
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
+        if self.cmd_vel_pub is not None:
+            self._publish_cmd_vel(ns, u)
         if self.mode == 'realtime':
             own = time.perf_counter_ns() - self.odom_in
             self.latency.add(own, self.get_clock().now().nanoseconds - ns)
             self.me.delay.add(1e-9 * own)
+
+    def _publish_cmd_vel(self, ns, u):
+        """Publish an aircraft's autopilot demand: airspeed and turn rate, in its base frame."""
+        msg = TwistStamped()
+        messages.set_time(msg.header.stamp, ns)
+        msg.header.frame_id = self.frames.base(self.k)
+        msg.twist.linear.x, msg.twist.angular.z = self.me.autopilot_demand(u)
+        self.cmd_vel_pub.publish(msg)
 
     def _publish_diagnostics(self):
         stalled = self.me.stalled(self.now(), self.born, itf.STALL)

@@ -21,11 +21,12 @@ simulator, the plant's ``.npz`` or a bag looks the same.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from os import PathLike
 
 from formation_control.core.geometry import ComplexArray
 from formation_control.core.models import RIGID_MODELS
-from formation_control.core.scenario import Scenario
+from formation_control.core.scenario import Scenario, vehicle_speed
 from formation_control.sim.report import Series, series
 from formation_control.sim.simulator import Run
 import matplotlib
@@ -37,12 +38,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-def _arrows(ax: Axes, d: Series, flow: complex | ComplexArray, length: float) -> None:
+def _arrows(ax: Axes, d: Series, flow: complex | ComplexArray, length: float,
+            speed: float = 1.0) -> None:
     x, y, theta = d['x'][-1], d['y'][-1], d['theta'][-1]
     ax.quiver(x, y, np.cos(theta), np.sin(theta), color='k', angles='xy',
               scale_units='xy', scale=1.0 / length, width=0.005, label='heading')
     if flow != 0:
-        ground = d['ground'][-1]
+        ground = d['ground'][-1] / speed
         ax.quiver(x, y, ground.real, ground.imag, color='r', angles='xy', scale_units='xy',
                   scale=1.0 / length, width=0.005, label='ground velocity')
 
@@ -81,7 +83,7 @@ def _trajectories(ax: Axes, d: Series, sc: Scenario) -> None:
     if 'phase_orders' in d:
         d['places'] = _phases(ax, d, sc)
     span = np.ptp(d['x']) + np.ptp(d['y'])
-    _arrows(ax, d, sc.flow_c, 0.04 * span)
+    _arrows(ax, d, sc.flow_c, 0.04 * span, vehicle_speed(sc))
     ax.legend(loc='upper right', fontsize='small')
     ax.set(xlabel='x (m)', ylabel='y (m)', aspect='equal',
            title=f'{sc.model} {sc.formation}, {sc.controller}, N={sc.num_vehicles}')
@@ -107,6 +109,34 @@ def _lyapunov(ax: Axes, d: Series) -> None:
     ax.set(xlabel='t (s)', ylabel='V_c', title='composite Lyapunov value (2.10)')
 
 
+def _wind(ax: Axes, sc: Scenario) -> None:
+    """Draw the background wind as an arrow in the upper left corner of the ground tracks."""
+    if sc.flow_c == 0:
+        return
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    size = 0.12 * max(x1 - x0, y1 - y0)
+    unit = sc.flow_c / abs(sc.flow_c)
+    ax.annotate('', xy=(x0 + 0.1 * (x1 - x0) + size * unit.real,
+                        y1 - 0.1 * (y1 - y0) + size * unit.imag),
+                xytext=(x0 + 0.1 * (x1 - x0), y1 - 0.1 * (y1 - y0)),
+                arrowprops={'arrowstyle': '-|>', 'color': 'tab:blue', 'lw': 2})
+    ax.text(x0 + 0.1 * (x1 - x0), y1 - 0.04 * (y1 - y0), f'wind {abs(sc.flow_c):.3g} m/s',
+            color='tab:blue', fontsize='small')
+
+
+def _flight(axes: Sequence[Axes], run: Run) -> None:
+    """Draw each aircraft's altitude and bank over time (plant_backend: jsbsim)."""
+    altitude, bank = run.channels['altitude'], run.channels['bank']
+    axes[0].plot(run.t, altitude, lw=0.8)
+    axes[0].set(xlabel='t (s)', ylabel='altitude above the ground (m)', title='altitude')
+    axes[1].plot(run.t, np.degrees(bank), lw=0.8)
+    limit = np.degrees(run.sc.bank_limit)
+    for side in (-limit, limit):
+        axes[1].axhline(side, ls='--', lw=0.8, color='0.4')
+    axes[1].set(xlabel='t (s)', ylabel='bank (deg, right wing down +)',
+                title=f'bank (limit +-{limit:.3g} deg dashed)')
+
+
 def plot_run(run: Run, path: str | PathLike[str]) -> Series:
     """
     Write the figure of a run to a PNG file.
@@ -129,8 +159,14 @@ def plot_run(run: Run, path: str | PathLike[str]) -> Series:
     sc = run.sc
     d = series(run)
     rigid = sc.model in RIGID_MODELS
-    fig, axes = plt.subplots(2, 2, figsize=(13, 10))
+    flight = 'altitude' in run.channels
+    fig, axes = plt.subplots(2, 3 if flight else 2, figsize=(19 if flight else 13, 10))
     _trajectories(axes[0, 0], d, sc)
+    if flight:
+        axes[0, 0].set_title(f'ground tracks: {sc.jsbsim_aircraft} {sc.formation}, '
+                             f'N={sc.num_vehicles}')
+        _wind(axes[0, 0], sc)
+        _flight(axes[:, 2], run)
     _rates(axes[0, 1], d, rigid)
     if rigid:
         _crab(axes[1, 0], d)

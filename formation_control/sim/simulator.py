@@ -29,7 +29,8 @@ import json
 from os import PathLike
 from typing import Any, overload
 
-from formation_control.core import stability
+from formation_control.core import aircraft, stability
+from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
@@ -62,6 +63,8 @@ class Run:
         The flow each vehicle commanded with (its known local flow or its estimate, m/s);
         None where the record does not hold it (the plant node's: the estimates are the
         vehicles').
+    channels : dict of str to ndarray, shape (T, N)
+        What a plant backend records beside the state (JSBSim: :data:`aircraft.CHANNELS`).
 
     """
 
@@ -71,6 +74,7 @@ class Run:
     U: RealArray
     meta: dict[str, Any] = field(default_factory=dict)
     flow_hat: ComplexArray | None = None
+    channels: dict[str, RealArray] = field(default_factory=dict)
 
     def arrays(self) -> dict[str, Any]:
         """
@@ -81,8 +85,8 @@ class Run:
         dict of str to ndarray
             t (T,); x, y, theta, omega, u, v (T, N); the held inputs, T and F (N) for rigid
             bodies, ``command`` for particles (rad/s^2, or rad/s for first order);
-            ``flow_hat_x``, ``flow_hat_y`` (T, N) where recorded; ``params``, the scenario as
-            JSON, and ``meta``.
+            ``flow_hat_x``, ``flow_hat_y`` (T, N) where recorded; the backend's channels
+            (T, N) (altitude, bank, ...); ``params``, the scenario as JSON, and ``meta``.
 
         """
         out = {'t': self.t, 'params': np.array(self.sc.to_json()),
@@ -94,6 +98,7 @@ class Run:
             out['command'] = self.U[:, 1]
         if self.flow_hat is not None:
             out['flow_hat_x'], out['flow_hat_y'] = self.flow_hat.real, self.flow_hat.imag
+        out.update(self.channels)
         return out
 
     def save(self, path: str | PathLike[str]) -> None:
@@ -126,7 +131,8 @@ def load_run(path: str | PathLike[str]) -> Run:
             U[:, 1] = d['command']
         meta = json.loads(str(d['meta'])) if 'meta' in d else {}
         flow_hat = d['flow_hat_x'] + 1j * d['flow_hat_y'] if 'flow_hat_x' in d else None
-        return Run(sc, d['t'].copy(), X, U, meta, flow_hat)
+        channels = {name: d[name].copy() for name in CHANNELS if name in d}
+        return Run(sc, d['t'].copy(), X, U, meta, flow_hat, channels)
 
 
 class Stepper:
@@ -158,6 +164,10 @@ class Stepper:
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
         self.U = np.zeros((2,) + self.X.shape[1:])
+        self.aircraft: aircraft.Fleet | None = None
+        if sc.plant_backend == 'jsbsim':
+            self.aircraft = aircraft.Fleet(sc, self.X)
+            self.X = self.aircraft.X.copy()
         self.steps = 0
         self.estimator: FlowEstimator | None = None
         if sc.flow_source == 'estimated':
@@ -195,12 +205,20 @@ class Stepper:
         """
         Hold the inputs ``U`` (2, N) over the next period; return them as held.
 
-        The first-order turn rate is the state omega, so it is written into ``X`` too.
+        The first-order turn rate is the state omega, so it is written into ``X`` too. Aircraft
+        hold the autopilot demand of ``U`` (:func:`aircraft.turn_demand`).
         """
         self.U = np.array(U, float)
-        if self.sc.model == 'first_order':
+        if self.aircraft is not None:
+            self.aircraft.hold(aircraft.turn_demand(self.sc, self.X, self.U))
+        elif self.sc.model == 'first_order':
             self.X[ROW_OMEGA] = self.U[1]
         return self.U
+
+    @property
+    def channels(self) -> dict[str, RealArray]:
+        """Return what the backend records beside the state now ({} for the native plant)."""
+        return {} if self.aircraft is None else self.aircraft.channels
 
     def command(self) -> RealArray:
         """
@@ -227,6 +245,10 @@ class Stepper:
         its batch; this way it equals the run alone, bit for bit.
         """
         sc, steps = self.sc, steps or self.sc.substeps
+        if self.aircraft is not None:
+            self.X = self.aircraft.advance(self.t, steps)
+            self.steps += steps
+            return self.X
         self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
                            plain=True if self.X.ndim > 2 else None)
         self.steps += steps
@@ -248,26 +270,31 @@ class Recorder:
         self.X: list[RealArray] = []
         self.U: list[RealArray] = []
         self.flow_hat: list[ComplexArray] = []
+        self.channels: dict[str, list[RealArray]] = {}
 
     def keeps(self, n: int) -> bool:
         """Return whether step n is a recorded step."""
         return n % self.sc.record_every == 0 or n == self.steps
 
     def record(self, n: int, X: RealArray, U: RealArray,
-               flow_hat: complex | ComplexArray | None = None) -> None:
-        """Record the state X (6, N), inputs U (2, N) and flows used of step n if recorded."""
+               flow_hat: complex | ComplexArray | None = None,
+               channels: dict[str, RealArray] | None = None) -> None:
+        """Record the state X (6, N), inputs U (2, N), flows used and channels of step n."""
         if self.keeps(n):
             self.t.append(n * self.sc.dt_control)
             self.X.append(X.copy())
             self.U.append(U.copy())
             if flow_hat is not None:
                 self.flow_hat.append(np.broadcast_to(flow_hat, X.shape[1:]).copy())
+            for name, value in (channels or {}).items():
+                self.channels.setdefault(name, []).append(np.array(value, float))
 
     def run(self) -> Run:
         """Return what was recorded as a :class:`Run`."""
         flow_hat = np.array(self.flow_hat) if self.flow_hat else None
         return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U),
-                   flow_hat=flow_hat)
+                   flow_hat=flow_hat,
+                   channels={name: np.array(v) for name, v in self.channels.items()})
 
 
 class Outcome:
@@ -299,7 +326,8 @@ class Outcome:
         self.samples: list[BoolArray] = []
 
     def record(self, n: int, X: RealArray, U: RealArray,
-               flow_hat: complex | ComplexArray | None = None) -> None:
+               flow_hat: complex | ComplexArray | None = None,
+               channels: dict[str, RealArray] | None = None) -> None:
         """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
         if n % self.sc.record_every == 0 or n == self.steps:
             t = n * self.sc.dt_control
@@ -382,7 +410,7 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
     rec = Recorder(sc) if recorder is None else recorder
     for n in range(rec.steps + 1):
         U = stepper.command()
-        rec.record(n, stepper.X, U, stepper.flow_hat)
+        rec.record(n, stepper.X, U, stepper.flow_hat, stepper.channels)
         if n < rec.steps:
             with np.errstate(over='ignore', invalid='ignore'):
                 stepper.advance()

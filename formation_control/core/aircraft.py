@@ -1,0 +1,592 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Real flight dynamics: each vehicle a JSBSim aircraft (``plant_backend: jsbsim``).
+
+One ``jsbsim.FGFDMExec`` per vehicle, stepped at ``dt_integration``, inside the process that
+integrates the fleet (the offline simulator or the plant node): no server. Every aircraft starts
+trimmed in straight and level flight (gliders: in a steady glide) at the scenario's
+``altitude`` and true ``airspeed``, at its initial place and heading of
+:func:`scenario.initial_state`, mapped to geodetic coordinates around ``geodetic_origin``.
+
+**The map frame.** x east, y north (m) on the plane tangent at ``geodetic_origin``: ``x = (lon
+- lon0) R_E cos(lat0)``, ``y = (lat - lat0) R_N`` with the WGS 84 radii of curvature at lat0
+(errors of order (d / 6400 km)^2 over a distance d). The state rows are those of
+:mod:`models`: x, y; theta the **yaw** as an angle from east, counter-clockwise (``pi/2 -
+psi``); omega its rate theta'; u, v the horizontal velocity through the air along and across
+the yaw (m/s), so that ``(u + i v) e^{i theta} + wind`` is the ground velocity. The yaw, not the
+course, is the particle's theta: in the particle model (1.4) theta is the heading through the
+flow, and the flow adds to it. The altitude (above the ground) and the bank are reported beside
+the state.
+
+**Wind.** Each step every aircraft gets JSBSim's wind ``atmosphere/wind-north-fps``,
+``-east-fps`` from the scenario's flowfield at its own place and time (set after the trim: the
+trim is done in still air). With ``turbulence`` > 0 JSBSim's MIL-F-8785C model adds gusts of
+that severity, seeded per aircraft from ``turbulence_seed`` (the same seed, the same run).
+
+**The autopilot.** An aircraft takes what a guided autopilot mode takes: an airspeed and a
+turn-rate demand (:func:`turn_demand`). The inner loop, this module's own for every aircraft
+(:class:`Aircraft`), runs each step:
+
+- bank from the coordinated-turn relation ``tan(phi) = V omega / g`` for the demanded turn rate
+  omega at the true airspeed V, clipped to ``bank_limit``;
+- roll: roll-rate demand ``(phi_cmd - phi) / turn_lag``, clipped to ``roll_rate_limit``, held by
+  the ailerons (proportional on the roll-rate error, integral on the bank error); the rudder
+  holds zero sideslip;
+- pitch: powered aircraft hold the trim altitude with the elevator (a pitch demand from the
+  altitude error, its integral and the climb rate) and the airspeed with the throttle;
+  gliders hold the airspeed with the elevator and descend.
+
+A bank that follows its demand with time constant ``turn_lag`` makes the turn rate lag its
+demand the same way, ``omega' = (omega_cmd - omega) / turn_lag``; so the second-order laws'
+angular acceleration a becomes the demand ``omega_cmd = omega + turn_lag a`` and the aircraft
+turns as the second-order particle (1.3) would, within the bank and roll-rate limits.
+
+**The laws' units.** The particle laws are written for unit speed (1.4). At airspeed V they
+apply in units of length L and time T with ``L / T = V``: ``r / L``, ``f / V``, ``omega0 L``,
+``K T``, ``kappa T``. The particle view at speed V (:func:`control.particle_view` with
+``speed = V``) is the unit-speed view of the flow ``f / V`` with its speeds times V; phi and
+phi' do not depend on the units, and the circular law's cross term sigma takes the factor
+``1 / (L T)^2`` (:attr:`laws.Circular.cross_scale`, :func:`control.law_units`: L = R,
+T = R / V for a circle of radius R). docs/aircraft.md derives it.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+import math
+import os
+from pathlib import Path
+import re
+from typing import Any, Protocol, TYPE_CHECKING
+
+from formation_control.core.flowfields import Flowfield
+from formation_control.core.geometry import RealArray
+from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
+import numpy as np
+
+if TYPE_CHECKING:
+    from formation_control.core.scenario import Scenario
+
+G = 9.80665                      # standard gravity (m/s^2)
+FT = 0.3048                      # metres per foot
+WGS84_A = 6378137.0              # semi-major axis (m)
+WGS84_E2 = 6.69437999014e-3      # first eccentricity squared
+GUST_W20 = {0: 0.0, 1: 15.0, 2: 15.0, 3: 30.0, 4: 30.0, 5: 45.0, 6: 45.0, 7: 45.0}
+"""MIL-F-8785C wind speed at 20 ft (kt) of each turbulence severity (light, moderate, severe)."""
+GLIDE_SETTLE = 60.0              # seconds a glider flies its speed hold to find its glide
+MAX_OUTPUTS = 16                 # <output> elements of a model sent to /dev/null
+LOG_KEPT = 100                   # JSBSim messages kept (the trim's reasons)
+CHANNELS = ('altitude', 'bank', 'airspeed_demand', 'turn_rate_demand')
+"""What a run records of each aircraft beside the state: altitude above the ground (m), bank
+(rad, right wing down positive) and the autopilot demand (m/s, rad/s) held over the period."""
+
+
+class Flight(Protocol):
+    """What flying one aircraft reads of a scenario (a :class:`scenario.Scenario` has it)."""
+
+    @property
+    def jsbsim_aircraft(self) -> str: ...                               # noqa: D102
+    @property
+    def altitude(self) -> float: ...                                    # noqa: D102
+    @property
+    def airspeed(self) -> float: ...                                    # noqa: D102
+    @property
+    def dt_integration(self) -> float: ...                              # noqa: D102
+    @property
+    def turbulence_seed(self) -> int: ...                               # noqa: D102
+    @property
+    def bank_limit(self) -> float: ...                                  # noqa: D102
+    @property
+    def roll_rate_limit(self) -> float: ...                             # noqa: D102
+    @property
+    def turn_lag(self) -> float: ...                                    # noqa: D102
+
+
+@dataclass(frozen=True)
+class Trimmed:
+    """What a trim check flies (a Flight): the aircraft, altitude, airspeed and step."""
+
+    jsbsim_aircraft: str
+    altitude: float
+    airspeed: float
+    dt_integration: float
+    turbulence_seed: int = 0
+    bank_limit: float = 0.5
+    roll_rate_limit: float = 0.5
+    turn_lag: float = 0.5
+
+
+class AircraftError(ValueError):
+    """The aircraft cannot fly the scenario (unknown model, failed trim); names the parameter."""
+
+
+def _jsbsim() -> Any:
+    """Return the jsbsim module, quiet, or raise AircraftError saying how to install it."""
+    try:
+        import jsbsim
+    except ImportError:
+        raise AircraftError("parameter 'plant_backend' = 'jsbsim' needs the jsbsim package: "
+                            "pip install -c constraints.txt '.[aircraft]' (make setup)") from None
+    jsbsim.FGJSBBase().debug_lvl = 0
+    return jsbsim
+
+
+def _said(fdm: Any) -> list[str]:
+    """Return what JSBSim has logged in this thread (its messages, not printed)."""
+    jsbsim = _jsbsim()
+    logger = jsbsim.get_logger()
+    if not hasattr(logger, 'said'):
+        logger = _logger(jsbsim)
+        jsbsim.set_logger(logger)
+    return list(logger.said)
+
+
+def _logger(jsbsim: Any) -> Any:
+    """Return a JSBSim logger that keeps the last messages instead of printing them."""
+    class Quiet(jsbsim.FGLogger):
+        def __init__(self) -> None:
+            super().__init__()
+            self.said: list[str] = []
+
+        def message(self, message: str) -> None:
+            self.said.append(message)
+            del self.said[:-LOG_KEPT]
+
+    return Quiet()
+
+
+@lru_cache(maxsize=1)
+def installed() -> tuple[str, ...]:
+    """Return the names of the aircraft models the jsbsim package ships, sorted."""
+    root = Path(_jsbsim().get_default_root_dir()) / 'aircraft'
+    return tuple(sorted(d.name for d in root.iterdir() if (d / f'{d.name}.xml').is_file()))
+
+
+def bank_for_turn(airspeed: RealArray | float, rate: RealArray | float) -> RealArray:
+    """
+    Return the bank of a coordinated turn at the turn rate ``rate``.
+
+    Parameters
+    ----------
+    airspeed : float or array_like
+        True airspeed V (m/s).
+    rate : float or array_like
+        Turn rate theta' (rad/s), counter-clockwise positive (the map frame's).
+
+    Returns
+    -------
+    ndarray
+        ``phi = -atan(V rate / g)`` (rad), right wing down positive: a left (counter-clockwise)
+        turn banks left.
+
+    """
+    return -np.arctan(np.asarray(airspeed) * np.asarray(rate) / G)
+
+
+def turn_demand(sc: Scenario, X: RealArray, U: RealArray) -> RealArray:
+    """
+    Return the autopilot demand for the law's inputs ``U``, as the vehicle sends it.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its model, airspeed and turn_lag.
+    X : array_like, shape (6, N)
+        The states the commands were computed from (omega: the measured yaw rate).
+    U : array_like, shape (2, N)
+        The law's inputs: row 1 the turn rate (first order, rad/s) or the angular
+        acceleration a (second order, rad/s^2).
+
+    Returns
+    -------
+    ndarray, shape (2, N)
+        Airspeed (m/s) and turn rate (rad/s) demands: ``omega + turn_lag a`` for the second
+        order (the module docstring), the law's rate for the first.
+
+    """
+    U = np.asarray(U, float)
+    rate = U[1] if sc.model == 'first_order' else np.asarray(X)[ROW_OMEGA] + sc.turn_lag * U[1]
+    return np.stack([np.full(np.shape(rate), sc.airspeed), rate])
+
+
+def required_bank(sc: Scenario) -> float:
+    """
+    Return the largest bank a circle of the scenario needs in its uniform wind.
+
+    Returns
+    -------
+    float
+        (rad): on the circle the course turns at ``omega0 s`` with the ground speed s, and the
+        yaw at ``omega0 s / g_k`` (:func:`control.particle_speed_terms`, the wind normalised
+        by V); the bank is :func:`bank_for_turn` of that, its largest value over the headings.
+        In still air ``tan(phi) = V^2 / (g R)``, ``R = 1/|omega0|``.
+
+    """
+    e = np.exp(1j * np.linspace(-np.pi, np.pi, 721))
+    f = sc.flow_c / sc.airspeed
+    s2 = abs(e + f) ** 2
+    g = (1.0 + (f.conjugate() * e).real) / s2
+    rate = abs(sc.omega0) * sc.airspeed * np.sqrt(s2) / g
+    return float(np.max(abs(bank_for_turn(sc.airspeed, rate))))
+
+
+def _radii(lat0: float) -> tuple[float, float]:
+    """Return the meridian and prime-vertical radii of curvature (m) at latitude lat0 (rad)."""
+    w = 1.0 - WGS84_E2 * math.sin(lat0) ** 2
+    return WGS84_A * (1.0 - WGS84_E2) / w ** 1.5, WGS84_A / math.sqrt(w)
+
+
+@dataclass(frozen=True)
+class MapFrame:
+    """The tangent plane at a geodetic origin: local map x, y (m) to and from lat, lon (rad)."""
+
+    lat0: float
+    lon0: float
+    north: float
+    east: float
+
+    @classmethod
+    def at(cls, origin: Sequence[float]) -> MapFrame:
+        """Return the frame at ``origin`` = (latitude, longitude) in degrees."""
+        lat0, lon0 = math.radians(origin[0]), math.radians(origin[1])
+        rn, re = _radii(lat0)
+        return cls(lat0, lon0, rn, re * math.cos(lat0))
+
+    def geodetic(self, x: float, y: float) -> tuple[float, float]:
+        """Return (lat, lon) (rad) of the map point (x, y) (m)."""
+        return self.lat0 + y / self.north, self.lon0 + x / self.east
+
+    def local(self, lat: float, lon: float) -> tuple[float, float]:
+        """Return the map point (x, y) (m) of (lat, lon) (rad)."""
+        return (lon - self.lon0) * self.east, (lat - self.lat0) * self.north
+
+
+# Gains of the inner loop (SI, normalised surfaces), tuned on c172x and the gliders.
+ROLL_P, ROLL_I = 2.0, 0.3        # aileron per rad/s of roll-rate error; per rad s of bank error
+YAW_BETA = -2.0                  # rudder per rad of sideslip
+TURN_I = 0.1                     # turn-rate demand per rad of turn-rate error integral (1/s)
+PITCH_P, PITCH_Q = 2.0, 0.6      # elevator per rad of pitch error; per rad/s of pitch rate
+PITCH_I = 0.2                    # elevator per rad s of pitch error
+INT_MAX = 1.0                    # bound of the pitch and bank integrals (rad s): no wind-up
+SPEED_INT_MAX = 20.0             # bound of the airspeed integral (m)
+ALT_INT_MAX = 100.0              # bound of the altitude integral (m s)
+ALT_P, ALT_I, ALT_D = 0.01, 0.001, 0.02   # pitch per m, per m s, per m/s of climb
+SPEED_P, SPEED_I = 0.05, 0.01    # throttle per m/s, per m of airspeed error
+GLIDE_P, GLIDE_I = 0.02, 0.002   # glider pitch per m/s, per m of airspeed error
+GLIDE_PITCH_I = 1.0              # PITCH_I of the glide trim (glide_trim): finds the elevator
+PITCH_MAX = math.radians(15.0)
+
+
+@dataclass
+class Holds:
+    """The trim an aircraft's holds work around, and their integrators."""
+
+    theta: float                 # pitch at trim (rad)
+    elevator: float              # elevator command at trim (normalised)
+    throttle: float              # throttle at trim; nan: a glider
+    altitude: float              # altitude held (m), powered
+    glider: bool = False         # no engine: the elevator holds the airspeed
+    bank_int: float = 0.0        # integral of the bank error (rad s)
+    alt_int: float = 0.0         # integral of the altitude error (m s)
+    speed_int: float = 0.0       # integral of the airspeed error (m)
+    pitch_int: float = 0.0       # integral of the pitch error (rad s)
+    rate_int: float = 0.0        # integral of the turn-rate error (rad)
+    pitch_i: float = PITCH_I     # elevator per rad s of pitch error
+
+
+class Aircraft:
+    """
+    One JSBSim aircraft with its autopilot (the module docstring).
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        jsbsim_aircraft, altitude, airspeed, the limits and turn_lag, dt_integration,
+        turbulence, turbulence_seed.
+    frame : MapFrame
+        The map frame.
+    x, y, theta : float
+        Initial place (m) and yaw (rad) in the map frame.
+    index : int
+        The vehicle's index (0-based), for its turbulence seed.
+    glide : tuple of float, optional
+        (alpha, gamma, elevator) of a glider's steady glide (:func:`glide_trim`).
+
+    """
+
+    def __init__(self, sc: Scenario, frame: MapFrame, x: float, y: float, theta: float,
+                 index: int, glide: tuple[float, float, float] | None = None) -> None:
+        self.sc: Flight = sc
+        self.frame = frame
+        self.fdm = fdm = _new_fdm(sc, index)
+        lat, lon = frame.geodetic(x, y)
+        fdm['ic/lat-geod-rad'], fdm['ic/long-gc-rad'] = lat, lon
+        fdm['ic/psi-true-rad'] = 0.5 * math.pi - theta
+        if glide is not None:
+            fdm['ic/alpha-rad'], fdm['ic/gamma-rad'] = glide[0], glide[1]
+            fdm['fcs/elevator-cmd-norm'] = glide[2]
+        fdm.run_ic()
+        if glide is None:
+            _trim(fdm, sc)
+        self.holds = Holds(fdm['attitude/theta-rad'], fdm['fcs/elevator-cmd-norm'],
+                           fdm['fcs/throttle-cmd-norm'] if glide is None else math.nan,
+                           fdm['position/h-agl-ft'] * FT, glide is not None)
+        self.get, self.put = _nodes(fdm, READ), _nodes(fdm, WRITE)
+        if sc.turbulence:
+            fdm['atmosphere/turb-type'] = 3
+            fdm['atmosphere/turbulence/milspec/severity'] = sc.turbulence
+            fdm['atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps'] = (
+                GUST_W20[sc.turbulence] * 1852.0 / 3600.0 / FT)
+        self.theta = theta
+
+    def set_wind(self, wind: complex) -> None:
+        """Set the wind (m/s, map frame: east + i north) JSBSim blows from now on."""
+        self.fdm['atmosphere/wind-east-fps'] = wind.real / FT
+        self.fdm['atmosphere/wind-north-fps'] = wind.imag / FT
+
+    def place(self) -> tuple[float, float]:
+        """Return the aircraft's map position (m)."""
+        fdm = self.fdm
+        return self.frame.local(fdm['position/lat-geod-rad'], fdm['position/long-gc-rad'])
+
+    def step(self, airspeed: float, rate: float) -> None:
+        """Run the autopilot for the demands (m/s, rad/s) and JSBSim for one step."""
+        get, put, sc, h = self.get, self.put, self.sc, self.holds
+        dt = sc.dt_integration
+        v = get['vt'].get_double_value() * FT
+        phi = get['phi'].get_double_value()
+        limit = sc.bank_limit
+        h.rate_int = min(max(h.rate_int + (rate + get['psidot'].get_double_value()) * dt,
+                             -INT_MAX), INT_MAX)
+        phi_cmd = min(max(-math.atan(v * (rate + TURN_I * h.rate_int) / G), -limit), limit)
+        p_max = sc.roll_rate_limit
+        p_cmd = min(max((phi_cmd - phi) / sc.turn_lag, -p_max), p_max)
+        h.bank_int = min(max(h.bank_int + (phi_cmd - phi) * dt, -INT_MAX), INT_MAX)
+        aileron = ROLL_P * (p_cmd - get['p'].get_double_value()) + ROLL_I * h.bank_int
+        put['aileron'].set_double_value(min(max(aileron, -1.0), 1.0))
+        rudder = YAW_BETA * get['beta'].get_double_value()
+        put['rudder'].set_double_value(min(max(rudder, -1.0), 1.0))
+        speed_err = airspeed - v
+        h.speed_int = min(max(h.speed_int + speed_err * dt, -SPEED_INT_MAX), SPEED_INT_MAX)
+        if h.glider:
+            pitch = h.theta - GLIDE_P * speed_err - GLIDE_I * h.speed_int
+        else:
+            alt_err = h.altitude - get['h'].get_double_value() * FT
+            h.alt_int = min(max(h.alt_int + alt_err * dt, -ALT_INT_MAX), ALT_INT_MAX)
+            pitch = h.theta + ALT_P * alt_err + ALT_I * h.alt_int - (
+                ALT_D * get['hdot'].get_double_value() * FT)
+            throttle = h.throttle + SPEED_P * speed_err + SPEED_I * h.speed_int
+            put['throttle'].set_double_value(min(max(throttle, 0.0), 1.0))
+        pitch_err = min(max(pitch, -PITCH_MAX), PITCH_MAX) - get['theta'].get_double_value()
+        h.pitch_int = min(max(h.pitch_int + pitch_err * dt, -INT_MAX), INT_MAX)
+        elevator = h.elevator - PITCH_P * pitch_err - h.pitch_i * h.pitch_int + (
+            PITCH_Q * get['q'].get_double_value())
+        put['elevator'].set_double_value(min(max(elevator, -1.0), 1.0))
+        self.fdm.run()
+
+    def state(self) -> tuple[float, ...]:
+        """Return the state column x, y, theta, omega, u, v, then the altitude (m) and bank."""
+        fdm = self.fdm
+        x, y = self.place()
+        raw = 0.5 * math.pi - fdm['attitude/psi-rad']
+        self.theta += math.remainder(raw - self.theta, 2.0 * math.pi)
+        air = complex(fdm['velocities/v-east-fps'] - fdm['atmosphere/total-wind-east-fps'],
+                      fdm['velocities/v-north-fps'] - fdm['atmosphere/total-wind-north-fps'])
+        body = air * FT * complex(math.cos(self.theta), -math.sin(self.theta))
+        return (x, y, self.theta, -fdm['velocities/psidot-rad_sec'], body.real, body.imag,
+                fdm['position/h-agl-ft'] * FT, fdm['attitude/phi-rad'])
+
+
+READ = {'vt': 'velocities/vtrue-fps', 'phi': 'attitude/phi-rad', 'p': 'velocities/p-rad_sec',
+        'beta': 'aero/beta-rad', 'h': 'position/h-agl-ft', 'hdot': 'velocities/h-dot-fps',
+        'theta': 'attitude/theta-rad', 'q': 'velocities/q-rad_sec',
+        'psidot': 'velocities/psidot-rad_sec'}
+WRITE = {'aileron': 'fcs/aileron-cmd-norm', 'rudder': 'fcs/rudder-cmd-norm',
+         'elevator': 'fcs/elevator-cmd-norm', 'throttle': 'fcs/throttle-cmd-norm'}
+
+
+def _nodes(fdm: Any, names: dict[str, str]) -> dict[str, Any]:
+    """Return the property nodes of ``names`` (short name -> property path) of an FDM."""
+    manager = fdm.get_property_manager()
+    return {key: manager.get_node(path, True) for key, path in names.items()}
+
+
+def _new_fdm(sc: Flight, index: int) -> Any:
+    """Return a loaded FGFDMExec of the scenario's aircraft, dt and seed, before its ICs."""
+    jsbsim = _jsbsim()
+    fdm = jsbsim.FGFDMExec(None)
+    _said(fdm)
+    fdm.set_debug_level(0)
+    if not fdm.load_model(sc.jsbsim_aircraft):
+        raise AircraftError(f"parameter 'jsbsim_aircraft' = {sc.jsbsim_aircraft!r}: JSBSim "
+                            f'could not load it')
+    for n in range(MAX_OUTPUTS):                       # no files of the model's <output>s
+        if not fdm.set_output_filename(n, os.devnull):
+            break
+    fdm.disable_output()
+    fdm.set_dt(sc.dt_integration)
+    fdm['atmosphere/randomseed'] = sc.turbulence_seed * 65537 + index
+    fdm['ic/h-agl-ft'] = sc.altitude / FT
+    fdm['ic/vt-fps'] = sc.airspeed / FT
+    return fdm
+
+
+def powered(fdm: Any) -> bool:
+    """Return whether the loaded aircraft has an engine (else a glider)."""
+    return bool(fdm.get_propulsion().get_num_engines() > 0)
+
+
+def _trim(fdm: Any, sc: Flight) -> None:
+    """Trim a powered aircraft in straight and level flight, or raise AircraftError."""
+    fdm['propulsion/set-running'] = -1
+    heard = len(_said(fdm))
+    try:
+        fdm['simulation/do_simple_trim'] = 1
+        return
+    except RuntimeError:
+        pass
+    told = ' '.join(_said(fdm)[heard:])
+    axes = re.findall(r"(\w+) doesn't appear to be trimmable", told) or ['the trim']
+    raise AircraftError(
+        f"parameter 'airspeed' = {sc.airspeed} m/s, 'altitude' = {sc.altitude} m: JSBSim "
+        f'cannot trim {sc.jsbsim_aircraft} in straight and level flight there: '
+        f"{', '.join(sorted(set(axes)))} not trimmable (no steady state with udot, wdot, "
+        f'qdot = 0 within its throttle, elevator and angle of attack); try another airspeed '
+        f'or altitude')
+
+
+def glide_trim(sc: Flight) -> tuple[float, float, float]:
+    """
+    Return (alpha, gamma, elevator) of the steady glide of a glider at the scenario's airspeed.
+
+    JSBSim's trim needs a throttle for udot; a glider's glide is found by flying its speed hold
+    wings level for GLIDE_SETTLE seconds from a level start, and read off.
+    """
+    fdm = _new_fdm(sc, 0)
+    fdm.run_ic()
+    holds = Holds(fdm['attitude/theta-rad'], 0.0, math.nan, 0.0, True, pitch_i=GLIDE_PITCH_I)
+    plane = Aircraft.__new__(Aircraft)
+    plane.sc, plane.fdm, plane.holds = sc, fdm, holds
+    plane.get, plane.put = _nodes(fdm, READ), _nodes(fdm, WRITE)
+    for _ in range(int(GLIDE_SETTLE / sc.dt_integration)):
+        plane.step(sc.airspeed, 0.0)
+    alpha, gamma = fdm['aero/alpha-rad'], fdm['flight-path/gamma-rad']
+    speed = fdm['velocities/vtrue-fps'] * FT
+    if abs(speed - sc.airspeed) > 0.05 * sc.airspeed or not math.isfinite(alpha):
+        raise AircraftError(
+            f"parameter 'airspeed' = {sc.airspeed} m/s: the glider {sc.jsbsim_aircraft} finds "
+            f'no steady glide there (its speed hold reached {speed:.3g} m/s after '
+            f'{GLIDE_SETTLE:g} s)')
+    return alpha, gamma, fdm['fcs/elevator-cmd-norm']
+
+
+@lru_cache(maxsize=16)
+def _checked(name: str, altitude: float, airspeed: float,
+             dt: float) -> tuple[float, float, float] | None:
+    """Return the glide of a glider, None for a powered aircraft that trims; else AircraftError."""
+    if name not in installed():
+        raise AircraftError(f"parameter 'jsbsim_aircraft' = {name!r} is invalid: the installed "
+                            f"JSBSim aircraft are {', '.join(installed())}")
+    sc = Trimmed(name, altitude, airspeed, dt)
+    fdm = _new_fdm(sc, 0)
+    if not powered(fdm):
+        return glide_trim(sc)
+    fdm.run_ic()
+    _trim(fdm, sc)
+    return None
+
+
+def check(sc: Scenario) -> None:
+    """Refuse (AircraftError) an aircraft JSBSim does not have, or one that does not trim."""
+    _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
+
+
+class Fleet:
+    """
+    The fleet of aircraft of a scenario, integrated with JSBSim.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        A scenario with ``plant_backend: jsbsim``.
+    X0 : array_like, shape (6, N) or (6, B, N)
+        Initial places and yaws (rows x, y, theta) of a fleet or of a batch of B fleets; the
+        other rows come from the trim. Aircraft k of every fleet has the turbulence seed of
+        index k: a run does not depend on the batch it is in.
+
+    Attributes
+    ----------
+    X : ndarray, shape of X0
+        The fleet's state (the module docstring).
+    channels : dict of str to ndarray, shape ``X0.shape[1:]``
+        Altitude (m), bank (rad) and the demands held (:data:`CHANNELS`).
+
+    """
+
+    def __init__(self, sc: Scenario, X0: RealArray) -> None:
+        glide = _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
+        frame = MapFrame.at(sc.geodetic_origin)
+        X0 = np.asarray(X0, float)
+        self.shape = X0.shape[1:]
+        flat = X0.reshape(6, -1)
+        self.sc, self.flow = sc, Flowfield(sc)
+        self.planes = [Aircraft(sc, frame, flat[ROW_X, k], flat[ROW_Y, k], flat[ROW_THETA, k],
+                                k % sc.num_vehicles, glide) for k in range(flat.shape[1])]
+        self.demand = np.stack([np.full(len(self.planes), sc.airspeed),
+                                np.zeros(len(self.planes))])
+        self.X = np.zeros(X0.shape)
+        self.channels: dict[str, RealArray] = {}
+        self._read()
+        self._blow(0.0)
+
+    def _read(self) -> None:
+        rows = np.array([plane.state() for plane in self.planes]).T
+        self.X[:] = rows[:6].reshape((6,) + self.shape)
+        for name, row in zip(CHANNELS, (rows[6], rows[7], self.demand[0], self.demand[1])):
+            self.channels[name] = row.reshape(self.shape).copy()
+
+    def _blow(self, t: float) -> None:
+        """Set each aircraft's wind: the flow at its place at time t."""
+        if self.flow.uniform:
+            wind = [self.flow.value] * len(self.planes)
+        else:
+            xy = np.array([plane.place() for plane in self.planes]).T
+            wind = list(np.broadcast_to(self.flow(t, xy[0], xy[1]), (len(self.planes),)))
+        for plane, w in zip(self.planes, wind):
+            plane.set_wind(complex(w))
+
+    def hold(self, demand: RealArray) -> None:
+        """Hold the demands (2, ...) of the state's shape: airspeed (m/s) and turn rate (rad/s)."""
+        sc = self.sc
+        self.demand = np.array(demand, float).reshape(2, -1)
+        self.demand[0] = np.clip(self.demand[0], sc.min_airspeed, sc.max_airspeed or np.inf)
+        self.channels['airspeed_demand'] = self.demand[0].reshape(self.shape).copy()
+        self.channels['turn_rate_demand'] = self.demand[1].reshape(self.shape).copy()
+
+    def advance(self, t: float, steps: int) -> RealArray:
+        """Integrate ``steps`` steps from time t with the demands held; return the state."""
+        airspeed, rate = self.demand.tolist()
+        dt = self.sc.dt_integration
+        for step in range(steps):
+            if step and not self.flow.uniform:
+                self._blow(t + step * dt)
+            for plane, v, w in zip(self.planes, airspeed, rate):
+                plane.step(v, w)
+        if not self.flow.uniform:
+            self._blow(t + steps * dt)
+        self._read()
+        return self.X.copy()
