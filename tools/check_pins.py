@@ -18,9 +18,9 @@ Check that everything the package needs is installed at its pinned version.
 Walks the installed requirements of the package with every extra of ``EXTRAS`` (msgs-build:
 what building formation_control_msgs takes; bench: the tracked benchmarks; aircraft: JSBSim)
 and of the build tools pip, setuptools, wheel, and fails, naming them, when one of them has no
-exact pin in
-constraints.txt or is installed at another version: a dependency added to setup.py without
-``make upgrade`` would otherwise be installed at whatever version is newest that day.
+exact pin in constraints.txt or is installed at another version: a dependency added to
+setup.py without ``make upgrade`` would otherwise be installed at whatever version is newest
+that day.
 
 Usage: python tools/check_pins.py [constraints.txt]
 """
@@ -34,10 +34,7 @@ from packaging.utils import canonicalize_name
 
 ROOT = Path(__file__).resolve().parents[1]
 PROJECT = 'formation_control'
-Walks the installed requirements of the package with every extra of ``EXTRAS`` (msgs-build:
-what building formation_control_msgs takes; bench: the tracked benchmarks; aircraft: JSBSim)
-and of the build tools pip, setuptools, wheel, and fails, naming them, when one of them has no
-exact pin in
+EXTRAS = ('ros', 'view', 'cluster', 'test', 'docs', 'msgs-build', 'bench', 'aircraft')
 BUILD_TOOLS = ('pip', 'setuptools', 'wheel')
 
 

@@ -32,7 +32,7 @@ from formation_control.core.models import (body_accel, ground_velocity, integrat
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
 from formation_control.core.scenario import (Scenario, uses_flow_rates, uses_held_force,
-                                              vehicle_speed)
+                                             vehicle_speed)
 import numpy as np
 
 
