@@ -75,8 +75,12 @@ class FleetPlant:
         return self.n * self.sc.dt_control
 
     def local_flow(self) -> ComplexArray:
-        """Return the flow at each vehicle now, (N,) complex (m/s, world frame)."""
+        """Return the flowfield at each vehicle now, (N,) complex (m/s, world frame)."""
         return self.stepper.local_flow()
+
+    def true_flow(self) -> ComplexArray:
+        """Return the flow each vehicle moves in now, gusts included, (N,) complex (m/s)."""
+        return self.stepper.true_flow()
 
     def next_period(self) -> None:
         """Go on to the next control period (lockstep, once one is integrated)."""

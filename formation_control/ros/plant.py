@@ -27,9 +27,11 @@ steps the clock has reached with the last command of each vehicle held, and vehi
 odometry is sent at integration step (k - 1) mod substeps of each period.
 
 The flow each vehicle meets is the plant's flowfield at its own place and time (the simulator's
-:func:`models.integrate`). Known to the vehicles (``flow_source: known``), it goes on
-``/vehicle_k/flow``: latched once if uniform, else with every odometry; for estimating rigid
-bodies each odometry comes with the through-water velocity on ``/vehicle_k/water_velocity``.
+:func:`models.integrate`), and its gust when gusts are on (:mod:`world`: the odometry's
+ground velocity has it, the flow a vehicle is told has not). Known to the vehicles
+(``flow_source: known``), it goes on ``/vehicle_k/flow``: latched once if uniform, else with
+every odometry; for estimating rigid bodies each odometry comes with the through-water velocity
+on ``/vehicle_k/water_velocity``.
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
@@ -160,14 +162,14 @@ class PlantNode(Node):
         self._publish_odom(self.plant.slot == 0, t0_ns)
 
     def _publish_odom(self, which, ns):
-        X, flow = self.fleet.X, self.fleet.local_flow()
+        X, flow, moved = self.fleet.X, self.fleet.local_flow(), self.fleet.true_flow()
         for i in np.flatnonzero(which & ~self.fleet.stopped):
             if self.flow_pubs is not None:
                 self.flow_pubs[i].publish(itf.flow_msg(i + 1, ns, flow[i], self.frames))
             if self.water_pubs is not None:
                 self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, X[:, i],
                                                                   self.frames))
-            values = messages.odom_values(X[:, i], flow[i])
+            values = messages.odom_values(X[:, i], moved[i])
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
     def _on_cmd(self, k, got):

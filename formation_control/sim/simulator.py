@@ -34,8 +34,9 @@ from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
-                                           ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
+                                           ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
 from formation_control.core.scenario import initial_state, resolve, Scenario
+from formation_control.core.world import active, World
 from formation_control.sim import metrics
 import numpy as np
 from numpy.typing import ArrayLike
@@ -139,11 +140,17 @@ class Stepper:
         The scenario.
     X0 : array_like, shape (6, N), optional
         Initial state; :func:`scenario.initial_state` by default.
+    seeds : sequence of int, optional
+        The seed of each fleet of a batch X0 (6, B, N), for the world's draws
+        (:class:`world.World`); ``sc.seed`` by default.
 
     Attributes
     ----------
     X : ndarray, shape (6, N)
         The fleet's current state.
+    world : world.World or None
+        The true vehicles, actuators and gusts the plant integrates, when any is on
+        (:func:`world.active`); None: the nominal model.
     U : ndarray, shape (2, N)
         The inputs held over the current period.
     flow_hat : complex or ndarray of complex, shape (N,)
@@ -153,12 +160,14 @@ class Stepper:
 
     """
 
-    def __init__(self, sc: Scenario, X0: ArrayLike | None = None) -> None:
+    def __init__(self, sc: Scenario, X0: ArrayLike | None = None,
+                 seeds: Sequence[int] | None = None) -> None:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
         self.U = np.zeros((2,) + self.X.shape[1:])
         self.steps = 0
+        self.world = World(sc, self.X.shape[1:], seeds) if active(sc) else None
         self.estimator: FlowEstimator | None = None
         if sc.flow_source == 'estimated':
             self.estimator = FlowEstimator(sc, self.X.shape[1:])
@@ -170,8 +179,31 @@ class Stepper:
         return self.steps * self.sc.dt_integration
 
     def local_flow(self) -> ComplexArray:
-        """Return the flow (N,) complex at each vehicle's place now (m/s)."""
+        """Return the flowfield (N,) complex at each vehicle's place now (m/s): what it is told."""
         return self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
+
+    def true_flow(self) -> ComplexArray:
+        """Return the flow (N,) complex each vehicle moves in now: the flowfield and its gust."""
+        flow = self.local_flow()
+        return flow if self.world is None else flow + self.world.gust
+
+    def observed(self) -> RealArray:
+        """
+        Return the states (6, N) as the vehicles measure them.
+
+        A rigid body told the flow reads its velocity through the water from its ground
+        velocity less the flow it is told, as a vehicle node does from its odometry
+        (:func:`messages.state_from_odom_values`): a gust it is not told shifts u, v by the gust
+        in its body frame. Otherwise the state itself.
+        """
+        if self.world is None or not self.world.streams or self.sc.model not in RIGID_MODELS \
+                or self.sc.flow_source != 'known':
+            return self.X
+        X = self.X.copy()
+        turn = np.exp(-1j * X[ROW_THETA])
+        rel = ground_velocity(X, self.true_flow()) * turn - self.local_flow() * turn
+        X[ROW_U], X[ROW_V] = rel.real, rel.imag
+        return X
 
     def vehicles_flow(self) -> complex | ComplexArray:
         """
@@ -189,7 +221,7 @@ class Stepper:
             return flow
         est = self.estimator
         near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
-        return est.update(self.X, ground_velocity(self.X, flow), near).copy()
+        return est.update(self.X, ground_velocity(self.X, self.true_flow()), near).copy()
 
     def hold(self, U: ArrayLike) -> RealArray:
         """
@@ -198,7 +230,7 @@ class Stepper:
         The first-order turn rate is the state omega, so it is written into ``X`` too.
         """
         self.U = np.array(U, float)
-        if self.sc.model == 'first_order':
+        if self.sc.model == 'first_order' and self.world is None:
             self.X[ROW_OMEGA] = self.U[1]
         return self.U
 
@@ -211,7 +243,7 @@ class Stepper:
         computes its own.
         """
         self.flow_hat = flow = self.vehicles_flow()
-        X = self.ctrl.predict(self.X, self.U, flow)
+        X = self.ctrl.predict(self.observed(), self.U, flow)
         view = self.ctrl.view(X, self.U[1], flow)
         return self.hold(self.ctrl.command(view, X, flow=flow))
 
@@ -226,6 +258,11 @@ class Stepper:
         its batch; this way it equals the run alone, bit for bit.
         """
         sc, steps = self.sc, steps or self.sc.substeps
+        if self.world is not None:
+            for _ in range(steps):
+                self.X = self.world.step(self.X, self.U, self.t)
+                self.steps += 1
+            return self.X
         self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
                            plain=True if self.X.ndim > 2 else None)
         self.steps += steps
@@ -341,15 +378,17 @@ def initial_states(sc: Scenario, seeds: Sequence[int]) -> RealArray:
 
 @overload
 def simulate(sc: Scenario, X0: ArrayLike | None = None,
-             recorder: Recorder | None = None) -> Run: ...
+             recorder: Recorder | None = None, seeds: Sequence[int] | None = None) -> Run: ...
 
 
 @overload
-def simulate(sc: Scenario, X0: ArrayLike | None, recorder: Outcome) -> Outcome: ...
+def simulate(sc: Scenario, X0: ArrayLike | None, recorder: Outcome,
+             seeds: Sequence[int] | None = None) -> Outcome: ...
 
 
 def simulate(sc: Scenario, X0: ArrayLike | None = None,
-             recorder: Recorder | Outcome | None = None) -> Run | Outcome:
+             recorder: Recorder | Outcome | None = None,
+             seeds: Sequence[int] | None = None) -> Run | Outcome:
     """
     Run a scenario in the offline simulator.
 
@@ -364,6 +403,8 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
         (:mod:`laws`), integrated together.
     recorder : Recorder or Outcome, optional
         What to keep; a :class:`Recorder` of ``sc`` by default.
+    seeds : sequence of int, optional
+        The seed of each fleet of a batch, for the world's draws (:class:`Stepper`).
 
     Returns
     -------
@@ -377,7 +418,7 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
         vehicle and the likely cause.
 
     """
-    stepper = Stepper(sc, X0)
+    stepper = Stepper(sc, X0, seeds)
     rec = Recorder(sc) if recorder is None else recorder
     for n in range(rec.steps + 1):
         U = stepper.command()
