@@ -35,7 +35,7 @@ from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
                                            ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
-from formation_control.core.scenario import initial_state, resolve, Scenario
+from formation_control.core.scenario import initial_state, practical, resolve, Scenario
 from formation_control.core.world import active, World
 from formation_control.sim import metrics
 import numpy as np
@@ -333,6 +333,8 @@ class Outcome:
         self.ctrl = Controller(sc)
         self.times: list[float] = []
         self.samples: list[BoolArray] = []
+        self.met: list[dict[str, Any]] = []
+        self.errors: list[dict[str, Any]] = []
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None) -> None:
@@ -343,6 +345,8 @@ class Outcome:
             self.final = metrics.snapshot(self.ctrl, X, U, t, separation=separation)
             self.times.append(t)
             self.samples.append(np.asarray(metrics.converged(self.sc, self.final)))
+            self.met.append(metrics.conditions(self.sc, self.final))
+            self.errors.append(metrics.steady_errors(self.sc, self.final))
             self.X, self.U = X.copy(), U.copy()
 
     def run(self) -> Outcome:
@@ -350,9 +354,25 @@ class Outcome:
         self.t, self.flags = np.array(self.times), np.array(self.samples)
         return self
 
+    def converged(self) -> BoolArray:
+        """Return each fleet's :func:`metrics.verdict` (B,)."""
+        return np.asarray(metrics.verdict(self.sc, self.t, self.flags))
+
+    def met_conditions(self) -> dict[str, BoolArray]:
+        """Return whether each fleet meets each condition: at the end, or over the window."""
+        keep = metrics.window(self.sc, self.t) if practical(self.sc) else self.t == self.t[-1]
+        return {name: np.all([np.broadcast_to(m[name], self.flags.shape[1:])
+                              for m, k in zip(self.met, keep) if k], axis=0)
+                for name in self.met[-1]}
+
+    def steady_state(self) -> dict[str, tuple[Any, Any]]:
+        """Return :func:`metrics.steady_state` of each fleet: (median, p95) arrays (B,)."""
+        return metrics.steady_state(self.sc, self.t, {name: [e[name] for e in self.errors]
+                                                      for name in self.errors[-1]})
+
     def convergence_times(self) -> RealArray:
-        """Return each fleet's :func:`metrics.convergence_times` (s; NaN if not), (B,)."""
-        return metrics.convergence_times(self.t, self.flags)
+        """Return each fleet's :func:`metrics.convergence_times` (s; NaN: not converged), (B,)."""
+        return np.where(self.converged(), metrics.convergence_times(self.t, self.flags), np.nan)
 
 
 def initial_states(sc: Scenario, seeds: Sequence[int]) -> RealArray:
@@ -448,22 +468,44 @@ def summary(run: Run) -> dict[str, Any]:
         evaluated sample by sample: a fleet's views stay in cache),
         ``unmet`` (the names of the :func:`metrics.conditions` it fails at the end),
         ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
-        ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
-        bodies: ``mean_u``, ``mean_v`` (m/s).
+        ``max_turn_rate``. With the band test (:func:`scenario.practical`): ``converged``
+        is :func:`metrics.verdict` (within every band at every sample of the last window),
+        ``unmet`` the bands left in that window, ``steady_state`` the median, 95th percentile
+        and band of each :func:`metrics.steady_errors` over it, and ``settle_window`` (s).
+        Circular: ``centre_spread``, ``radius``, ``radius_target``; rigid bodies: ``mean_u``,
+        ``mean_v`` (m/s).
 
     """
     sc = run.sc
     ctrl = Controller(sc)
     flags: list[Any] = []
+    met: list[dict[str, Any]] = []
+    errors: list[dict[str, Any]] = []
     separation = metrics.needs_separation(sc)
     for t, X, U in zip(run.t, run.X, run.U):
-        flags.append(metrics.converged(sc, metrics.snapshot(ctrl, X, U, t, separation)))
+        snap = metrics.snapshot(ctrl, X, U, t, separation)
+        flags.append(metrics.converged(sc, snap))
+        met.append(metrics.conditions(sc, snap))
+        errors.append(metrics.steady_errors(sc, snap))
     final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
-           'converged': bool(flags[-1]), 'unmet': metrics.unmet(sc, final),
-           'convergence_time': metrics.convergence_time(run.t, flags),
+           'converged': bool(metrics.verdict(sc, run.t, flags)),
+           'unmet': metrics.unmet(sc, final),
+           'convergence_time': None,
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate}
+    if out['converged']:
+        out['convergence_time'] = metrics.convergence_time(run.t, flags)
+    if practical(sc):
+        keep = metrics.window(sc, run.t)
+        out['unmet'] = [name for name in met[-1] if not all(
+            bool(m[name]) for m, k in zip(met, keep) if k)]
+        ss = metrics.steady_state(sc, run.t, {name: [e[name] for e in errors]
+                                              for name in errors[-1]})
+        out['steady_state'] = {name: {'median': float(m), 'p95': float(q),
+                                      'band': getattr(sc, metrics.BANDS[name])}
+                               for name, (m, q) in ss.items()}
+        out['settle_window'] = float(min(sc.settle_window, run.t[-1] - run.t[0]))
     if sc.formation == 'circular':
         out.update(centre_spread=final.spread, radius=final.radius,
                    radius_target=1.0 / abs(sc.omega0))
