@@ -304,3 +304,30 @@ def steady_speed(sc: Scenario, thrust: RealArray, drag: RealArray) -> RealArray:
     disc = c * c - 4.0 * d * c * sc.u0
     with np.errstate(invalid='ignore'):
         return np.where(disc >= 0, 2.0 * c * sc.u0 / (c + np.sqrt(disc)), np.nan)
+
+
+def speed_under_bias(sc: Scenario, b: RealArray) -> RealArray:
+    """
+    Return the steady forward speed of rigid bodies whose measured u is off by ``b`` (m/s).
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        The nominal u0, K_f, m0, h (the true vehicles are nominal).
+    b : array_like
+        Each vehicle's error of its measured speed through the water (m/s): an untold gust
+        along its body x, a DVL bias.
+
+    Returns
+    -------
+    ndarray
+        In straight motion the thrust (7.1) of the measured ``u + b``,
+        ``h (u + b)^2 + m0 K_f (u0 - u - b)``, meets the drag ``h u^2`` at
+        ``u = (m0 K_f (u0 - b) + h b^2) / (m0 K_f - 2 h b)``: to first order
+        ``u - u0 = (2 h u0 / (m0 K_f) - 1) b``, the drag cancellation amplifying the error
+        (9 b with the thesis' h = 5, u0 = m0 = K_f = 1; docs/errata.md, "Model mismatch").
+
+    """
+    b = np.asarray(b, float)
+    c = sc.m0 * sc.K_f
+    return (c * (sc.u0 - b) + sc.h * b * b) / (c - 2.0 * sc.h * b)

@@ -322,6 +322,8 @@ class Outcome:
         The convergence test of each fleet at each sample.
     X, U : ndarray, shapes (6, B, N), (2, B, N)
         The state and held inputs at the last step.
+    diverged : ndarray of bool, shape (B,) (or () while none has)
+        The fleets whose state diverged in the world (:meth:`stop`), held since.
     final : metrics.Snapshot
         The metrics at the last step, arrays of shape (B,).
 
@@ -335,6 +337,7 @@ class Outcome:
         self.samples: list[BoolArray] = []
         self.met: list[dict[str, Any]] = []
         self.errors: list[dict[str, Any]] = []
+        self.diverged: BoolArray = np.zeros((), bool)
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None) -> None:
@@ -354,9 +357,22 @@ class Outcome:
         self.t, self.flags = np.array(self.times), np.array(self.samples)
         return self
 
+    def stop(self, fleets: BoolArray, before: RealArray, stepper: Stepper) -> None:
+        """
+        Freeze the ``fleets`` (B,) of a batch in the world whose state diverged.
+
+        A vehicle unlike its model may run away (docs/errata.md, "Model mismatch"): in a
+        study that is an outcome, not an error. Such a fleet is held at its state ``before``
+        the period, never counts as converged, and is counted in :attr:`diverged`.
+        """
+        if not fleets.any():
+            return
+        self.diverged = self.diverged | fleets
+        stepper.X[:, fleets] = before[:, fleets]
+
     def converged(self) -> BoolArray:
-        """Return each fleet's :func:`metrics.verdict` (B,)."""
-        return np.asarray(metrics.verdict(self.sc, self.t, self.flags))
+        """Return each fleet's :func:`metrics.verdict` (B,); never one that diverged."""
+        return np.asarray(metrics.verdict(self.sc, self.t, self.flags)) & ~self.diverged
 
     def met_conditions(self) -> dict[str, BoolArray]:
         """Return whether each fleet meets each condition: at the end, or over the window."""
@@ -440,15 +456,22 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
     """
     stepper = Stepper(sc, X0, seeds)
     rec = Recorder(sc) if recorder is None else recorder
+    held = isinstance(rec, Outcome) and stepper.X.ndim > 2 and stepper.world is not None
     for n in range(rec.steps + 1):
-        U = stepper.command()
+        with np.errstate(over='ignore' if held else 'warn', invalid='ignore' if held else 'warn'):
+            U = stepper.command()                  # held: a stopped fleet may run away again
         rec.record(n, stepper.X, U, stepper.flow_hat)
         if n < rec.steps:
+            before = stepper.X
             with np.errstate(over='ignore', invalid='ignore'):
                 stepper.advance()
-            bad = np.flatnonzero(stability.diverging(stepper.X))
-            if bad.size:
-                raise stability.divergence(sc, (n + 1) * sc.dt_control, bad[0], stepper.X)
+            bad = stability.diverging(stepper.X)
+            if held and isinstance(rec, Outcome):
+                rec.stop(np.any(bad, axis=-1), before, stepper)
+            elif bad.any():
+                flat = stepper.X.reshape(6, -1)
+                raise stability.divergence(sc, (n + 1) * sc.dt_control,
+                                           int(np.flatnonzero(bad)[0]), flat)
     return rec.run()
 
 

@@ -237,7 +237,8 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
         metrics by name (:meth:`metrics.Snapshot.values`), ``met_<condition>`` for each of
         :func:`metrics.conditions` (at the end; with the band test over the last window),
         with the band test ``ss_median_<error>`` and ``ss_p95_<error>`` of each
-        :func:`metrics.steady_errors` over the last window, and ``final_x``, ``final_y``,
+        :func:`metrics.steady_errors` over the last window, ``diverged`` (a fleet in the world
+        whose state diverged, :meth:`simulator.Outcome.stop`), and ``final_x``, ``final_y``,
         ``final_theta`` (runs, N).
 
     """
@@ -245,7 +246,8 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     out = simulator.simulate(sc, simulator.initial_states(sc, seeds), simulator.Outcome(sc),
                              seeds=seeds)
     rows = {'seed': np.array(seeds, dtype=np.int64), 'converged': out.converged(),
-            'convergence_time': out.convergence_times()}
+            'convergence_time': out.convergence_times(),
+            'diverged': np.broadcast_to(out.diverged, (len(seeds),)).copy()}
     for name, ok in out.met_conditions().items():
         rows[f'met_{name}'] = np.broadcast_to(ok, (len(seeds),)).copy()
     rows.update(out.final.values())

@@ -220,3 +220,25 @@ def test_bad_world_input_is_refused_naming_the_parameter(values, name):
 def test_a_gust_past_the_vehicle_speed_is_warned_about():
     sc = scenario.resolve({'flow': [0.5, 0.0], 'gust_intensity': 0.2})
     assert any('gust_intensity' in w for w in sc.warnings)
+
+
+@pytest.mark.parametrize('seed', (11, 12, 13))
+def test_an_untold_steady_gust_moves_the_speed_by_the_amplified_error(seed):
+    """
+    A rigid body told the flow reads an untold gust in its water speed (a bias b along x).
+
+    The gust held nearly constant (gust_time 1e5 s); the drag cancellation amplifies b by
+    ``2 h u0 / (m0 K_f) - 1`` = 9 in the steady speed (:func:`world.speed_under_bias`).
+    """
+    sc = _rigid(seed=seed, world_seed=seed, duration=25.0, gust_intensity=0.01,
+                gust_time=1e5, hold_prediction='none')
+    stepper = simulator.Stepper(sc)
+    for _ in range(sc.periods):
+        stepper.command()
+        stepper.advance()
+    X = stepper.X
+    b = (stepper.world.gust * np.exp(-1j * X[2])).real
+    predicted = world.speed_under_bias(sc, b)
+    assert np.max(abs(predicted - sc.u0)) > 0.03                   # a measurable offset
+    np.testing.assert_allclose(X[ROW_U], predicted, rtol=0, atol=2e-3)
+    np.testing.assert_allclose(predicted - sc.u0, 9 * b, rtol=0.3)   # first order in b
