@@ -31,6 +31,7 @@ from pathlib import Path
 import re
 from typing import Any, NoReturn, TYPE_CHECKING
 
+from formation_control.core import sensors
 from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
@@ -334,10 +335,28 @@ class Scenario:
                                    'flowfield, unknown to the vehicles', low=0.0, zero='none')
     gust_time: float = _param(10.0, 's', 'correlation time T of the gust (a correlation length L '
                               'met at speed V: T = L / V)', **_POSITIVE)
+    gnss_sigma: float = _param(0.0, 'm', 'sensors: position-fix noise sigma per axis (GNSS)',
+                               low=0.0, zero='none')
+    gnss_rate: float = _param(0.0, 'Hz', 'sensors: position fixes per second, the last held '
+                              'between fixes', low=0.0, zero='every control step',
+                              rule='at most 1 / dt_control, a whole number of periods apart')
+    heading_sigma: float = _param(0.0, 'rad', 'sensors: heading noise sigma (compass)', low=0.0,
+                                  zero='none')
+    heading_bias: float = _param(0.0, 'rad', 'sensors: heading bias (compass), every vehicle')
+    yaw_rate_sigma: float = _param(0.0, 'rad/s', 'sensors: yaw-rate noise sigma (gyro)',
+                                   low=0.0, zero='none')
+    velocity_sigma: float = _param(0.0, 'm/s', 'sensors: ground-velocity noise sigma per axis '
+                                   '(GNSS Doppler), map frame', low=0.0, zero='none')
+    water_sigma: float = _param(0.0, 'm/s', 'sensors: through-water velocity noise sigma per '
+                                'body axis (DVL, pitot), rigid bodies', low=0.0, zero='none')
+    water_bias: float = _param(0.0, 'm/s', 'sensors: through-water speed bias along body x, '
+                               'rigid bodies')
+    sensor_latency: float = _param(0.0, 's', 'sensors: how late every measurement arrives',
+                                   low=0.0, zero='none', rule='a whole number of dt_control')
     convergence: str = _param('auto', '', "the convergence test: exact (the thesis' tolerances "
-                              'at the last sample), band (the 95th percentile of each error over '
-                              'the last settle_window within its band) or auto (band when '
-                              'mismatch, actuators or gusts are on)',
+                              'at the last sample), band (every steady-state error within its '
+                              'band at every sample of the last settle_window) or auto (band '
+                              'when mismatch, actuators, gusts or sensors are on)',
                               choices=('auto', 'exact', 'band'))
     settle_window: float = _param(10.0, 's', 'band: the last window the steady-state errors are '
                                   'taken over (the whole run if it is shorter)', **_POSITIVE)
@@ -889,7 +908,8 @@ def _check_physics(sc: Scenario) -> tuple[str, ...]:
 
 def practical(sc: Scenario) -> bool:
     """Return whether the convergence test is the band test (band, or auto with the world on)."""
-    return sc.convergence == 'band' or (sc.convergence == 'auto' and active(sc))
+    return sc.convergence == 'band' or (sc.convergence == 'auto' and (
+        active(sc) or sensors.active(sc)))
 
 
 def _check_world(sc: Scenario) -> tuple[str, ...]:
@@ -901,6 +921,10 @@ def _check_world(sc: Scenario) -> tuple[str, ...]:
         if name != 'mismatch_l1' and any(v <= 0 for v in getattr(sc, name)):
             _fail(name, list(getattr(sc, name)), 'every factor must be > 0 (a non-positive '
                   'mass, inertia, drag or effectiveness)')
+    rates = sensors.check_rates(sc)
+    if rates:
+        name, why = rates.split(': ', 1)
+        _fail(name, getattr(sc, name), why)
     notes = []
     if sc.actuator_lag and sc.controller != 'first_order':
         limit = lag_limit(steering_bandwidth(sc), formation_rate(sc), sc.controller, sc.K_I)
@@ -1061,7 +1085,9 @@ def initial_state(sc: Scenario) -> RealArray:
 
 PLANT_ONLY = ('seed', 'duration', 'record_dt', 'dt_integration', 'init_box') + INIT_ARRAYS + (
     'world_seed', 'mismatch', 'actuator_lag', 'max_thrust_rate', 'max_steering_rate',
-    'gust_intensity', 'gust_time') + MISMATCH_ARRAYS
+    'gust_intensity', 'gust_time', 'gnss_sigma', 'gnss_rate', 'heading_sigma', 'heading_bias',
+    'yaw_rate_sigma', 'velocity_sigma', 'water_sigma', 'water_bias', 'sensor_latency'
+) + MISMATCH_ARRAYS
 """Parameters only the plant uses (the initial state, the integration, the run's length and
 record): a vehicle may differ there (``formation-control doctor`` notes it)."""
 

@@ -57,7 +57,7 @@ MISMATCH_NAMES = ('m0', 'I0', 'h', 'l1', 'thrust', 'steering')
 """The plant-only factors of model mismatch, in the order they are drawn."""
 TAG = 0x776f726c
 """The first word of every world stream's seed ('worl')."""
-CHANNELS = {'mismatch': 1, 'gust': 2}
+CHANNELS = {'mismatch': 1, 'gust': 2, 'sensors': 3}
 CHUNK = 256
 """Normal draws a vehicle's gust stream takes at a time (the sequence does not depend on it)."""
 
@@ -70,7 +70,7 @@ def active(sc: Scenario) -> bool:
 
 
 def stream(seed: int, world_seed: int, k: int, channel: str) -> np.random.Generator:
-    """Return vehicle k's (1..N) random stream of ``channel`` ('mismatch' or 'gust')."""
+    """Return vehicle k's (1..N) random stream of ``channel`` (mismatch, gust, sensors)."""
     return np.random.default_rng([TAG, seed, world_seed, k, CHANNELS[channel]])
 
 

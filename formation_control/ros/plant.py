@@ -44,6 +44,7 @@ Every scenario parameter is read-only here: the plant uses no gain, the vehicles
 import sys
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from formation_control.core.sensors import covariances
 from formation_control.protocol import intake, links, messages, names
 from formation_control.protocol.names import START_TOPIC
 from formation_control.protocol.node_parameters import check_frames, PLANT
@@ -100,7 +101,7 @@ class PlantNode(Node):
     def _create_topics(self):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
         self.odom_pubs = self._per_vehicle(Odometry, 'odom', **qos())
-        self.odom_wires = [itf.odom_wire(k, self.frames) for k in ids]
+        self.odom_wires = [itf.odom_wire(k, self.frames, covariances(sc)) for k in ids]
         self.cmd_subs = [self._subscribe(WrenchStamped, k, 'cmd', intake.command(
             itf.cmd_wire(k, self.frames), k, self.frames.base(k)), self._on_cmd) for k in ids]
         if sc.flow_source == 'estimated':
@@ -162,14 +163,13 @@ class PlantNode(Node):
         self._publish_odom(self.plant.slot == 0, t0_ns)
 
     def _publish_odom(self, which, ns):
-        X, flow, moved = self.fleet.X, self.fleet.local_flow(), self.fleet.true_flow()
-        for i in np.flatnonzero(which & ~self.fleet.stopped):
+        flow, sent = self.fleet.local_flow(), np.flatnonzero(which & ~self.fleet.stopped)
+        for i, (values, water) in zip(sent, self.fleet.odometry(sent)):
             if self.flow_pubs is not None:
                 self.flow_pubs[i].publish(itf.flow_msg(i + 1, ns, flow[i], self.frames))
             if self.water_pubs is not None:
-                self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, X[:, i],
+                self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, water,
                                                                   self.frames))
-            values = messages.odom_values(X[:, i], moved[i])
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
     def _on_cmd(self, k, got):

@@ -32,6 +32,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core.scenario import ScenarioError
+from formation_control.core.sensors import covariances
 from formation_control.protocol import intake, links, lockstep, messages, names
 from formation_control.protocol.node_parameters import (check_frames, check_vehicle, FRAMES,
                                                         plant_differences, VEHICLE)
@@ -99,8 +100,8 @@ class VehicleNode(Node):
                                                **qos())
         self.cmd_pub = self.create_publisher(WrenchStamped, names.topic(k, 'cmd'), **qos())
         self.cmd_wire = itf.cmd_wire(k, frames)
-        self.odometry = common.Decoder(intake.odometry(itf.odom_wire(k, frames), k, frames.world,
-                                                       frames.base(k)), Odometry, self.reject)
+        self.odometry = common.Decoder(intake.odometry(itf.odom_wire(
+            k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
         self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
         if sc.flow_source == 'known':

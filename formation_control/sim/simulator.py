@@ -29,13 +29,14 @@ import json
 from os import PathLike
 from typing import Any, overload
 
-from formation_control.core import stability
+from formation_control.core import sensors, stability
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
                                            ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
 from formation_control.core.scenario import initial_state, practical, resolve, Scenario
+from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.world import active, World
 from formation_control.sim import metrics
 import numpy as np
@@ -168,6 +169,7 @@ class Stepper:
         self.U = np.zeros((2,) + self.X.shape[1:])
         self.steps = 0
         self.world = World(sc, self.X.shape[1:], seeds) if active(sc) else None
+        self.sensors = Sensors(sc, self.X.shape[1:], seeds) if sensors.active(sc) else None
         self.estimator: FlowEstimator | None = None
         if sc.flow_source == 'estimated':
             self.estimator = FlowEstimator(sc, self.X.shape[1:])
@@ -187,15 +189,25 @@ class Stepper:
         flow = self.local_flow()
         return flow if self.world is None else flow + self.world.gust
 
+    def sample(self) -> Sample:
+        """Return what the vehicles measure now (:meth:`sensors.Sensors.sample`, with sensors)."""
+        if self.sensors is None:
+            raise RuntimeError('no sensors: the vehicles measure their state')
+        told = self.local_flow() if self.sc.flow_source == 'known' else None
+        return self.sensors.sample(self.steps // self.sc.substeps, self.X,
+                                   ground_velocity(self.X, self.true_flow()), told)
+
     def observed(self) -> RealArray:
         """
         Return the states (6, N) as the vehicles measure them.
 
-        A rigid body told the flow reads its velocity through the water from its ground
-        velocity less the flow it is told, as a vehicle node does from its odometry
-        (:func:`messages.state_from_odom_values`): a gust it is not told shifts u, v by the gust
-        in its body frame. Otherwise the state itself.
+        With sensors, their sample (:meth:`sample`). A rigid body told the flow reads its
+        velocity through the water from its ground velocity less the flow it is told, as a
+        vehicle node does from its odometry (:func:`messages.state_from_odom_values`): a gust
+        it is not told shifts u, v by the gust in its body frame. Otherwise the state itself.
         """
+        if self.sensors is not None:
+            return self.sample().X
         if self.world is None or not self.world.streams or self.sc.model not in RIGID_MODELS \
                 or self.sc.flow_source != 'known':
             return self.X
@@ -221,6 +233,9 @@ class Stepper:
             return flow
         est = self.estimator
         near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
+        if self.sensors is not None:
+            seen = self.sample()
+            return est.update(seen.X, seen.v_ground, near).copy()
         return est.update(self.X, ground_velocity(self.X, self.true_flow()), near).copy()
 
     def hold(self, U: ArrayLike) -> RealArray:

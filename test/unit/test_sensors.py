@@ -1,0 +1,161 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The plant's sensors (core/sensors.py), and the fleet's protocol in the world, without DDS.
+
+The odometry the plant hands each vehicle has the noise asked (mean, sigma, fix rate, bias,
+latency), checked by a statistics test that fails on a plant without sensors; the REP-105
+covariances match; the plant and vehicle protocols in lockstep equal the offline simulator
+with every part of the world on; bad sensor input is refused naming the parameter.
+"""
+import time
+
+from formation_control.core import scenario, sensors
+from formation_control.core.errors import ScenarioError
+from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
+from formation_control.protocol.messages import cmd_values, FormationState
+from formation_control.protocol.names import DEFAULT_FRAMES
+from formation_control.protocol.plant import Plant
+from formation_control.protocol.vehicle import Vehicle
+from formation_control.sim import simulator
+import numpy as np
+import pytest
+from runs import CONFIG
+
+ASKED = {'gnss_sigma': 0.5, 'gnss_rate': 5.0, 'heading_sigma': 0.02, 'heading_bias': 0.05,
+         'yaw_rate_sigma': 0.03, 'velocity_sigma': 0.04, 'water_sigma': 0.01,
+         'water_bias': 0.02}
+WORLD = ['mismatch:=0.02', 'actuator_lag:=0.05', 'max_steering_rate:=40.0',
+         'gust_intensity:=0.05', 'gust_time:=2.0', 'world_seed:=3']
+SENSED = ['gnss_sigma:=0.3', 'gnss_rate:=10.0', 'heading_sigma:=0.01', 'heading_bias:=0.02',
+          'yaw_rate_sigma:=0.02', 'velocity_sigma:=0.02', 'water_sigma:=0.01',
+          'water_bias:=0.01', 'sensor_latency:=0.04']
+
+
+def _received(sc, periods):
+    """Return the truth and what each vehicle received, period by period (the plant's side)."""
+    plant = Plant(sc, True, 60.0, time.monotonic)
+    fleet, n = plant.fleet, sc.num_vehicles
+    truth, seen = [], []
+    for _ in range(periods):
+        truth.append(fleet.X.copy())
+        odo = fleet.odometry(np.arange(n))
+        seen.append(np.array([[*values, *water[[ROW_U, ROW_V]]] for values, water in odo]))
+        fleet.hold(np.zeros(n, bool), True)
+        fleet.integrate()
+        fleet.next_period()
+    return np.array(truth), np.array(seen)
+
+
+def assert_noise_as_asked(sc, truth, seen):
+    """Assert the received odometry has the mean, sigma, rate, bias and latency asked."""
+    every = sensors.fix_every(sc)
+    late = sensors.latency_steps(sc)
+    truth = truth[:len(truth) - late] if late else truth
+    seen = seen[late:]
+    fixes = np.arange(0, len(seen), every)
+    ex = seen[fixes, :, 0] - truth[fixes, 0]
+    ey = seen[fixes, :, 1] - truth[fixes, 1]
+    for e in (ex, ey):
+        assert abs(e.mean()) < 4 * sc.gnss_sigma / np.sqrt(e.size)
+        assert abs(e.std() / sc.gnss_sigma - 1) < 0.1
+    held = np.setdiff1d(np.arange(len(seen)), fixes)
+    np.testing.assert_array_equal(seen[held, :, 0], seen[held - held % every, :, 0])
+    theta = 2 * np.arctan2(seen[:, :, 2], seen[:, :, 3])
+    e = np.angle(np.exp(1j * (theta - truth[:, ROW_THETA])))
+    assert abs(e.mean() - sc.heading_bias) < 4 * sc.heading_sigma / np.sqrt(e.size)
+    assert abs(e.std() / sc.heading_sigma - 1) < 0.1
+    e = seen[:, :, 6] - truth[:, ROW_OMEGA]
+    assert abs(e.mean()) < 4 * sc.yaw_rate_sigma / np.sqrt(e.size)
+    assert abs(e.std() / sc.yaw_rate_sigma - 1) < 0.1
+    e = seen[:, :, 7] - truth[:, ROW_U]
+    assert abs(e.mean() - sc.water_bias) < 4 * sc.water_sigma / np.sqrt(e.size)
+    assert abs(e.std() / sc.water_sigma - 1) < 0.1
+
+
+@pytest.mark.parametrize('latency', [0.0, 0.06])
+def test_the_odometry_received_has_the_noise_asked(latency):
+    sc = scenario.load(CONFIG / 'rigid_parallel_flow.yaml', flow_source='estimated',
+                       sensor_latency=latency, duration=20.0, **ASKED)
+    assert_noise_as_asked(sc, *_received(sc, 1000))
+
+
+def test_the_statistics_test_fails_on_a_plant_without_sensors():
+    sc = scenario.load(CONFIG / 'rigid_parallel_flow.yaml', flow_source='estimated', **ASKED)
+    quiet = scenario.load(CONFIG / 'rigid_parallel_flow.yaml', flow_source='estimated')
+    truth, seen = _received(quiet, 300)
+    with pytest.raises(AssertionError):
+        assert_noise_as_asked(sc, truth, seen)
+
+
+def test_the_odometry_covariances_are_the_variances_asked():
+    sc = scenario.resolve(ASKED)
+    pose, twist = sensors.covariances(sc)
+    assert (pose[0], pose[7], pose[35]) == (0.25, 0.25, 0.02 ** 2)
+    assert (twist[0], twist[7], twist[35]) == (0.04 ** 2, 0.04 ** 2, 0.03 ** 2)
+    assert sum(pose) + sum(twist) == pytest.approx(0.5 + 0.02 ** 2 + 2 * 0.04 ** 2 + 0.03 ** 2)
+    assert sensors.covariances(scenario.resolve({})) == ([0.0] * 36, [0.0] * 36)
+
+
+def lockstep(sc):
+    """Run the plant and vehicle protocols in lockstep in this process; return the record."""
+    plant = Plant(sc, True, 60.0, time.monotonic)
+    n = sc.num_vehicles
+    fleet = [Vehicle(sc, k, True, {'neighbor_timeout': 60.0}, time.monotonic)
+             for k in range(1, n + 1)]
+    step = (np.ones(n, bool), plant.begin(), True)
+    while step is not None:
+        ns, states = step[1], {}
+        told = plant.fleet.local_flow()
+        for me, (values, water) in zip(fleet, plant.fleet.odometry(np.arange(n))):
+            if me.second == 'water':
+                me.water_heard(ns, (water[ROW_U], water[ROW_V]), DEFAULT_FRAMES.base(me.k))
+            if me.second == 'flow':
+                me.flow_heard(ns, complex(told[me.k - 1]), DEFAULT_FRAMES.world)
+            states[me.k] = me.odometry(ns, values)
+            assert isinstance(states[me.k], FormationState)
+        for me in fleet:
+            for j, state in states.items():
+                if j != me.k:
+                    me.heard(j, state)
+        for me in fleet:
+            ns_cmd, u, _ = me.command()
+            plant.command(me.k, ns_cmd, cmd_values(u, sc.model))
+        step = plant.advance()
+    return plant.fleet.run({})
+
+
+@pytest.mark.parametrize('name, extra', [
+    ('rigid_circular', SENSED),
+    ('rigid_parallel_flow', ['flow_source:=estimated', *SENSED]),
+    ('particle_circular', ['num_vehicles:=4', 'flow_model:=vortex', 'flow_circulation:=2.0',
+                           'flow_radius:=2.0', *SENSED]),
+])
+def test_the_protocols_in_lockstep_equal_the_simulator_in_the_world(name, extra):
+    sc = scenario.load(CONFIG / f'{name}.yaml', ['duration:=1.0', *WORLD, *extra])
+    fleet, offline = lockstep(sc), simulator.simulate(sc)
+    np.testing.assert_allclose(fleet.X, offline.X, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(fleet.U, offline.U, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize('values, name', [
+    ({'gnss_sigma': -0.1}, 'gnss_sigma'), ({'gnss_rate': 100.0}, 'gnss_rate'),
+    ({'gnss_rate': 3.0}, 'gnss_rate'), ({'sensor_latency': 0.03}, 'sensor_latency'),
+    ({'heading_sigma': -1.0}, 'heading_sigma'), ({'water_sigma': -1.0}, 'water_sigma'),
+    ({'velocity_sigma': -1.0}, 'velocity_sigma'), ({'yaw_rate_sigma': -1.0}, 'yaw_rate_sigma'),
+    ({'sensor_latency': -0.02}, 'sensor_latency')])
+def test_bad_sensor_input_is_refused_naming_the_parameter(values, name):
+    with pytest.raises(ScenarioError, match=f"'{name}'"):
+        scenario.resolve(values)
