@@ -190,3 +190,20 @@ def neighbour_mean(graph: Graph, fhat: ComplexArray) -> ComplexArray:
     src, dst = graph.arcs
     total = (np.bincount(dst, fhat.real[src], n) + 1j * np.bincount(dst, fhat.imag[src], n))
     return np.asarray(total / graph.degrees(), complex)
+
+
+def filter_noise(sc: Scenario) -> float:
+    """
+    Return the steady standard deviation (m/s, per axis) of the filter's flow estimate from noise.
+
+    The measurement ``m = v_ground - v_rel`` of vehicles with sensors (:mod:`sensors`) is the
+    flow plus white noise of variance ``s^2 = velocity_sigma^2 + water_sigma^2`` per map axis
+    (the DVL's body-frame noise is isotropic); the sampled filter ``e <- a e + (1 - a) w``,
+    ``a = e^{-lambda_f dt}``, leaves ``var e = s^2 (1 - a) / (1 + a)``, about
+    ``s^2 lambda_f dt / 2``: the bandwidth trades this noise against the lag
+    ``sup |f'| / lambda_f`` of a varying flow (docs/errata.md, "The world a real fleet meets").
+    Particles know their own velocity through the water (water_sigma does not apply).
+    """
+    a = np.exp(-sc.flow_gain * sc.dt_control)
+    water = sc.water_sigma if sc.model in RIGID_MODELS else 0.0
+    return float(np.sqrt((sc.velocity_sigma ** 2 + water ** 2) * (1 - a) / (1 + a)))

@@ -22,7 +22,7 @@ with every part of the world on; bad sensor input is refused naming the paramete
 """
 import time
 
-from formation_control.core import scenario, sensors
+from formation_control.core import estimation, scenario, sensors
 from formation_control.core.errors import ScenarioError
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
 from formation_control.protocol.messages import cmd_values, FormationState
@@ -159,3 +159,25 @@ def test_the_protocols_in_lockstep_equal_the_simulator_in_the_world(name, extra)
 def test_bad_sensor_input_is_refused_naming_the_parameter(values, name):
     with pytest.raises(ScenarioError, match=f"'{name}'"):
         scenario.resolve(values)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('seed', (21, 22, 23))
+@pytest.mark.parametrize('gain', (1.0, 4.0))
+def test_the_flow_estimate_error_from_noise_is_the_derived_bound(seed, gain):
+    """
+    The filter's flow error over the last 30 s: sigma sqrt((1 - a) / (1 + a)) per axis.
+
+    30 s of 5 vehicles hold 150 (gain 1) to 600 (gain 4) independent errors: the measured
+    standard deviation is within 20 % of the bound.
+    """
+    sc = scenario.load(CONFIG / 'rigid_parallel_flow.yaml', flow_source='estimated', seed=seed,
+                       world_seed=seed, duration=40.0, velocity_sigma=0.05,
+                       water_sigma=0.03, flow_gain=gain)
+    run = simulator.simulate(sc)
+    e = run.flow_hat[run.t >= 10.0] - sc.flow_c
+    predicted = estimation.filter_noise(sc)
+    assert predicted == pytest.approx(np.hypot(0.05, 0.03) * np.sqrt(gain * 0.02 / 2), rel=0.01)
+    for part in (e.real, e.imag):
+        assert abs(part.std() / predicted - 1) < 0.2
+        assert abs(part.mean()) < 4 * predicted
