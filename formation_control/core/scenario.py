@@ -353,6 +353,14 @@ class Scenario:
                                'rigid bodies')
     sensor_latency: float = _param(0.0, 's', 'sensors: how late every measurement arrives',
                                    low=0.0, zero='none', rule='a whole number of dt_control')
+    position_filter: str = _param('none', '', "a vehicle's position between and across fixes: "
+                                  'none (its latest fix) or kalman (predicted by its own model '
+                                  'and held command, corrected at each fix with the steady-state '
+                                  'gain of the noise; core/navigation.py)',
+                                  choices=('none', 'kalman'))
+    filter_drift: float = _param(0.05, 'm/s', 'kalman: the velocity error the filter allows its '
+                                 'dead reckoning over a fix interval (gusts, mismatch)',
+                                 **_POSITIVE)
     convergence: str = _param('auto', '', "the convergence test: exact (the thesis' tolerances "
                               'at the last sample), band (every steady-state error within its '
                               'band at every sample of the last settle_window) or auto (band '

@@ -35,6 +35,7 @@ from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
                                            ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
+from formation_control.core.navigation import PositionFilter
 from formation_control.core.scenario import initial_state, practical, resolve, Scenario
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.world import active, World
@@ -170,6 +171,8 @@ class Stepper:
         self.steps = 0
         self.world = World(sc, self.X.shape[1:], seeds) if active(sc) else None
         self.sensors = Sensors(sc, self.X.shape[1:], seeds) if sensors.active(sc) else None
+        self.navigator = PositionFilter(sc, self.ctrl.still) \
+            if sc.position_filter == 'kalman' else None
         self.estimator: FlowEstimator | None = None
         if sc.flow_source == 'estimated':
             self.estimator = FlowEstimator(sc, self.X.shape[1:])
@@ -258,7 +261,10 @@ class Stepper:
         computes its own.
         """
         self.flow_hat = flow = self.vehicles_flow()
-        X = self.ctrl.predict(self.observed(), self.U, flow)
+        seen = self.observed()
+        if self.navigator is not None:
+            seen = self.navigator.update(seen, self.U, flow)
+        X = self.ctrl.predict(seen, self.U, flow)
         view = self.ctrl.view(X, self.U[1], flow)
         return self.hold(self.ctrl.command(view, X, flow=flow))
 

@@ -37,7 +37,7 @@ SENSORS = ('gnss_sigma:=0.3', 'gnss_rate:=10.0', 'heading_sigma:=0.01', 'heading
 
 @pytest.mark.parametrize('name, extra', [
     ('rigid_circular', ()),
-    ('rigid_circular', SENSORS),
+    ('rigid_circular', ('position_filter:=kalman', *SENSORS)),
     ('rigid_parallel_flow', ('flow_source:=estimated', *SENSORS)),
     ('rigid_parallel_flow', ('flow_source:=estimated', 'max_thrust_rate:=20.0')),
     ('particle_circular', ('num_vehicles:=4', 'flow_model:=vortex', 'flow_circulation:=2.0',
