@@ -108,7 +108,7 @@ def figure(results, path):
     axes[0].set_ylabel('gust sigma (m/s)')
     fig.suptitle('fraction converged (band test)', fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches='tight')
     plt.close(fig)
 
 

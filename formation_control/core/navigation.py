@@ -92,7 +92,7 @@ class PositionFilter:
     ----------
     sc : scenario.Scenario
     still : models.Plant
-        The vehicles' own model without the flow (:attr:`control.Controller.still`).
+        The vehicles' own model without the flow (``Controller.still``).
 
     Attributes
     ----------
