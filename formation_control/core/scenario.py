@@ -193,6 +193,9 @@ class Scenario:
                                  choices=FLOW_ESTIMATORS)
     flow_gain: float = _param(1.0, '1/s', 'filter: estimator bandwidth lambda_f', runtime=True,
                               **_POSITIVE)
+    flow_gain_from_noise: bool = _param(False, '', 'filter: take the bandwidth that minimises the '
+                                        'error in the gust with the sensor noise '
+                                        '(estimation.best_gain) instead of flow_gain')
     flow_observer_l1: float = _param(2.0, '1/s', 'observer: position gain l1', runtime=True,
                                      **_POSITIVE)
     flow_observer_l2: float = _param(1.0, '1/s^2', 'observer: flow gain l2', runtime=True,

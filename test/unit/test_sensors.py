@@ -211,3 +211,36 @@ def test_the_filter_lowers_the_steady_state_errors_by_at_least_the_predicted_fac
     assert factor > 1.5
     for name in ('centre_spread', 'radius_error'):
         assert out['none'][name]['p95'] >= factor * out['kalman'][name]['p95']
+
+
+def _tracking(gain, seed, chosen=False):
+    """Return the measured rms flow-estimate error per axis (m/s) in a gust, and the scenario."""
+    sc = scenario.load(CONFIG / 'rigid_parallel_flow.yaml', flow_source='estimated', seed=seed,
+                       world_seed=seed, duration=50.0, gust_intensity=0.05, gust_time=5.0,
+                       velocity_sigma=0.04, water_sigma=0.03, flow_gain=gain,
+                       flow_gain_from_noise=chosen)
+    stepper, errors = simulator.Stepper(sc), []
+    for n in range(sc.periods):
+        stepper.command()
+        if n * sc.dt_control >= 10.0:
+            errors.append(np.asarray(stepper.flow_hat) - stepper.true_flow())
+        stepper.advance()
+    return float(np.sqrt(0.5 * np.mean(abs(np.array(errors)) ** 2))), sc
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('seed', (51, 52))
+def test_the_flow_gain_trades_gust_lag_against_noise_as_derived(seed):
+    """
+    The error of the flow estimate in a gust with noisy sensors, and the gain chosen from both.
+
+    ``var e = sigma_g^2 b / (lambda + b) + s^2 (1 - a) / (1 + a)`` within 15 % at a slow, the
+    chosen (``flow_gain_from_noise``, 4.27 1/s) and a fast gain; the chosen one beats the others.
+    """
+    auto, sc = _tracking(1.0, seed, chosen=True)
+    chosen = estimation.bandwidth(sc)
+    assert chosen == pytest.approx(0.05 * np.sqrt(2 * 0.2 / (0.05 ** 2 * 0.02)) - 0.2)
+    for gain in (0.3, chosen, 16.0):
+        measured = auto if gain == chosen else _tracking(gain, seed)[0]
+        assert measured == pytest.approx(estimation.tracking_error(sc, gain), rel=0.15)
+        assert auto <= measured * (1 + 1e-12)
