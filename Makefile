@@ -34,7 +34,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export MPLBACKEND := Agg
 
 .PHONY: setup upgrade demo test test-fast docs lint copyright bench bench-scripts bench-compare \
-	setup-browser clean
+	envelope setup-browser clean
 
 setup: $(STAMP) $(MSGS_STAMP)
 
@@ -123,6 +123,13 @@ lint: setup
 # Add the Apache-2.0 header to the .py files missing it (tools/add_copyright.py).
 copyright:
 	$(PYTHON) tools/add_copyright.py
+
+# The robustness envelope of issue 30 (docs/robustness.md): model mismatch x gusts x seeds per
+# law and flow source, then GNSS noise x the position filter; one worker (about 40 min of one
+# core on the shared 2-core machine). Writes docs/envelope.md, envelope.png, envelope_noise.md.
+envelope: setup
+	$(PY) bench/envelope.py --seeds 8
+	$(PY) bench/envelope.py --noise --seeds 8
 
 # The tracked benchmarks (bench/suite, pytest-benchmark): each run is saved under .benchmarks/
 # (numbered, with the commit); `make bench-compare BASE=<rev>` times a base commit against the

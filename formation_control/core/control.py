@@ -679,6 +679,7 @@ class Controller:
             U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow / self.speed,
                                            self.jet(X, flow))
             return self.saturate(U)
+        before = self.integral
         lam = self.phase_accel(view, idx, members)
         if self.rigid:
             U[0] = self.thrust(X)
@@ -687,7 +688,17 @@ class Controller:
             flow = self.flow(flow)
             U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow / self.speed,
                                             self.jet(X, flow))
-        return self.saturate(U)
+        out = self.saturate(U)
+        if sc.anti_windup and sc.controller == 'pi':
+            self._hold_integral(before, U[1] != out[1])
+        return out
+
+    def _hold_integral(self, before: RealArray | None, clipped: BoolArray) -> None:
+        """Anti-windup: undo this period's integration for the vehicles whose steering clipped."""
+        if self.integral is None or not clipped.any():
+            return
+        kept = np.zeros_like(self.integral) if before is None else before
+        self.integral = np.where(clipped, kept, self.integral)
 
     def saturate(self, U: RealArray) -> RealArray:
         """Return the inputs U (2, n) with each row clipped to its :func:`command_limits`."""

@@ -35,6 +35,7 @@ docs/errata.md, "Flow estimation". Every estimate is clamped to ``|fhat| <= CLAM
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from formation_control.core.geometry import ComplexArray, RealArray
@@ -132,7 +133,7 @@ class FlowEstimator:
         v_rel = relative_velocity(X)
         if sc.flow_estimator == 'filter':
             m = np.asarray(v_ground) - v_rel
-            self.fhat = m + (self.fhat - m) * np.exp(-sc.flow_gain * dt)
+            self.fhat = m + (self.fhat - m) * np.exp(-bandwidth(sc) * dt)
         else:
             self._observe(position(X), v_rel, dt)
         if neighbours is not None and sc.flow_consensus > 0:
@@ -190,3 +191,58 @@ def neighbour_mean(graph: Graph, fhat: ComplexArray) -> ComplexArray:
     src, dst = graph.arcs
     total = (np.bincount(dst, fhat.real[src], n) + 1j * np.bincount(dst, fhat.imag[src], n))
     return np.asarray(total / graph.degrees(), complex)
+
+
+def filter_noise(sc: Scenario) -> float:
+    """
+    Return the steady standard deviation (m/s, per axis) of the filter's flow estimate from noise.
+
+    The measurement ``m = v_ground - v_rel`` of vehicles with sensors (:mod:`sensors`) is the
+    flow plus white noise of variance ``s^2 = velocity_sigma^2 + water_sigma^2`` per map axis
+    (the DVL's body-frame noise is isotropic); the sampled filter ``e <- a e + (1 - a) w``,
+    ``a = e^{-lambda_f dt}``, leaves ``var e = s^2 (1 - a) / (1 + a)``, about
+    ``s^2 lambda_f dt / 2``: the bandwidth trades this noise against the lag
+    ``sup |f'| / lambda_f`` of a varying flow (docs/errata.md, "The world a real fleet meets").
+    Particles know their own velocity through the water (water_sigma does not apply).
+    """
+    a = np.exp(-bandwidth(sc) * sc.dt_control)
+    water = sc.water_sigma if sc.model in RIGID_MODELS else 0.0
+    return float(np.sqrt((sc.velocity_sigma ** 2 + water ** 2) * (1 - a) / (1 + a)))
+
+
+def tracking_error(sc: Scenario, gain: float | None = None) -> float:
+    """
+    Return the steady rms error (m/s, per axis) of the filter's estimate of a gusty flow.
+
+    The gust (:mod:`world`) is a Gauss-Markov process of variance ``sigma_g^2`` and rate
+    ``b = 1 / gust_time``; the measurement adds white noise of spectral density
+    ``N = s^2 dt`` (:func:`filter_noise`). The continuous filter ``fhat' = lambda (f + n -
+    fhat)`` then has ``var e = sigma_g^2 b / (lambda + b) + N lambda / 2`` per axis: the lag
+    behind the gust falls with the bandwidth, the noise grows with it. The noise term is taken
+    in its sampled form, ``s^2 (1 - a) / (1 + a)``.
+    """
+    lam = bandwidth(sc) if gain is None else gain
+    b = 1.0 / sc.gust_time
+    noise = filter_noise(replace(sc, flow_gain=lam, flow_gain_from_noise=False)) ** 2
+    return float(np.sqrt(sc.gust_intensity ** 2 * b / (lam + b) + noise))
+
+
+def best_gain(sc: Scenario) -> float:
+    """
+    Return the bandwidth lambda_f (1/s) that minimises :func:`tracking_error`.
+
+    Setting the derivative of ``sigma_g^2 b / (lambda + b) + N lambda / 2`` to zero:
+    ``lambda* = sigma_g sqrt(2 b / N) - b`` (``N = s^2 dt``); the fastest the sampled filter
+    takes, ``1 / dt``, without noise; a slow ``b`` where the gust is nil.
+    """
+    water = sc.water_sigma if sc.model in RIGID_MODELS else 0.0
+    N = (sc.velocity_sigma ** 2 + water ** 2) * sc.dt_control
+    b = 1.0 / sc.gust_time
+    if N == 0:
+        return 1.0 / sc.dt_control
+    return float(max(b, sc.gust_intensity * np.sqrt(2.0 * b / N) - b))
+
+
+def bandwidth(sc: Scenario) -> float:
+    """Return the filter's bandwidth lambda_f (1/s): :func:`best_gain` or flow_gain."""
+    return best_gain(sc) if sc.flow_gain_from_noise else sc.flow_gain

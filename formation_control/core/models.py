@@ -90,15 +90,18 @@ class Plant:
     l1 : float
         Centre of pressure ahead of the centre of mass (m), ``rigid_cop`` only (A.1).
 
+    m0, I0, h and l1 may be arrays, one value per vehicle (the true vehicles of
+    :class:`world.World`), broadcast against the vehicles of a state.
+
     """
 
     model: str
     flow: Flowfield
-    m0: float
-    I0: float
+    m0: float | RealArray
+    I0: float | RealArray
     l: float
-    h: float
-    l1: float
+    h: float | RealArray
+    l1: float | RealArray
 
     @classmethod
     def of(cls, sc: Scenario) -> Plant:

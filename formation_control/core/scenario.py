@@ -31,13 +31,16 @@ from pathlib import Path
 import re
 from typing import Any, NoReturn, TYPE_CHECKING
 
+from formation_control.core import sensors
 from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
                                            STATE_NAMES)
-from formation_control.core.stability import hold_fallback, steering_bandwidth, step_warnings
+from formation_control.core.stability import (formation_rate, hold_fallback, steering_bandwidth,
+                                              step_warnings)
+from formation_control.core.world import active, lag_limit, MISMATCH_NAMES
 import numpy as np
 import yaml
 
@@ -58,6 +61,7 @@ PATTERN_GAIN_M = 0.1
 FLOW_SOURCES = ('known', 'estimated')
 FLOW_ESTIMATORS = ('filter', 'observer')
 INIT_ARRAYS = tuple(f'init_{name}' for name in STATE_NAMES)
+MISMATCH_ARRAYS = tuple(f'mismatch_{name}' for name in MISMATCH_NAMES)
 
 
 class _Loader(yaml.SafeLoader):
@@ -190,6 +194,9 @@ class Scenario:
                                  choices=FLOW_ESTIMATORS)
     flow_gain: float = _param(1.0, '1/s', 'filter: estimator bandwidth lambda_f', runtime=True,
                               **_POSITIVE)
+    flow_gain_from_noise: bool = _param(False, '', 'filter: take the bandwidth that minimises the '
+                                        'error in the gust with the sensor noise '
+                                        '(estimation.best_gain) instead of flow_gain')
     flow_observer_l1: float = _param(2.0, '1/s', 'observer: position gain l1', runtime=True,
                                      **_POSITIVE)
     flow_observer_l2: float = _param(1.0, '1/s^2', 'observer: flow gain l2', runtime=True,
@@ -325,6 +332,86 @@ class Scenario:
                            '(particles: always 1)', rule=f'> 0 for rigid bodies; {_ENTRIES}')
     init_v: tuple = _param((), 'm/s', 'initial sideslip speed relative to the flow; empty = 0 '
                            '(particles: always 0)', rule=_ENTRIES)
+    # The world a real fleet meets (core/world.py): off by default, the plant's only
+    world_seed: int = _param(0, '', "seed of the world's random draws (mismatch, gusts), with the "
+                             "run's seed and each vehicle's id", low=0)
+    mismatch: float = _param(0.0, '', "spread of the model mismatch: each vehicle's true m0, I0, "
+                             'h, l1, thrust and steering effectiveness are the nominal times a '
+                             'factor drawn uniform in [1 - mismatch, 1 + mismatch]; the '
+                             'controllers keep the nominal', low=0.0, zero='none',
+                             rule='< 1 (a factor 1 - mismatch <= 0 would make a mass, inertia '
+                             'or drag non-positive)')
+    mismatch_m0: tuple = _param((), '', "true-to-nominal factor of each vehicle's mass m0 (wins "
+                                'over mismatch); empty = drawn', rule=f'> 0; {_ENTRIES}')
+    mismatch_I0: tuple = _param((), '', "factor of each vehicle's inertia I0; empty = drawn",
+                                rule=f'> 0; {_ENTRIES}')
+    mismatch_h: tuple = _param((), '', "factor of each vehicle's drag h; empty = drawn",
+                               rule=f'> 0; {_ENTRIES}')
+    mismatch_l1: tuple = _param((), '', "factor of each vehicle's drag-moment lever l1 "
+                                '(rigid_cop); empty = drawn', rule=_ENTRIES)
+    mismatch_thrust: tuple = _param((), '', "factor of each vehicle's thrust effectiveness "
+                                    '(applied T = factor * command); empty = drawn',
+                                    rule=f'> 0; {_ENTRIES}')
+    mismatch_steering: tuple = _param((), '', "factor of each vehicle's steering effectiveness "
+                                      "(force F, or a particle's turn input); empty = drawn",
+                                      rule=f'> 0; {_ENTRIES}')
+    actuator_lag: float = _param(0.0, 's', 'time constant tau of the first-order lag from each '
+                                 'command to the applied input', low=0.0, zero='none',
+                                 rule="below the steering loop's limit (refused from it, "
+                                 'warned from half of it)')
+    max_thrust_rate: float = _param(0.0, 'N/s', 'rate limit of the applied thrust, rigid bodies',
+                                    low=0.0, zero='no limit', models=RIGID_MODELS)
+    max_steering_rate: float = _param(0.0, 'N/s', 'rate limit of the applied steering input: N/s '
+                                      'rigid bodies, rad/s^3 second_order, rad/s^2 first_order',
+                                      low=0.0, zero='no limit')
+    anti_windup: bool = _param(False, '', 'pi: hold the integrator of a vehicle whose steering '
+                               'command sits on its limit (conditional integration)')
+    gust_intensity: float = _param(0.0, 'm/s', 'standard deviation sigma of the gust per axis: a '
+                                   'Gauss-Markov flow component of each vehicle, on top of the '
+                                   'flowfield, unknown to the vehicles', low=0.0, zero='none')
+    gust_time: float = _param(10.0, 's', 'correlation time T of the gust (a correlation length L '
+                              'met at speed V: T = L / V)', **_POSITIVE)
+    gnss_sigma: float = _param(0.0, 'm', 'sensors: position-fix noise sigma per axis (GNSS)',
+                               low=0.0, zero='none')
+    gnss_rate: float = _param(0.0, 'Hz', 'sensors: position fixes per second, the last held '
+                              'between fixes', low=0.0, zero='every control step',
+                              rule='at most 1 / dt_control, a whole number of periods apart')
+    heading_sigma: float = _param(0.0, 'rad', 'sensors: heading noise sigma (compass)', low=0.0,
+                                  zero='none')
+    heading_bias: float = _param(0.0, 'rad', 'sensors: heading bias (compass), every vehicle')
+    yaw_rate_sigma: float = _param(0.0, 'rad/s', 'sensors: yaw-rate noise sigma (gyro)',
+                                   low=0.0, zero='none')
+    velocity_sigma: float = _param(0.0, 'm/s', 'sensors: ground-velocity noise sigma per axis '
+                                   '(GNSS Doppler), map frame', low=0.0, zero='none')
+    water_sigma: float = _param(0.0, 'm/s', 'sensors: through-water velocity noise sigma per '
+                                'body axis (DVL, pitot), rigid bodies', low=0.0, zero='none')
+    water_bias: float = _param(0.0, 'm/s', 'sensors: through-water speed bias along body x, '
+                               'rigid bodies')
+    sensor_latency: float = _param(0.0, 's', 'sensors: how late every measurement arrives',
+                                   low=0.0, zero='none', rule='a whole number of dt_control')
+    position_filter: str = _param('none', '', "a vehicle's position between and across fixes: "
+                                  'none (its latest fix) or kalman (predicted by its own model '
+                                  'and held command, corrected at each fix with the steady-state '
+                                  'gain of the noise; core/navigation.py)',
+                                  choices=('none', 'kalman'))
+    filter_drift: float = _param(0.05, 'm/s', 'kalman: the velocity error the filter allows its '
+                                 'dead reckoning over a fix interval (gusts, mismatch)',
+                                 **_POSITIVE)
+    convergence: str = _param('auto', '', "the convergence test: exact (the thesis' tolerances "
+                              'at the last sample), band (every steady-state error within its '
+                              'band at every sample of the last settle_window) or auto (band '
+                              'when mismatch, actuators, gusts or sensors are on)',
+                              choices=('auto', 'exact', 'band'))
+    settle_window: float = _param(10.0, 's', 'band: the last window the steady-state errors are '
+                                  'taken over (the whole run if it is shorter)', **_POSITIVE)
+    band_spread: float = _param(0.2, 'm', 'band: the centre spread max |c_k - mean c|, circular',
+                                **_POSITIVE)
+    band_radius: float = _param(0.05, '', 'band: the relative radius error, circular',
+                                **_POSITIVE)
+    band_course: float = _param(0.05, 'rad', 'band: the course spread max |phase_k - arg p|, '
+                                'parallel', **_POSITIVE)
+    band_speed: float = _param(0.05, 'm/s', 'band: the speed error mean |u - u0|, rigid bodies',
+                               **_POSITIVE)
     warnings: tuple[str, ...] = field(default=(), compare=False)
 
     @property
@@ -633,7 +720,7 @@ def _check_structure(sc: Scenario) -> None:
     for name in ('flow', 'c0', 'flow_center', 'geodetic_origin'):
         if len(getattr(sc, name)) != 2:
             _fail(name, list(getattr(sc, name)), 'must be a list of 2 numbers [x, y] (m/s or m)')
-    for name in INIT_ARRAYS:
+    for name in INIT_ARRAYS + MISMATCH_ARRAYS:
         n = len(getattr(sc, name))
         if n not in (0, sc.num_vehicles):
             _fail(name, list(getattr(sc, name)),
@@ -895,6 +982,12 @@ def _check_slot_traps(sc: Scenario) -> None:
           f'graph (every degree >= {dense} = 3 (N - 1) / 4 synchronises from almost every start)')
 
 
+NATIVE_WORLD = ('mismatch', *MISMATCH_ARRAYS, 'actuator_lag', 'max_thrust_rate',
+                'max_steering_rate', 'gust_intensity', 'gnss_sigma', 'gnss_rate', 'heading_sigma',
+                'heading_bias', 'yaw_rate_sigma', 'velocity_sigma', 'water_sigma', 'water_bias',
+                'sensor_latency', 'position_filter')
+"""The world of the native plant (issue 30), refused with ``plant_backend: jsbsim``."""
+
 JSBSIM_OWNS = ('u0', 'K_f', 'K_P', 'K_I', 'm0', 'I0', 'l', 'h', 'l1', 'max_thrust',
                'max_steering_force')
 """The rigid-body parameters, which a JSBSim aircraft's own model (mass, drag, ...) replaces."""
@@ -902,6 +995,11 @@ JSBSIM_OWNS = ('u0', 'K_f', 'K_P', 'K_I', 'm0', 'I0', 'l', 'h', 'l1', 'max_thrus
 
 def _check_aircraft(sc: Scenario) -> None:
     """Refuse a jsbsim scenario the aircraft cannot fly (docs/aircraft.md, "Bad input")."""
+    native = [name for name in NATIVE_WORLD if getattr(sc, name) != getattr(_DEFAULTS, name)]
+    if native:
+        _fail(native[0], getattr(sc, native[0]), "with plant_backend jsbsim: the native plant's "
+              'model mismatch, actuators, gusts and sensors are not applied to JSBSim aircraft '
+              '(JSBSim has its own turbulence: turbulence_severity): leave it out')
     owned = [name for name in JSBSIM_OWNS if getattr(sc, name) != getattr(_DEFAULTS, name)]
     if owned:
         _fail(owned[0], getattr(sc, owned[0]), f'with plant_backend jsbsim the aircraft model '
@@ -1009,6 +1107,49 @@ def _check_physics(sc: Scenario) -> tuple[str, ...]:
     return tuple(notes)
 
 
+def practical(sc: Scenario) -> bool:
+    """Return whether the convergence test is the band test (band, or auto with the world on)."""
+    return sc.convergence == 'band' or (sc.convergence == 'auto' and (
+        active(sc) or sensors.active(sc)))
+
+
+def _check_world(sc: Scenario) -> tuple[str, ...]:
+    """Refuse a world no vehicle could have or the loop could bear; return the warnings."""
+    if sc.mismatch >= 1:
+        _fail('mismatch', sc.mismatch, 'must be < 1: a factor 1 - mismatch <= 0 makes a mass, '
+              'inertia or drag non-positive')
+    for name in MISMATCH_ARRAYS:
+        if name != 'mismatch_l1' and any(v <= 0 for v in getattr(sc, name)):
+            _fail(name, list(getattr(sc, name)), 'every factor must be > 0 (a non-positive '
+                  'mass, inertia, drag or effectiveness)')
+    rates = sensors.check_rates(sc)
+    if rates:
+        name, why = rates.split(': ', 1)
+        _fail(name, getattr(sc, name), why)
+    notes = []
+    if sc.actuator_lag and sc.controller != 'first_order':
+        limit = lag_limit(steering_bandwidth(sc), formation_rate(sc), sc.controller, sc.K_I)
+        gain = STEERING_GAINS_TEXT[sc.controller]
+        text = (f'actuator_lag = {sc.actuator_lag:g} s against the steering loop ({gain}, '
+                f'formation rate {formation_rate(sc):.3g} 1/s), stable only for a lag below '
+                f'{limit:.3g} s (docs/errata.md, "Actuator lag")')
+        if sc.actuator_lag >= limit:
+            _fail('actuator_lag', sc.actuator_lag, f'{text}: the loop would diverge; lower the '
+                  f'lag or the gains')
+        if sc.actuator_lag > 0.5 * limit:
+            notes.append(f'{text}: past half of it, expect slow, oscillating turns')
+    if sc.gust_intensity:
+        speed, top = vehicle_speed(sc), flowfield(sc).max_speed + 3.0 * sc.gust_intensity
+        if top >= speed:
+            notes.append(f'gust_intensity = {sc.gust_intensity:g} m/s: the flow plus three '
+                         f'sigma of gust reaches {top:.3g} m/s, beyond the vehicle speed '
+                         f'{speed:g} m/s, where the laws need |f| < speed')
+    return tuple(notes)
+
+
+STEERING_GAINS_TEXT = {'backstepping': 'kappa', 'proportional': 'K_p', 'pi': 'K_P'}
+
+
 def resolve(params: Mapping[str, Any]) -> Scenario:
     """
     Build a validated scenario from parameter values.
@@ -1043,7 +1184,7 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     _check_structure(sc)
     _check_gains(sc)
     _check_pattern(sc)
-    notes = _check_physics(sc)
+    notes = _check_physics(sc) + _check_world(sc)
     if sc.plant_backend == 'jsbsim':
         _check_aircraft(sc)
     hold, fallback = hold_fallback(sc)
@@ -1145,7 +1286,11 @@ def initial_state(sc: Scenario) -> RealArray:
     return X
 
 
-PLANT_ONLY = ('seed', 'duration', 'record_dt', 'dt_integration', 'init_box') + INIT_ARRAYS
+PLANT_ONLY = ('seed', 'duration', 'record_dt', 'dt_integration', 'init_box') + INIT_ARRAYS + (
+    'world_seed', 'mismatch', 'actuator_lag', 'max_thrust_rate', 'max_steering_rate',
+    'gust_intensity', 'gust_time', 'gnss_sigma', 'gnss_rate', 'heading_sigma', 'heading_bias',
+    'yaw_rate_sigma', 'velocity_sigma', 'water_sigma', 'water_bias', 'sensor_latency'
+) + MISMATCH_ARRAYS
 """Parameters only the plant uses (the initial state, the integration, the run's length and
 record): a vehicle may differ there (``formation-control doctor`` notes it)."""
 

@@ -27,7 +27,9 @@ from typing import Any
 
 from formation_control.core import stability
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
+from formation_control.core.models import ROW_THETA, ROW_U, ROW_V
 from formation_control.core.scenario import Scenario
+from formation_control.protocol.messages import odom_values
 from formation_control.sim.simulator import Recorder, Run, Stepper
 import numpy as np
 from numpy.typing import ArrayLike
@@ -75,8 +77,35 @@ class FleetPlant:
         return self.n * self.sc.dt_control
 
     def local_flow(self) -> ComplexArray:
-        """Return the flow at each vehicle now, (N,) complex (m/s, world frame)."""
+        """Return the flowfield at each vehicle now, (N,) complex (m/s, world frame)."""
         return self.stepper.local_flow()
+
+    def odometry(self, which: IntArray) -> list[tuple[tuple[float, ...], RealArray]]:
+        """
+        Return the odometry of the vehicles ``which``: their ODOM_FIELDS and water velocity.
+
+        Each as :func:`messages.odom_values` writes it and the (6,) column whose u, v the
+        water_velocity message carries: of the true state, or with sensors
+        (:mod:`sensors`) of what each vehicle measures, the sample the simulator commands from.
+        """
+        stepper = self.stepper
+        if stepper.sensors is None:
+            X, flow = stepper.X, stepper.true_flow()
+            return [(odom_values(X[:, i], flow[i]), X[:, i]) for i in which]
+        seen = stepper.sample()
+        out = []
+        for i in which:
+            column = seen.X[:, i].copy()
+            body = seen.v_ground[i] * np.exp(-1j * column[ROW_THETA])
+            column[ROW_U], column[ROW_V] = body.real, body.imag
+            water = column.copy()
+            water[ROW_U], water[ROW_V] = seen.water[:, i]
+            out.append((odom_values(column, 0.0), water))
+        return out
+
+    def true_flow(self) -> ComplexArray:
+        """Return the flow each vehicle moves in now, gusts included, (N,) complex (m/s)."""
+        return self.stepper.true_flow()
 
     def next_period(self) -> None:
         """Go on to the next control period (lockstep, once one is integrated)."""

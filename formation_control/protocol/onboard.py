@@ -33,6 +33,7 @@ from formation_control.core.estimation import FlowEstimator
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
+from formation_control.core.navigation import PositionFilter
 from formation_control.core.scenario import Scenario
 from formation_control.protocol.messages import state_from_odom_values, ViewRow
 import numpy as np
@@ -161,6 +162,8 @@ class Onboard:
         self.flow = np.full(1, complex(sc.flow_c))
         self.ahead: complex | ComplexArray = self.flow
         self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
+        self.navigator = PositionFilter(sc, self.ctrl.still) \
+            if sc.position_filter == 'kalman' else None
 
     @property
     def predicted(self) -> RealArray:
@@ -206,6 +209,8 @@ class Onboard:
             self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow), (1,)))
         else:
             self.flow = self.estimator.update(sampled, np.full(1, v_ground)).copy()
+        if self.navigator is not None:
+            sampled = self.navigator.update(sampled, self.U_held, self.flow)
         self.X = self.ctrl.predict(sampled, self.U_held, self.flow, delay)
         self.ahead = self.ctrl.flow_ahead(sampled, self.flow, delay)
         view = self.ctrl.view(self.X, self.U_held[1], self.ahead)

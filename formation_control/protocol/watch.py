@@ -30,7 +30,7 @@ from formation_control.core import graphs, laws
 from formation_control.core.control import Controller
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
-from formation_control.core.scenario import resolve, RUNTIME, Scenario
+from formation_control.core.scenario import practical, resolve, RUNTIME, Scenario
 from formation_control.protocol import names
 from formation_control.sim import metrics
 import numpy as np
@@ -135,22 +135,35 @@ class Sampling:
 
 
 class Latch:
-    """The convergence latch: :attr:`since` is when the formation last became converged."""
+    """
+    The convergence latch: :attr:`since` is when the formation last entered its test.
 
-    def __init__(self) -> None:
-        self.since: float | None = None
+    With ``hold`` (the band test's settle_window, s) it counts as converged only once it has
+    stayed within its bands that long (:func:`metrics.verdict`); at once otherwise.
+    """
+
+    def __init__(self, hold: float = 0.0) -> None:
+        self.hold = hold
+        self.entered: float | None = None
+        self.t = 0.0
 
     @property
     def converged(self) -> bool:
-        return self.since is not None
+        return self.entered is not None and self.t - self.entered >= self.hold - 1e-9
+
+    @property
+    def since(self) -> float | None:
+        """Return when the formation entered the test it still meets, once converged."""
+        return self.entered if self.converged else None
 
     def update(self, converged: bool, t: float) -> bool:
-        """Note whether the formation is converged at ``t``; return whether that changed."""
+        """Note whether the formation meets its test at ``t``; return whether that changed."""
         was = self.converged
+        self.t = t
         if not converged:
-            self.since = None
-        elif not was:
-            self.since = t
+            self.entered = None
+        elif self.entered is None:
+            self.entered = t
         return was != self.converged
 
 
@@ -243,7 +256,7 @@ class Watch:
         self.heard = {stream: np.full(n, np.nan) for stream in STREAMS}
         self.started = clock()
         self.sampling = Sampling(n, period)
-        self.latch = Latch()
+        self.latch = Latch(sc.settle_window if practical(sc) else 0.0)
         self.trails = Trails(trail_length, n)
         self.vehicle_ok = np.zeros(n, bool)
         self.saturated = np.zeros(n, bool)

@@ -151,10 +151,16 @@ def cmd_msg(k, ns, u, model, frames=DEFAULT_FRAMES):
     return set_fields(msg, CMD_FIELDS, cmd_values(u, model))
 
 
-def odom_wire(k, frames=DEFAULT_FRAMES):
-    """Return the :class:`MessageWire` of vehicle k's odometry (:data:`ODOM_FIELDS`)."""
+def odom_wire(k, frames=DEFAULT_FRAMES, covariance=None):
+    """
+    Return the :class:`MessageWire` of vehicle k's odometry (:data:`ODOM_FIELDS`).
+
+    ``covariance``: the (pose, twist) covariances it carries (:func:`sensors.covariances`).
+    """
     msg = Odometry()
     msg.header.frame_id, msg.child_frame_id = frames.world, frames.base(k)
+    if covariance is not None:
+        msg.pose.covariance, msg.twist.covariance = covariance
     return MessageWire(msg, ODOM_FIELDS)
 
 

@@ -27,9 +27,11 @@ steps the clock has reached with the last command of each vehicle held, and vehi
 odometry is sent at integration step (k - 1) mod substeps of each period.
 
 The flow each vehicle meets is the plant's flowfield at its own place and time (the simulator's
-:func:`models.integrate`). Known to the vehicles (``flow_source: known``), it goes on
-``/vehicle_k/flow``: latched once if uniform, else with every odometry; for estimating rigid
-bodies each odometry comes with the through-water velocity on ``/vehicle_k/water_velocity``.
+:func:`models.integrate`), and its gust when gusts are on (:mod:`world`: the odometry's
+ground velocity has it, the flow a vehicle is told has not). Known to the vehicles
+(``flow_source: known``), it goes on ``/vehicle_k/flow``: latched once if uniform, else with
+every odometry; for estimating rigid bodies each odometry comes with the through-water velocity
+on ``/vehicle_k/water_velocity``.
 
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
@@ -45,6 +47,7 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from formation_control.core.sensors import covariances
 from formation_control.protocol import intake, links, messages, names
 from formation_control.protocol.names import START_TOPIC
 from formation_control.protocol.node_parameters import check_frames, PLANT
@@ -113,7 +116,7 @@ class PlantNode(Node):
     def _create_topics(self):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
         self.odom_pubs = self._per_vehicle(Odometry, 'odom', **qos())
-        self.odom_wires = [itf.odom_wire(k, self.frames) for k in ids]
+        self.odom_wires = [itf.odom_wire(k, self.frames, covariances(sc)) for k in ids]
         self.cmd_subs = [self._subscribe(WrenchStamped, k, 'cmd', intake.command(
             itf.cmd_wire(k, self.frames), k, self.frames.base(k)), self._on_cmd) for k in ids]
         if sc.flow_source == 'estimated':
@@ -175,14 +178,13 @@ class PlantNode(Node):
         self._publish_odom(self.plant.slot == 0, t0_ns)
 
     def _publish_odom(self, which, ns):
-        X, flow = self.fleet.X, self.fleet.local_flow()
-        for i in np.flatnonzero(which & ~self.fleet.stopped):
+        flow, sent = self.fleet.local_flow(), np.flatnonzero(which & ~self.fleet.stopped)
+        for i, (values, water) in zip(sent, self.fleet.odometry(sent)):
             if self.flow_pubs is not None:
                 self.flow_pubs[i].publish(itf.flow_msg(i + 1, ns, flow[i], self.frames))
             if self.water_pubs is not None:
-                self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, X[:, i],
+                self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, water,
                                                                   self.frames))
-            values = messages.odom_values(X[:, i], flow[i])
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
     def _on_cmd(self, k, got):

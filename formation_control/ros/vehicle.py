@@ -32,6 +32,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from formation_control.core.scenario import ScenarioError
+from formation_control.core.sensors import covariances
 from formation_control.protocol import intake, links, lockstep, messages, names
 from formation_control.protocol.node_parameters import (check_frames, check_vehicle, FRAMES,
                                                         plant_differences, VEHICLE)
@@ -103,8 +104,8 @@ class VehicleNode(Node):
         if sc.plant_backend == 'jsbsim':
             self.cmd_vel_pub = self.create_publisher(TwistStamped, names.topic(k, 'cmd_vel'),
                                                      **qos())
-        self.odometry = common.Decoder(intake.odometry(itf.odom_wire(k, frames), k, frames.world,
-                                                       frames.base(k)), Odometry, self.reject)
+        self.odometry = common.Decoder(intake.odometry(itf.odom_wire(
+            k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
         self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
         if sc.flow_source == 'known':

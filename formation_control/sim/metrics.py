@@ -20,13 +20,15 @@ radius, crab angles; the steady states the analysis predicts for rigid bodies.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, TYPE_CHECKING
 
 from formation_control.core import laws
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
-from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
+from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_THETA, ROW_U,
+                                           ROW_V, ROW_X, ROW_Y)
+from formation_control.core.scenario import practical
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -60,6 +62,8 @@ class Snapshot:
     crab_inertial: Value = np.nan    # mean_k beta_hat_k = gamma_k - theta_k (rad) (8.1)
     phase_orders: tuple[Value, ...] = ()  # pattern: |p_m|, m = 1, 2, ... (Sepulchre et al. 2007)
     min_separation: Value = np.nan   # min_{j != k} |r_j - r_k| (m)
+    course_spread: Value = np.nan    # max_k |arg(e^{i phase_k} / p)| (rad), parallel; the band
+    # test's (steady_errors), not among values(): the metrics topic's fields are fixed
 
     def values(self) -> dict[str, Any]:
         """
@@ -126,7 +130,9 @@ def snapshot(ctrl: Controller, X: RealArray, inputs: RealArray,
         if f.pattern is not None:
             extra['phase_orders'] = phase_orders(view.phase)
     else:
-        extra.update(spread=nan, radius=nan)
+        p = view.e.mean(axis=-1, keepdims=True)
+        extra.update(spread=nan, radius=nan,
+                     course_spread=np.max(abs(np.angle(view.e / p)), axis=-1))
     if ctrl.rigid:
         beta, beta_hat = crab_angles(X, flow)
         extra.update(speed_error=np.mean(abs(X[ROW_U] - ctrl.sc.u0), axis=-1),
@@ -222,6 +228,89 @@ def needs_separation(sc: Scenario) -> bool:
     return sc.formation == 'circular' and sc.pattern == 'splay'
 
 
+BANDS = {'centre_spread': 'band_spread', 'radius_error': 'band_radius',
+         'course_spread': 'band_course', 'speed_error': 'band_speed'}
+"""Each steady-state error of the band test and the parameter of its band."""
+
+
+def steady_errors(sc: Scenario, snap: Snapshot) -> dict[str, Value]:
+    """
+    Return the errors the band test bounds, by name (:data:`BANDS`).
+
+    Circular: the centre spread (m) and the relative radius error ``|radius |omega0| - 1|``;
+    parallel: the course spread ``max_k |arg(e^{i phase_k} / p)|`` (rad); rigid bodies also the
+    speed error ``mean_k |u_k - u0|`` (m/s). Floats, or arrays for a batch's snapshot.
+    """
+    out: dict[str, Value] = {}
+    if sc.formation == 'circular':
+        out['centre_spread'] = snap.spread
+        out['radius_error'] = np.abs(snap.radius * abs(sc.omega0) - 1.0)
+    else:
+        out['course_spread'] = snap.course_spread
+    if sc.model in RIGID_MODELS:
+        out['speed_error'] = snap.speed_error
+    return out
+
+
+def window(sc: Scenario, t: ArrayLike) -> BoolArray:
+    """Return which samples ``t`` (T,) lie in the last ``settle_window`` (or the whole run)."""
+    t = np.asarray(t, float)
+    return t >= t[-1] - min(sc.settle_window, t[-1] - t[0]) - 1e-9
+
+
+def verdict(sc: Scenario, t: ArrayLike, flags: ArrayLike) -> Any:
+    """
+    Return whether each run converged, from its convergence test at each sample.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its ``convergence`` test (:func:`scenario.practical`) and ``settle_window``.
+    t : array_like, shape (T,)
+        Sample times (s).
+    flags : array_like of bool, shape (T,) or (T, B)
+        :func:`converged` at each sample.
+
+    Returns
+    -------
+    bool or ndarray of bool, shape (B,)
+        Exact test: the last sample holds. Band test: every sample of the last window holds
+        (the formation stayed within its band that long), so a 'yes' is never given to a run
+        that left the band in that window.
+
+    """
+    flags = np.asarray(flags, bool)
+    if not practical(sc):
+        return flags[-1]
+    return np.all(flags[window(sc, t)], axis=0)
+
+
+def steady_state(sc: Scenario, t: ArrayLike,
+                 errors: dict[str, ArrayLike]) -> dict[str, tuple[Any, Any]]:
+    """
+    Return the median and 95th percentile of each steady-state error over the last window.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its ``settle_window``.
+    t : array_like, shape (T,)
+        Sample times (s).
+    errors : dict of str to array_like, shape (T,) or (T, B)
+        :func:`steady_errors` at each sample.
+
+    Returns
+    -------
+    dict of str to (median, p95)
+        Floats, or arrays (B,) for a batch.
+
+    """
+    keep = window(sc, t)
+    return {name: (np.median(np.asarray(v)[keep], axis=0),
+                   np.quantile(np.asarray(v)[keep], 0.95, axis=0))
+            for name, v in errors.items()}
+
+
 def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
     """
     Return each condition of the convergence test of the scenario, by name.
@@ -243,8 +332,17 @@ def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
         ``phase_moments`` (:func:`pattern_moments_reached`) and, for a splay, ``separation``
         (the smallest distance at least ``1 - SEPARATION_TOL`` of the chord
         ``2 sin(pi/N) / |omega0|``): a splay in coincident pairs is not converged.
+        The band test (:func:`scenario.practical`): each of :func:`steady_errors` below its
+        band (:data:`BANDS`), and a pattern's conditions as above.
 
     """
+    if practical(sc):
+        bands: dict[str, Any] = {name: np.asarray(err < getattr(sc, BANDS[name]))
+                                 for name, err in steady_errors(sc, snap).items()}
+        if sc.pattern != 'none':
+            exact = conditions(replace(sc, convergence='exact'), snap)
+            bands.update({k: v for k, v in exact.items() if k in ('phase_moments', 'separation')})
+        return bands
     if sc.formation == 'parallel':
         return {'order': snap.order > ORDER_TOL, 'turn_rate': snap.max_rate < RATE_TOL}
     radius_error = np.abs(snap.radius * abs(sc.omega0) - 1.0)

@@ -203,6 +203,11 @@ def format_report(title: str, out: Mapping[str, Any], rows: Iterable[Row]) -> st
              f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
     if out.get('pattern'):
         lines.insert(2, f"  predicted pattern  {out['pattern']}")
+    if out.get('steady_state'):
+        lines[2:2] = [f"  band test over the last {out['settle_window']:g} s: steady-state "
+                      'error median / p95 (band)'] + [
+            f"    {name:18s} {v['median']:.4g} / {v['p95']:.4g} ({v['band']:g})"
+            for name, v in out['steady_state'].items()]
     for name, value, predicted, source in rows:
         pred = '' if predicted is None else f'{predicted:12.6g}'
         lines.append(f'  {name:20s} {value:12.6g} {pred:>12s}  {source}'.rstrip())

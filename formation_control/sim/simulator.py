@@ -29,14 +29,17 @@ import json
 from os import PathLike
 from typing import Any, overload
 
-from formation_control.core import aircraft, stability
+from formation_control.core import aircraft, sensors, stability
 from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
-                                           ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
-from formation_control.core.scenario import initial_state, resolve, Scenario
+                                           ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
+from formation_control.core.navigation import PositionFilter
+from formation_control.core.scenario import initial_state, practical, resolve, Scenario
+from formation_control.core.sensors import Sample, Sensors
+from formation_control.core.world import active, World
 from formation_control.sim import metrics
 import numpy as np
 from numpy.typing import ArrayLike
@@ -145,11 +148,17 @@ class Stepper:
         The scenario.
     X0 : array_like, shape (6, N), optional
         Initial state; :func:`scenario.initial_state` by default.
+    seeds : sequence of int, optional
+        The seed of each fleet of a batch X0 (6, B, N), for the world's draws
+        (:class:`world.World`); ``sc.seed`` by default.
 
     Attributes
     ----------
     X : ndarray, shape (6, N)
         The fleet's current state.
+    world : world.World or None
+        The true vehicles, actuators and gusts the plant integrates, when any is on
+        (:func:`world.active`); None: the nominal model.
     U : ndarray, shape (2, N)
         The inputs held over the current period.
     flow_hat : complex or ndarray of complex, shape (N,)
@@ -159,7 +168,8 @@ class Stepper:
 
     """
 
-    def __init__(self, sc: Scenario, X0: ArrayLike | None = None) -> None:
+    def __init__(self, sc: Scenario, X0: ArrayLike | None = None,
+                 seeds: Sequence[int] | None = None) -> None:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
@@ -169,6 +179,10 @@ class Stepper:
             self.aircraft = aircraft.Fleet(sc, self.X)
             self.X = self.aircraft.X.copy()
         self.steps = 0
+        self.world = World(sc, self.X.shape[1:], seeds) if active(sc) else None
+        self.sensors = Sensors(sc, self.X.shape[1:], seeds) if sensors.active(sc) else None
+        self.navigator = PositionFilter(sc, self.ctrl.still) \
+            if sc.position_filter == 'kalman' else None
         self.estimator: FlowEstimator | None = None
         if sc.flow_source == 'estimated':
             self.estimator = FlowEstimator(sc, self.X.shape[1:])
@@ -180,8 +194,41 @@ class Stepper:
         return self.steps * self.sc.dt_integration
 
     def local_flow(self) -> ComplexArray:
-        """Return the flow (N,) complex at each vehicle's place now (m/s)."""
+        """Return the flowfield (N,) complex at each vehicle's place now (m/s): what it is told."""
         return self.ctrl.plant.flow(self.t, self.X[ROW_X], self.X[ROW_Y])
+
+    def true_flow(self) -> ComplexArray:
+        """Return the flow (N,) complex each vehicle moves in now: the flowfield and its gust."""
+        flow = self.local_flow()
+        return flow if self.world is None else flow + self.world.gust
+
+    def sample(self) -> Sample:
+        """Return what the vehicles measure now (:meth:`sensors.Sensors.sample`, with sensors)."""
+        if self.sensors is None:
+            raise RuntimeError('no sensors: the vehicles measure their state')
+        told = self.local_flow() if self.sc.flow_source == 'known' else None
+        return self.sensors.sample(self.steps // self.sc.substeps, self.X,
+                                   ground_velocity(self.X, self.true_flow()), told)
+
+    def observed(self) -> RealArray:
+        """
+        Return the states (6, N) as the vehicles measure them.
+
+        With sensors, their sample (:meth:`sample`). A rigid body told the flow reads its
+        velocity through the water from its ground velocity less the flow it is told, as a
+        vehicle node does from its odometry (:func:`messages.state_from_odom_values`): a gust
+        it is not told shifts u, v by the gust in its body frame. Otherwise the state itself.
+        """
+        if self.sensors is not None:
+            return self.sample().X
+        if self.world is None or not self.world.streams or self.sc.model not in RIGID_MODELS \
+                or self.sc.flow_source != 'known':
+            return self.X
+        X = self.X.copy()
+        turn = np.exp(-1j * X[ROW_THETA])
+        rel = ground_velocity(X, self.true_flow()) * turn - self.local_flow() * turn
+        X[ROW_U], X[ROW_V] = rel.real, rel.imag
+        return X
 
     def vehicles_flow(self) -> complex | ComplexArray:
         """
@@ -199,7 +246,10 @@ class Stepper:
             return flow
         est = self.estimator
         near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
-        return est.update(self.X, ground_velocity(self.X, flow), near).copy()
+        if self.sensors is not None:
+            seen = self.sample()
+            return est.update(seen.X, seen.v_ground, near).copy()
+        return est.update(self.X, ground_velocity(self.X, self.true_flow()), near).copy()
 
     def hold(self, U: ArrayLike) -> RealArray:
         """
@@ -211,7 +261,7 @@ class Stepper:
         self.U = np.array(U, float)
         if self.aircraft is not None:
             self.aircraft.hold(aircraft.turn_demand(self.sc, self.X, self.U))
-        elif self.sc.model == 'first_order':
+        elif self.sc.model == 'first_order' and self.world is None:
             self.X[ROW_OMEGA] = self.U[1]
         return self.U
 
@@ -229,8 +279,11 @@ class Stepper:
         state, :meth:`control.Controller.flow_ahead`), as each vehicle node computes its own.
         """
         self.flow_hat = flow = self.vehicles_flow()
-        X = self.ctrl.predict(self.X, self.U, flow)
-        ahead = self.ctrl.flow_ahead(self.X, flow)
+        seen = self.observed()
+        if self.navigator is not None:
+            seen = self.navigator.update(seen, self.U, flow)
+        X = self.ctrl.predict(seen, self.U, flow)
+        ahead = self.ctrl.flow_ahead(seen, flow)
         view = self.ctrl.view(X, self.U[1], ahead)
         return self.hold(self.ctrl.command(view, X, flow=ahead))
 
@@ -248,6 +301,11 @@ class Stepper:
         if self.aircraft is not None:
             self.X = self.aircraft.advance(self.t, steps)
             self.steps += steps
+            return self.X
+        if self.world is not None:
+            for _ in range(steps):
+                self.X = self.world.step(self.X, self.U, self.t)
+                self.steps += 1
             return self.X
         self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
                            plain=True if self.X.ndim > 2 else None)
@@ -313,6 +371,8 @@ class Outcome:
         The convergence test of each fleet at each sample.
     X, U : ndarray, shapes (6, B, N), (2, B, N)
         The state and held inputs at the last step.
+    diverged : ndarray of bool, shape (B,) (or () while none has)
+        The fleets whose state diverged in the world (:meth:`stop`), held since.
     final : metrics.Snapshot
         The metrics at the last step, arrays of shape (B,).
 
@@ -324,6 +384,9 @@ class Outcome:
         self.ctrl = Controller(sc)
         self.times: list[float] = []
         self.samples: list[BoolArray] = []
+        self.met: list[dict[str, Any]] = []
+        self.errors: list[dict[str, Any]] = []
+        self.diverged: BoolArray = np.zeros((), bool)
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None,
@@ -335,6 +398,8 @@ class Outcome:
             self.final = metrics.snapshot(self.ctrl, X, U, t, separation=separation)
             self.times.append(t)
             self.samples.append(np.asarray(metrics.converged(self.sc, self.final)))
+            self.met.append(metrics.conditions(self.sc, self.final))
+            self.errors.append(metrics.steady_errors(self.sc, self.final))
             self.X, self.U = X.copy(), U.copy()
 
     def run(self) -> Outcome:
@@ -342,9 +407,38 @@ class Outcome:
         self.t, self.flags = np.array(self.times), np.array(self.samples)
         return self
 
+    def stop(self, fleets: BoolArray, before: RealArray, stepper: Stepper) -> None:
+        """
+        Freeze the ``fleets`` (B,) of a batch in the world whose state diverged.
+
+        A vehicle unlike its model may run away (docs/errata.md, "Model mismatch"): in a
+        study that is an outcome, not an error. Such a fleet is held at its state ``before``
+        the period, never counts as converged, and is counted in :attr:`diverged`.
+        """
+        if not fleets.any():
+            return
+        self.diverged = self.diverged | fleets
+        stepper.X[:, fleets] = before[:, fleets]
+
+    def converged(self) -> BoolArray:
+        """Return each fleet's :func:`metrics.verdict` (B,); never one that diverged."""
+        return np.asarray(metrics.verdict(self.sc, self.t, self.flags)) & ~self.diverged
+
+    def met_conditions(self) -> dict[str, BoolArray]:
+        """Return whether each fleet meets each condition: at the end, or over the window."""
+        keep = metrics.window(self.sc, self.t) if practical(self.sc) else self.t == self.t[-1]
+        return {name: np.all([np.broadcast_to(m[name], self.flags.shape[1:])
+                              for m, k in zip(self.met, keep) if k], axis=0)
+                for name in self.met[-1]}
+
+    def steady_state(self) -> dict[str, tuple[Any, Any]]:
+        """Return :func:`metrics.steady_state` of each fleet: (median, p95) arrays (B,)."""
+        return metrics.steady_state(self.sc, self.t, {name: [e[name] for e in self.errors]
+                                                      for name in self.errors[-1]})
+
     def convergence_times(self) -> RealArray:
-        """Return each fleet's :func:`metrics.convergence_times` (s; NaN if not), (B,)."""
-        return metrics.convergence_times(self.t, self.flags)
+        """Return each fleet's :func:`metrics.convergence_times` (s; NaN: not converged), (B,)."""
+        return np.where(self.converged(), metrics.convergence_times(self.t, self.flags), np.nan)
 
 
 def initial_states(sc: Scenario, seeds: Sequence[int]) -> RealArray:
@@ -370,15 +464,17 @@ def initial_states(sc: Scenario, seeds: Sequence[int]) -> RealArray:
 
 @overload
 def simulate(sc: Scenario, X0: ArrayLike | None = None,
-             recorder: Recorder | None = None) -> Run: ...
+             recorder: Recorder | None = None, seeds: Sequence[int] | None = None) -> Run: ...
 
 
 @overload
-def simulate(sc: Scenario, X0: ArrayLike | None, recorder: Outcome) -> Outcome: ...
+def simulate(sc: Scenario, X0: ArrayLike | None, recorder: Outcome,
+             seeds: Sequence[int] | None = None) -> Outcome: ...
 
 
 def simulate(sc: Scenario, X0: ArrayLike | None = None,
-             recorder: Recorder | Outcome | None = None) -> Run | Outcome:
+             recorder: Recorder | Outcome | None = None,
+             seeds: Sequence[int] | None = None) -> Run | Outcome:
     """
     Run a scenario in the offline simulator.
 
@@ -393,6 +489,8 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
         (:mod:`laws`), integrated together.
     recorder : Recorder or Outcome, optional
         What to keep; a :class:`Recorder` of ``sc`` by default.
+    seeds : sequence of int, optional
+        The seed of each fleet of a batch, for the world's draws (:class:`Stepper`).
 
     Returns
     -------
@@ -406,17 +504,24 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
         vehicle and the likely cause.
 
     """
-    stepper = Stepper(sc, X0)
+    stepper = Stepper(sc, X0, seeds)
     rec = Recorder(sc) if recorder is None else recorder
+    held = isinstance(rec, Outcome) and stepper.X.ndim > 2 and stepper.world is not None
     for n in range(rec.steps + 1):
-        U = stepper.command()
+        with np.errstate(over='ignore' if held else 'warn', invalid='ignore' if held else 'warn'):
+            U = stepper.command()                  # held: a stopped fleet may run away again
         rec.record(n, stepper.X, U, stepper.flow_hat, stepper.channels)
         if n < rec.steps:
+            before = stepper.X
             with np.errstate(over='ignore', invalid='ignore'):
                 stepper.advance()
-            bad = np.flatnonzero(stability.diverging(stepper.X))
-            if bad.size:
-                raise stability.divergence(sc, (n + 1) * sc.dt_control, bad[0], stepper.X)
+            bad = stability.diverging(stepper.X)
+            if held and isinstance(rec, Outcome):
+                rec.stop(np.any(bad, axis=-1), before, stepper)
+            elif bad.any():
+                flat = stepper.X.reshape(6, -1)
+                raise stability.divergence(sc, (n + 1) * sc.dt_control,
+                                           int(np.flatnonzero(bad)[0]), flat)
     return rec.run()
 
 
@@ -436,22 +541,44 @@ def summary(run: Run) -> dict[str, Any]:
         evaluated sample by sample: a fleet's views stay in cache),
         ``unmet`` (the names of the :func:`metrics.conditions` it fails at the end),
         ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
-        ``max_turn_rate``; circular: ``centre_spread``, ``radius``, ``radius_target``; rigid
-        bodies: ``mean_u``, ``mean_v`` (m/s).
+        ``max_turn_rate``. With the band test (:func:`scenario.practical`): ``converged``
+        is :func:`metrics.verdict` (within every band at every sample of the last window),
+        ``unmet`` the bands left in that window, ``steady_state`` the median, 95th percentile
+        and band of each :func:`metrics.steady_errors` over it, and ``settle_window`` (s).
+        Circular: ``centre_spread``, ``radius``, ``radius_target``; rigid bodies: ``mean_u``,
+        ``mean_v`` (m/s).
 
     """
     sc = run.sc
     ctrl = Controller(sc)
     flags: list[Any] = []
+    met: list[dict[str, Any]] = []
+    errors: list[dict[str, Any]] = []
     separation = metrics.needs_separation(sc)
     for t, X, U in zip(run.t, run.X, run.U):
-        flags.append(metrics.converged(sc, metrics.snapshot(ctrl, X, U, t, separation)))
+        snap = metrics.snapshot(ctrl, X, U, t, separation)
+        flags.append(metrics.converged(sc, snap))
+        met.append(metrics.conditions(sc, snap))
+        errors.append(metrics.steady_errors(sc, snap))
     final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
-           'converged': bool(flags[-1]), 'unmet': metrics.unmet(sc, final),
-           'convergence_time': metrics.convergence_time(run.t, flags),
+           'converged': bool(metrics.verdict(sc, run.t, flags)),
+           'unmet': metrics.unmet(sc, final),
+           'convergence_time': None,
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate}
+    if out['converged']:
+        out['convergence_time'] = metrics.convergence_time(run.t, flags)
+    if practical(sc):
+        keep = metrics.window(sc, run.t)
+        out['unmet'] = [name for name in met[-1] if not all(
+            bool(m[name]) for m, k in zip(met, keep) if k)]
+        ss = metrics.steady_state(sc, run.t, {name: [e[name] for e in errors]
+                                              for name in errors[-1]})
+        out['steady_state'] = {name: {'median': float(m), 'p95': float(q),
+                                      'band': getattr(sc, metrics.BANDS[name])}
+                               for name, (m, q) in ss.items()}
+        out['settle_window'] = float(min(sc.settle_window, run.t[-1] - run.t[0]))
     if sc.formation == 'circular':
         out.update(centre_spread=final.spread, radius=final.radius,
                    radius_target=1.0 / abs(sc.omega0))

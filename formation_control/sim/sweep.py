@@ -41,7 +41,7 @@ from typing import Any, TextIO, TypeAlias
 
 from formation_control.core import scenario
 from formation_control.core.models import ROW_THETA, ROW_X, ROW_Y
-from formation_control.sim import metrics, simulator
+from formation_control.sim import simulator
 import numpy as np
 from numpy.typing import NDArray
 
@@ -232,20 +232,29 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     Returns
     -------
     dict of str to ndarray
-        One row per run: ``seed``, ``converged`` (:func:`metrics.converged` at the end, as
+        One row per run: ``seed``, ``converged`` (:func:`metrics.verdict`, as
         :func:`simulator.summary`), ``convergence_time`` (s, NaN if not converged), the final
         metrics by name (:meth:`metrics.Snapshot.values`), ``met_<condition>`` for each of
-        :func:`metrics.conditions` at the end, and ``final_x``, ``final_y``,
+        :func:`metrics.conditions` (at the end; with the band test over the last window),
+        with the band test ``ss_median_<error>`` and ``ss_p95_<error>`` of each
+        :func:`metrics.steady_errors` over the last window, ``diverged`` (a fleet in the world
+        whose state diverged, :meth:`simulator.Outcome.stop`), and ``final_x``, ``final_y``,
         ``final_theta`` (runs, N).
 
     """
     sc = scenario.resolve(params)
-    out = simulator.simulate(sc, simulator.initial_states(sc, seeds), simulator.Outcome(sc))
-    rows = {'seed': np.array(seeds, dtype=np.int64), 'converged': out.flags[-1],
-            'convergence_time': out.convergence_times()}
-    for name, ok in metrics.conditions(sc, out.final).items():
+    out = simulator.simulate(sc, simulator.initial_states(sc, seeds), simulator.Outcome(sc),
+                             seeds=seeds)
+    rows = {'seed': np.array(seeds, dtype=np.int64), 'converged': out.converged(),
+            'convergence_time': out.convergence_times(),
+            'diverged': np.broadcast_to(out.diverged, (len(seeds),)).copy()}
+    for name, ok in out.met_conditions().items():
         rows[f'met_{name}'] = np.broadcast_to(ok, (len(seeds),)).copy()
     rows.update(out.final.values())
+    if scenario.practical(sc):
+        for name, (median, p95) in out.steady_state().items():
+            rows[f'ss_median_{name}'] = np.broadcast_to(median, (len(seeds),)).copy()
+            rows[f'ss_p95_{name}'] = np.broadcast_to(p95, (len(seeds),)).copy()
     rows.update(final_x=out.X[ROW_X], final_y=out.X[ROW_Y], final_theta=out.X[ROW_THETA])
     return rows
 
@@ -574,7 +583,9 @@ def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
         Wilson interval ``low``, ``high``; ``t10``, ``t50``, ``t90``, the convergence-time
         quantiles (s) of the runs that converged (NaN if none); ``failed``, the number of
         runs that fail each convergence condition (``met_<condition>`` false; NaN where a
-        grid point has no such condition), by name.
+        grid point has no such condition), by name; ``steady``, with the band test, the
+        median and 95th percentile over the runs of each run's steady-state error (its 95th
+        percentile over the last window, ``ss_p95_<error>``), by name.
 
     """
     axes = json.loads(str(data['axes']))
@@ -588,11 +599,15 @@ def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
         q = np.quantile(times, (0.1, 0.5, 0.9)) if times.size else (np.nan,) * 3
         failed = {key[4:]: int(np.count_nonzero(data[key][mine] == 0)) for key in sorted(data)
                   if key.startswith('met_')}
+        steady = {key[7:]: (float(np.nanmedian(data[key][mine])),
+                            float(np.nanquantile(data[key][mine], 0.95)))
+                  for key in sorted(data) if key.startswith('ss_p95_')
+                  and np.any(np.isfinite(data[key][mine]))}
         rows.append({'label': point_label(axes, [params[n] for n in axes]),
                      'runs': int(ok.size), 'converged': int(ok.sum()),
                      'fraction': float(ok.mean()), 'low': low, 'high': high,
                      't10': float(q[0]), 't50': float(q[1]), 't90': float(q[2]),
-                     'failed': {k: v for k, v in failed.items() if v}})
+                     'failed': {k: v for k, v in failed.items() if v}, 'steady': steady})
     return rows
 
 
@@ -603,9 +618,11 @@ def format_table(rows: Sequence[Mapping[str, Any]]) -> str:
              f"{'t10 (s)':>8s}  {'median':>8s}  {'t90 (s)':>8s}  failed on"]
     for r in rows:
         failed = ', '.join(f'{k} {v}' for k, v in r.get('failed', {}).items())
+        steady = ', '.join(f'{k} {m:.3g}/{q:.3g}' for k, (m, q) in r.get('steady', {}).items())
         lines.append(f"{r['label']:{width}s}  {r['runs']:5d}  {r['fraction']:9.3f}  "
                      f"[{r['low']:.3f}, {r['high']:.3f}]  {r['t10']:8.2f}  {r['t50']:8.2f}  "
-                     f"{r['t90']:8.2f}  {failed}".rstrip())
+                     f"{r['t90']:8.2f}  {failed}".rstrip()
+                     + (f'  steady-state p95 median/p95: {steady}' if steady else ''))
     return '\n'.join(lines)
 
 

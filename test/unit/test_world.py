@@ -1,0 +1,244 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The world a real fleet meets (core/world.py): model mismatch, actuators, gusts.
+
+Off, the plant is the nominal model bit for bit; the draws are per vehicle and seeded; the
+controllers keep the nominal values; the steady speed under drag and thrust mismatch and the
+actuator-lag limit derived in docs/errata.md hold in simulation over a census of seeds; the
+actuators lag and rate-limit as asked; the gust has the intensity and correlation asked; the
+PI law's anti-windup; bad input refused naming the parameter.
+"""
+from dataclasses import replace
+
+from formation_control.core import scenario, world
+from formation_control.core.control import Controller
+from formation_control.core.errors import ScenarioError
+from formation_control.core.models import ROW_U, ROW_V
+from formation_control.sim import simulator
+import numpy as np
+import pytest
+from runs import CONFIG
+
+
+def _rigid(**values):
+    return scenario.load(CONFIG / 'rigid_parallel.yaml', **values)
+
+
+def test_the_world_is_off_by_default_and_unit_factors_are_the_nominal_plant_bit_for_bit():
+    sc = _rigid(duration=2.0)
+    assert not world.active(sc) and simulator.Stepper(sc).world is None
+    ones = _rigid(duration=2.0, mismatch_m0=[1.0] * sc.num_vehicles)
+    assert world.active(ones)
+    np.testing.assert_array_equal(simulator.simulate(ones).X, simulator.simulate(sc).X)
+
+
+def test_mismatch_is_drawn_per_vehicle_and_seed_and_the_controller_keeps_the_nominal():
+    sc = _rigid(mismatch=0.2, num_vehicles=6)
+    f = world.mismatch_factors(sc)
+    for name in world.MISMATCH_NAMES:
+        assert np.all(abs(f[name] - 1.0) <= 0.2) and np.ptp(f[name]) > 0.05
+    bigger = world.mismatch_factors(_rigid(mismatch=0.2, num_vehicles=9))
+    np.testing.assert_array_equal(bigger['h'][:6], f['h'])          # a vehicle's own stream
+    other = world.mismatch_factors(_rigid(mismatch=0.2, num_vehicles=6, world_seed=1))
+    assert not np.allclose(other['h'], f['h'])
+    given = world.mismatch_factors(_rigid(mismatch=0.2, num_vehicles=6,
+                                          mismatch_h=[2.0] * 6))
+    np.testing.assert_array_equal(given['h'], 2.0)
+    np.testing.assert_array_equal(given['m0'], f['m0'])
+    stepper = simulator.Stepper(sc)
+    np.testing.assert_allclose(stepper.world.plant.h, sc.h * f['h'])
+    assert Controller(sc).plant.h == sc.h and Controller(sc).plant.m0 == sc.m0
+
+
+def test_a_batch_of_fleets_draws_as_each_fleet_alone():
+    sc = _rigid(mismatch=0.02, gust_intensity=0.05, actuator_lag=0.05, duration=1.0)
+    seeds = [3, 4]
+    batch = simulator.simulate(sc, simulator.initial_states(sc, seeds), seeds=seeds)
+    for b, seed in enumerate(seeds):
+        alone = simulator.simulate(scenario.load(CONFIG / 'rigid_parallel.yaml', mismatch=0.02,
+                                                 gust_intensity=0.05, actuator_lag=0.05,
+                                                 duration=1.0, seed=seed))
+        np.testing.assert_allclose(batch.X[:, :, b], alone.X, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize('seed', range(1, 7))
+def test_the_steady_speed_under_drag_and_thrust_mismatch_is_the_derived_root(seed):
+    """
+    Straight motion (parallel, no flow) over a census of seeds: each vehicle's speed.
+
+    With the plain hold: the midpoint prediction, made with the nominal model, moves the root
+    by O(dt_control) (docs/errata.md, "Model mismatch").
+    """
+    sc = _rigid(seed=seed, world_seed=seed, duration=25.0, mismatch=0.025,
+                hold_prediction='none')
+    f = world.mismatch_factors(sc)
+    predicted = world.steady_speed(sc, f['thrust'], f['h'])
+    assert np.all(np.isfinite(predicted)) and np.ptp(predicted) > 0.01
+    X = simulator.simulate(sc).X[-1]
+    assert np.max(abs(X[ROW_V])) < 1e-3
+    np.testing.assert_allclose(X[ROW_U], predicted, rtol=0, atol=2e-3)
+
+
+def test_past_the_derived_limit_the_speed_runs_away():
+    sc = _rigid(duration=30.0)
+    c = sc.m0 * sc.K_f                                     # f_T = 1: d = h - h_true
+    for margin, bounded in ((0.9, True), (1.2, False)):
+        h_true = (sc.h - margin * c / (4 * sc.u0)) / sc.h
+        run = _rigid(duration=30.0, mismatch_h=[h_true] * sc.num_vehicles,
+                     hold_prediction='none')
+        predicted = world.steady_speed(sc, np.ones(1), np.full(1, h_true))[0]
+        u = simulator.simulate(run).X[-1, ROW_U]
+        if bounded:
+            np.testing.assert_allclose(u, predicted, atol=5e-3)
+        else:
+            assert np.isnan(predicted) and np.all(u > 3 * sc.u0)
+
+
+def test_the_actuator_lags_and_its_rate_is_limited():
+    sc = _rigid(actuator_lag=0.2, max_thrust_rate=20.0, num_vehicles=1)
+    w = world.World(sc, (1,))
+    w.actuate(np.zeros((2, 1)))
+    steps = np.arange(1, 201)
+    out = np.array([w.actuate(np.array([[5.0], [1.0]]))[:, 0].copy() for _ in steps])
+    t = steps * sc.dt_integration
+    np.testing.assert_allclose(out[:, 1], 1.0 - np.exp(-t / 0.2), atol=1e-12)   # the lag
+    rate = np.diff(out[:, 0], prepend=0.0) / sc.dt_integration
+    np.testing.assert_allclose(rate[:8], 20.0)              # the rate limit binds at first,
+    assert np.all(rate <= 20.0 + 1e-9) and rate[-1] < 10.0  # then the lag
+    np.testing.assert_allclose(rate[-1], (5.0 - out[-2, 0]) * (1 - np.exp(-0.025)) / 0.005)
+
+
+def test_the_lag_limit_is_the_routh_bound_of_each_law():
+    assert world.lag_limit(5.0, 1.0, 'backstepping') == pytest.approx(1.2)
+    assert world.lag_limit(5.0, 1.0, 'proportional') == pytest.approx(1.0)
+    tau = world.lag_limit(10.0, 1.0, 'pi', 15.0)
+    for t, stable in ((0.99 * tau, True), (1.01 * tau, False)):
+        roots = np.roots([t, 1.0, 10.0, 10.0 + 15.0, 15.0])
+        assert np.all(roots.real < 0) == stable
+    assert world.lag_limit(5.0, 1.0, 'first_order') == np.inf
+
+
+def _misalignment(sc):
+    e = np.exp(1j * simulator.simulate(sc).X[:, 2])
+    return 1.0 - abs(e.mean(axis=1))
+
+
+@pytest.mark.slow
+def test_a_lag_below_the_limit_settles_and_past_it_the_phases_keep_oscillating():
+    """
+    Particles (second order, kappa = 2, K = -1): the Routh limit 1/kappa + 1/|K| = 1.5 s.
+
+    At 0.8 of it the formation is reached; at 1.2 it never settles. The sampled hold adds
+    delay, so the true limit lies a little below the continuous one (measured: 0.95 of it
+    already leaves a limit cycle), which is why half of it is warned about.
+    """
+    sc = scenario.load(CONFIG / 'particle_parallel.yaml', duration=80.0, kappa=2.0,
+                       num_vehicles=4)
+    limit = world.lag_limit(2.0, 1.0, 'backstepping')
+    below = _misalignment(replace(sc, actuator_lag=0.8 * limit))
+    past = _misalignment(replace(sc, actuator_lag=1.2 * limit))
+    assert below[-1] < 1e-3 and below[-1] < 0.1 * below[len(below) // 4]
+    assert past[-200:].min() > 0.05
+    with pytest.raises(ScenarioError, match="'actuator_lag'"):
+        scenario.load(CONFIG / 'particle_parallel.yaml', kappa=2.0, actuator_lag=limit)
+    warned = scenario.load(CONFIG / 'particle_parallel.yaml', kappa=2.0, actuator_lag=0.8 * limit)
+    assert any('actuator_lag' in w for w in warned.warnings)
+    assert scenario.load(CONFIG / 'particle_parallel.yaml', kappa=2.0,
+                         actuator_lag=0.4 * limit).warnings == ()
+
+
+def test_the_gust_has_the_intensity_and_correlation_asked():
+    sc = _rigid(gust_intensity=0.1, gust_time=0.5, num_vehicles=3)
+    w = world.World(sc, (3,))
+    g = np.array([w.blow().copy() for _ in range(40000)])            # 200 s of steps
+    a = np.exp(-sc.dt_integration / sc.gust_time)
+    for part in (g.real, g.imag):
+        assert np.all(abs(part.std(axis=0) / 0.1 - 1) < 0.1)
+        lag1 = (part[1:] * part[:-1]).mean(axis=0) / (part * part).mean(axis=0)
+        np.testing.assert_allclose(lag1, a, atol=2e-3)
+        assert np.all(abs(part.mean(axis=0)) < 0.03)
+    assert abs(np.corrcoef(g.real[:, 0], g.real[:, 1])[0, 1]) < 0.05  # vehicles independent
+
+
+def test_a_gust_moves_the_vehicles_and_a_told_rigid_body_reads_it_in_its_water_speed():
+    sc = _rigid(gust_intensity=0.1, gust_time=2.0, duration=1.0)
+    stepper = simulator.Stepper(sc)
+    stepper.command()
+    stepper.advance()
+    seen = stepper.observed()
+    rel = (seen[ROW_U] - stepper.X[ROW_U]) + 1j * (seen[ROW_V] - stepper.X[ROW_V])
+    np.testing.assert_allclose(rel, stepper.world.gust * np.exp(-1j * stepper.X[2]), atol=1e-12)
+    np.testing.assert_allclose(stepper.true_flow() - stepper.local_flow(), stepper.world.gust)
+
+
+def test_anti_windup_holds_the_pi_integrator_while_the_steering_force_is_on_its_limit():
+    integrals, clipped = {}, {}
+    for anti in (False, True):
+        sc = scenario.load(CONFIG / 'rigid_circular_flow.yaml', num_vehicles=3, seed=2,
+                           max_steering_force=0.02, anti_windup=anti)
+        stepper = simulator.Stepper(sc)
+        clipped[anti] = 0
+        for _ in range(100):
+            before = stepper.ctrl.integral
+            U = stepper.command()
+            on_limit = abs(U[1]) >= 0.02 * (1 - 1e-9)
+            if anti and before is not None:
+                np.testing.assert_array_equal(stepper.ctrl.integral[on_limit], before[on_limit])
+            clipped[anti] += int(on_limit.sum())
+            stepper.advance()
+        integrals[anti] = stepper.ctrl.integral.copy()
+    assert clipped[True] > 20 and clipped[False] > 20
+    assert np.max(abs(integrals[True])) < 0.5 * np.max(abs(integrals[False]))
+
+
+@pytest.mark.parametrize('values, name', [
+    ({'mismatch': 1.0}, 'mismatch'), ({'mismatch': -0.1}, 'mismatch'),
+    ({'num_vehicles': 2, 'mismatch_m0': [1.0, 0.0]}, 'mismatch_m0'),
+    ({'num_vehicles': 2, 'mismatch_h': [1.0]}, 'mismatch_h'),
+    ({'gust_intensity': -0.1}, 'gust_intensity'), ({'gust_time': 0.0}, 'gust_time'),
+    ({'actuator_lag': -1.0}, 'actuator_lag'), ({'actuator_lag': 1.2}, 'actuator_lag'),
+    ({'max_steering_rate': -1.0}, 'max_steering_rate'),
+    ({'convergence': 'sometimes'}, 'convergence')])
+def test_bad_world_input_is_refused_naming_the_parameter(values, name):
+    with pytest.raises(ScenarioError, match=f"'{name}'"):
+        scenario.resolve(values)
+
+
+def test_a_gust_past_the_vehicle_speed_is_warned_about():
+    sc = scenario.resolve({'flow': [0.5, 0.0], 'gust_intensity': 0.2})
+    assert any('gust_intensity' in w for w in sc.warnings)
+
+
+@pytest.mark.parametrize('seed', (11, 12, 13))
+def test_an_untold_steady_gust_moves_the_speed_by_the_amplified_error(seed):
+    """
+    A rigid body told the flow reads an untold gust in its water speed (a bias b along x).
+
+    The gust held nearly constant (gust_time 1e5 s); the drag cancellation amplifies b by
+    ``2 h u0 / (m0 K_f) - 1`` = 9 in the steady speed (:func:`world.speed_under_bias`).
+    """
+    sc = _rigid(seed=seed, world_seed=seed, duration=25.0, gust_intensity=0.01,
+                gust_time=1e5, hold_prediction='none')
+    stepper = simulator.Stepper(sc)
+    for _ in range(sc.periods):
+        stepper.command()
+        stepper.advance()
+    X = stepper.X
+    b = (stepper.world.gust * np.exp(-1j * X[2])).real
+    predicted = world.speed_under_bias(sc, b)
+    assert np.max(abs(predicted - sc.u0)) > 0.03                   # a measurable offset
+    np.testing.assert_allclose(X[ROW_U], predicted, rtol=0, atol=2e-3)
+    np.testing.assert_allclose(predicted - sc.u0, 9 * b, rtol=0.3)   # first order in b
