@@ -34,7 +34,8 @@ the plant's odometry, the plant its command: up and matched), and how many start
     .venv/bin/python bench/soak.py soak --duration 240              # a short one
     .venv/bin/python bench/soak.py startup --sizes 8 16 32 64 --repeat 3
 
-Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 89) and
+Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 89; keep it at most 101:
+above, the DDS ports of a domain fall in Linux's ephemeral port range, 32768-60999) and
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; bench/ is not in CI's suite.
 """
 import argparse
