@@ -222,7 +222,8 @@ def _start_once(n, domain, timeout):
     start = time.time()
     proc = subprocess.run([str(BIN / 'formation-control'), 'swarm', 'particle_circular', '-p',
                            f'num_vehicles:={n}', '--duration', '1', '--no-monitor',
-                           '--timeout', str(timeout), '--summary', str(work / 's.json')],
+                           '--vehicles-per-process', '1', '--timeout', str(timeout),
+                           '--summary', str(work / 's.json')],
                           env=env, capture_output=True, text=True, timeout=timeout + 60)
     if proc.returncode != 0:
         return (proc.stderr.strip().splitlines() or ['exit %d' % proc.returncode])[-1]
