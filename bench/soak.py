@@ -34,7 +34,8 @@ the plant's odometry, the plant its command: up and matched), and how many start
     .venv/bin/python bench/soak.py soak --duration 240              # a short one
     .venv/bin/python bench/soak.py startup --sizes 8 16 32 64 --repeat 3
 
-Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 89) and
+Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 89; keep it at most 101:
+above, the DDS ports of a domain fall in Linux's ephemeral port range, 32768-60999) and
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; bench/ is not in CI's suite.
 """
 import argparse
@@ -221,7 +222,8 @@ def _start_once(n, domain, timeout):
     start = time.time()
     proc = subprocess.run([str(BIN / 'formation-control'), 'swarm', 'particle_circular', '-p',
                            f'num_vehicles:={n}', '--duration', '1', '--no-monitor',
-                           '--timeout', str(timeout), '--summary', str(work / 's.json')],
+                           '--vehicles-per-process', '1', '--timeout', str(timeout),
+                           '--summary', str(work / 's.json')],
                           env=env, capture_output=True, text=True, timeout=timeout + 60)
     if proc.returncode != 0:
         return (proc.stderr.strip().splitlines() or ['exit %d' % proc.returncode])[-1]
