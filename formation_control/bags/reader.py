@@ -155,13 +155,15 @@ def metrics(path):
     """
     ``formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array}).
 
-    The names are those of :data:`~formation_control.protocol.messages.METRIC_DOC`.
+    The names are those of :data:`~formation_control.protocol.messages.METRIC_DOC` that apply
+    (not NaN in every sample).
     """
     rows = [(_stamp(msg), [float(getattr(msg, name)) for name in METRIC_DOC])
             for _, msg in messages(path, [fleet_prefix(path) + names.METRICS_TOPIC])]
     t = np.array([s for s, _ in rows], np.int64) * 1e-9
     values = np.array([r for _, r in rows]).reshape(len(rows), len(METRIC_DOC))
-    return t, ({name: values[:, i] for i, name in enumerate(METRIC_DOC)} if rows else {})
+    return t, {name: values[:, i] for i, name in enumerate(METRIC_DOC)
+               if rows and not np.all(np.isnan(values[:, i]))}
 
 
 def diagnostics(path):

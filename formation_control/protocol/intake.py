@@ -24,8 +24,8 @@ message is checked: its interface version, frames, vehicle id and, for a formati
 graph, for a command its kind. What fails is a :class:`Rejection` naming its kind
 (``malformed``, ``interface_version``, ``wrong_frame``, ``foreign_id``, ``wrong_kind``); the
 node drops and counts it. Every formation_control_msgs message begins with its
-``interface_version``: bytes that do not deserialize are an ``interface_version`` rejection
-when that first byte is another version.
+``interface_version``: the rejection of bytes that do not deserialize says what their first
+byte reads when it is not this version.
 """
 from __future__ import annotations
 
@@ -99,12 +99,17 @@ class Intake(Generic[T]):
         try:
             msg = deserialize(data)
         except Exception:
-            if self.versioned and len(data) > 4 and data[4] != INTERFACE_VERSION:
-                return version_rejection(self.what, data[4])
-            return Rejection(MALFORMED, f'undecodable {self.what} bytes')
+            return Rejection(MALFORMED, f'undecodable {self.what} bytes{self._first(data)}')
         if self.versioned and msg.interface_version != INTERFACE_VERSION:
             return version_rejection(self.what, msg.interface_version)
         return self.check(msg) or self.read(msg)
+
+    def _first(self, data: bytes) -> str:
+        """Return what the first field says of undecodable bytes, if another version."""
+        if not self.versioned or len(data) < 5 or data[4] == INTERFACE_VERSION:
+            return ''
+        return (f' (their first field, interface_version, reads {data[4]}; this node speaks '
+                f'formation_control_msgs version {INTERFACE_VERSION})')
 
 
 def version_rejection(what: str, version: int) -> Rejection:

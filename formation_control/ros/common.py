@@ -18,7 +18,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from formation_control.protocol import names
-from formation_control.protocol.intake import Rejection
+from formation_control.protocol.intake import Rejection, VERSION
 from formation_control.ros import interface as itf
 import numpy as np
 from rclpy.clock import Clock, ClockType
@@ -44,6 +44,8 @@ class Rejections:
     """
     Counts of dropped input by kind, each drop logged (rate-limited) with the running total.
 
+    A message of another interface version is logged as an error, the others as warnings.
+
     Parameters
     ----------
     logger : rclpy logger
@@ -59,8 +61,11 @@ class Rejections:
     def __call__(self, kind, what):
         """Count a dropped ``what`` (text) of ``kind`` and log it; returns None."""
         self.counts[kind] += 1
-        self.logger.warn(f'dropped {what} ({kind}; total dropped: {self.total})',
-                         throttle_duration_sec=2.0)
+        text = f'dropped {what} ({kind}; total dropped: {self.total})'
+        if kind == VERSION:
+            self.logger.error(text, throttle_duration_sec=2.0)
+        else:
+            self.logger.warn(text, throttle_duration_sec=2.0)
 
     @property
     def total(self):

@@ -66,7 +66,8 @@ import struct
 
 from formation_control.core.models import ROW_U, ROW_V
 from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, command_kind,
-                                                 CommandWire, FormationState, ODOM_FIELDS,
+                                                 CommandWire, FormationState, METRIC_DOC,
+                                                 ODOM_FIELDS,
                                                  odom_values, set_fields, set_stamp, set_time,
                                                  stamp_parts)
 from formation_control.protocol.names import DEFAULT_FRAMES, WORLD_FRAME
@@ -240,14 +241,16 @@ def metrics_msg(ns, values, world=WORLD_FRAME, t=math.nan, since=None):
     """
     ``formation/metrics``: the FormationMetrics of ``values`` ({metric: value}) stamped ns.
 
-    ``t`` is the fleet time (s) of the sample, ``since`` when the convergence latch last
-    latched (s, None: not converged).
+    A metric of :data:`~formation_control.protocol.messages.METRIC_DOC` without a value (it
+    does not apply to the scenario) is NaN. ``t`` is the fleet time (s) of the sample,
+    ``since`` when the convergence latch last latched (s, None: not converged).
     """
     msg = fcm.FormationMetrics(time=float(t), converged=since is not None,
                                convergence_time=math.nan if since is None else float(since))
     set_stamp(msg.header, ns)
     msg.header.frame_id = world
-    for name, value in values.items():
+    for name in METRIC_DOC:
+        value = values.get(name, math.nan)
         setattr(msg, name, int(value) if name == 'live_links' else float(value))
     return msg
 

@@ -32,14 +32,14 @@ from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from formation_control.ros.monitor import MonitorNode
 from formation_control.view import layout, picture, scene
+from formation_control_msgs.msg import FormationMetrics
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message
-from rosutil import CONFIG
-from sensor_msgs.msg import JointState
+from rosutil import CONFIG, metric_values
 from std_msgs.msg import String
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -154,7 +154,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
         '-p', 'diagnostics_period:=0.1', '-p', 'world_frame:=odom', '-p',
         f'foxglove_port:={port}']))
     scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
-    ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
+    ros_metrics = nodes.collect(FormationMetrics, metrics_topic, itf.STREAM_QOS)
     with client(port) as fox:
         topics = (scene_topic, metrics_topic, names.DIAGNOSTICS_TOPIC)
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
@@ -184,7 +184,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes):
     (log_time, live), = got[metrics_topic]
     assert log_time == stamp == messages.stamp_ns(ros_metrics[0].header.stamp)
     assert live.pop('timestamp') == {'sec': 4, 'nsec': 200_000_000}
-    assert live == dict(zip(ros_metrics[0].name, ros_metrics[0].position))
+    assert live == metric_values(ros_metrics[0])
     log_time, update = got[scene_topic][-1]
     assert log_time == stamp
     assert {e.frame_id for e in update.entities} == {'odom'}

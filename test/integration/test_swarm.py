@@ -127,12 +127,12 @@ def _fleet_pids(domain_id, parent):
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
-    from geometry_msgs.msg import WrenchStamped
+    from formation_control_msgs.msg import VehicleCommand
 
     from formation_control.ros.interface import STATE_QOS
     swarm = ros.procs.start('formation-control', 'swarm', CONFIG / 'particle_parallel.yaml',
                             '-p', 'num_vehicles:=3', '--duration', '600')
-    cmds = ros.probe.collect(WrenchStamped, '/vehicle_3/cmd', STATE_QOS)
+    cmds = ros.probe.collect(VehicleCommand, '/vehicle_3/cmd', STATE_QOS)
     assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
     fleet = _fleet_pids(ros.domain_id, swarm.pid)
     assert len(fleet) == 5
