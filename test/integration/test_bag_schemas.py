@@ -30,6 +30,7 @@ import sys
 from formation_control.core import scenario
 from formation_control.protocol import names
 from formation_control.protocol.messages import METRIC_DOC, STATE_FIELDS
+from formation_control.view import layout
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
@@ -106,9 +107,19 @@ def test_an_independent_mcap_reader_decodes_every_topic_by_its_embedded_schema(b
     assert all(0.0 <= m.order_parameter <= 1.0 for m in metrics)
     assert {name for name in METRIC_DOC if not math.isnan(getattr(metrics[-1], name))} >= {
         'order_parameter', 'centre_spread', 'min_separation', 'live_links'}
+    for path in _layout_paths():                      # the Foxglove layout's plots, on a bag
+        topic, field = path.split('.', 1)
+        assert all(isinstance(getattr(m, field), float) for m in got[topic][2]), path
     faults = got[prefix + names.FAULTS_TOPIC][2]
     assert [(f.kind, list(f.vehicle_ids), f.fault) for f in faults] == [
         (5, [1, 2], 'cut:1-2@0.2..0.4'), (6, [1, 2], 'cut:1-2@0.2..0.4')]       # CUT, MEND
+
+
+def _layout_paths():
+    text = json.loads(layout.layout_json())
+    panels = [item['content'] for item in text['content']['items'][1]['content']['items']]
+    return [p['value'] for panel in panels if panel['panelType'] == 'Plot'
+            for p in panel['config']['paths']]
 
 
 def _legacy_bag(path):

@@ -122,6 +122,8 @@ def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
     assert paths == [f'{prefix}formation/metrics.{name}' for name in
                      ('order_parameter', 'lyapunov', 'centre_spread', 'speed_error')]
     assert all(path.split('.', 1)[1] in messages.METRIC_DOC for path in paths)
+    fields = FormationMetrics.get_fields_and_field_types()         # a bag's messages: the same
+    assert all(fields[path.split('.', 1)[1]] == 'double' for path in paths)
     assert panels[-1]['panelType'] == 'DiagnosticsSummary'
     assert panels[-1]['config']['topicToRender'] == '/diagnostics'
     three_d = text['content']['items'][0]['content']
