@@ -313,6 +313,7 @@ class Supervisor:
 
         from formation_control.ros import interface as itf
         from formation_control.ros.bag import BagRecorder, FAULT_EVENT, fleet_topics
+        from formation_control.ros.common import Rejections, subscribe_messages
         self.Parameter, self.Empty = Parameter, Empty
         self.prefix = prefix = names.namespace_prefix(namespace)
         self.t, self.t0 = None, None
@@ -325,8 +326,9 @@ class Supervisor:
         self.fault_pub = self.node.create_publisher(FaultEvent, prefix + names.FAULTS_TOPIC,
                                                     itf.FAULTS_QOS)
         if mode == 'lockstep':
-            self.node.create_subscription(Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
-                                          itf.LATCHED_QOS)
+            subscribe_messages(self.node, Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
+                               Rejections(self.node.get_logger(), ['malformed']),
+                               qos_profile=itf.LATCHED_QOS)
         else:
             self.wire = itf.odom_wire(1)
             self.node.create_subscription(Odometry, prefix + names.topic(1, 'odom'), self._on_odom,

@@ -119,6 +119,18 @@ def version_rejection(what: str, version: int) -> Rejection:
                               f'same formation_control_msgs on every node)')
 
 
+class _NoWire:
+    """The wire of a topic without a canonical layout: every message is deserialized."""
+
+    def decode(self, data: bytes) -> None:
+        return None
+
+
+def message(what: str) -> Intake[Any]:
+    """Return the rule of a topic whose messages are only deserialized: the message itself."""
+    return Intake(_NoWire(), lambda msg: msg, lambda msg: None, what)
+
+
 def odometry(wire: Wire[Stamped], k: int, world: str,
              base: str | None = None) -> Intake[Stamped]:
     """

@@ -17,7 +17,7 @@ import collections
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from formation_control.protocol import names
+from formation_control.protocol import intake, names
 from formation_control.protocol.intake import Rejection, VERSION
 from formation_control.ros import interface as itf
 import numpy as np
@@ -106,6 +106,23 @@ def subscribe(node, msg_type, topic, rule, reject, take):
             take(got)
     return node.create_subscription(msg_type, topic, on_bytes, raw=True,
                                     **itf.state_qos_kwargs())
+
+
+def subscribe_messages(node, msg_type, topic, take, reject, **qos):
+    """
+    Subscribe ``node`` to the raw bytes of ``topic``, each deserialized, then ``take``-n.
+
+    Bytes that do not deserialize are dropped and counted by ``reject`` (a
+    :class:`Rejections`, kind ``malformed``) instead of the middleware's log of each; ``qos``
+    are the keyword arguments of the QoS (``qos_profile=...``).
+    """
+    decode = Decoder(intake.message(f'{msg_type.__name__} on {topic}'), msg_type, reject)
+
+    def on_bytes(data):
+        got = decode(data)
+        if got is not None:
+            take(got)
+    return node.create_subscription(msg_type, topic, on_bytes, raw=True, **qos)
 
 
 def status(name, level, message, values, hardware_id=''):

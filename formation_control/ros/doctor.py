@@ -32,6 +32,7 @@ from formation_control.ops import doctor
 from formation_control.protocol import intake, messages, names
 from formation_control.protocol.intake import Rejection
 from formation_control.ros import interface as itf
+from formation_control.ros.common import Rejections, subscribe_messages
 from formation_control_msgs.msg import FormationState
 from rcl_interfaces.srv import GetParameters
 import rclpy
@@ -67,6 +68,7 @@ class Gatherer:
         self.executor = SingleThreadedExecutor(context=context) if self.own else executor
         self.executor.add_node(self.node)
         self.me = self.node.get_fully_qualified_name()
+        self.reject = Rejections(self.node.get_logger(), ['malformed'])
 
     def spin_until(self, predicate, timeout):
         end = time.monotonic() + timeout
@@ -125,8 +127,9 @@ class Gatherer:
             self.node.create_subscription(FormationState, topic,
                                           lambda data, s=stream, r=rule: self._heard(s, r, data),
                                           raw=True, qos_profile=itf.STATE_QOS)
-        self.node.create_subscription(DiagnosticArray, self.node.resolve_topic_name(
-            names.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), itf.STREAM_QOS)
+        subscribe_messages(self.node, DiagnosticArray, self.node.resolve_topic_name(
+            names.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), self.reject,
+            qos_profile=itf.STREAM_QOS)
         end = time.monotonic() + seconds                # a span: what arrives in it is counted
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.05)
@@ -162,7 +165,8 @@ class Gatherer:
                              env={k: os.environ[k] for k in ENVIRONMENT if k in os.environ})
         topic = node.resolve_topic_name(names.SCENARIO_TOPIC)
         box = []
-        node.create_subscription(String, topic, box.append, itf.LATCHED_QOS)
+        subscribe_messages(node, String, topic, box.append, self.reject,
+                           qos_profile=itf.LATCHED_QOS)
         self.spin_until(lambda: box, discover)
         if not box:
             self._graph(facts, topic)

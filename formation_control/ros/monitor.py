@@ -78,9 +78,11 @@ class MonitorNode(Node):
         self.reject = common.Rejections(self.get_logger(),
                                         ('malformed', 'non_finite', 'wrong_frame',
                                          'foreign_id', 'wrong_kind', 'interface_version'))
-        self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
-        self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
-                                 qos_profile_parameter_events)
+        common.subscribe_messages(self, String, names.SCENARIO_TOPIC, self._on_scenario,
+                                  self.reject, qos_profile=itf.LATCHED_QOS)
+        common.subscribe_messages(self, ParameterEvent, '/parameter_events',
+                                  self._on_parameter_event, self.reject,
+                                  qos_profile=qos_profile_parameter_events)
         self.scenario_topic = self.resolve_topic_name(names.SCENARIO_TOPIC)
         self.diag_pub = common.diagnostics_publisher(self)
         self.live = None

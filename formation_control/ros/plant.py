@@ -92,7 +92,8 @@ class PlantNode(Node):
             self.create_timer(min(0.05, self.plant.gate.liveness.timeout / 4), self._advance,
                               clock=self.wall)
         if self.p['wait_for_start']:
-            self.create_subscription(Empty, START_TOPIC, self._start, itf.LATCHED_QOS)
+            common.subscribe_messages(self, Empty, START_TOPIC, self._start, self.reject,
+                                      qos_profile=itf.LATCHED_QOS)
         else:
             self._start()
 

@@ -104,15 +104,19 @@ class VehicleNode(Node):
                                                        frames.base(k)), Odometry, self.reject)
         self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
+        subscribe = common.subscribe_messages
         if sc.flow_source == 'known':
-            self.create_subscription(Vector3Stamped, names.topic(k, 'flow'), lambda msg: (
-                self._measured(self.me.flow_heard(messages.stamp_ns(msg.header.stamp), complex(
-                    msg.vector.x, msg.vector.y), msg.header.frame_id))), itf.LATCHED_QOS)
+            subscribe(self, Vector3Stamped, names.topic(k, 'flow'), lambda msg: self._measured(
+                self.me.flow_heard(messages.stamp_ns(msg.header.stamp), complex(
+                    msg.vector.x, msg.vector.y), msg.header.frame_id)), self.reject,
+                qos_profile=itf.LATCHED_QOS)
         if self.me.second == 'water':
-            self.create_subscription(TwistStamped, names.topic(k, 'water_velocity'), lambda msg: (
+            subscribe(self, TwistStamped, names.topic(k, 'water_velocity'), lambda msg: (
                 self._measured(self.me.water_heard(messages.stamp_ns(msg.header.stamp), (
-                    msg.twist.linear.x, msg.twist.linear.y), msg.header.frame_id))), **qos())
-        self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
+                    msg.twist.linear.x, msg.twist.linear.y), msg.header.frame_id))),
+                self.reject, **qos())
+        subscribe(self, String, names.SCENARIO_TOPIC, self._on_scenario, self.reject,
+                  qos_profile=itf.LATCHED_QOS)
         for j in sc.comm_graph.neighbours(k):
             common.subscribe(self, FormationState, names.topic(j, 'formation_state'),
                              intake.formation_state(messages.StateWire.of(sc, j, frames), frames),
