@@ -18,7 +18,7 @@ Little-endian CDR bytes of a message from its field list, without message object
 A message definition here is the field list of its ``.msg`` file, in order: (name, type)
 pairs whose type is a primitive of :data:`PRIMITIVES`, ``string``, a sequence ``T[]`` of a
 primitive, or a nested definition (:data:`TIME`, :data:`HEADER`). A :class:`Layout` lays out
-one message whose strings and sequences have known sizes as one :class:`struct.Struct`,
+one message whose strings and sequences have known sizes as one ``struct.Struct``,
 padding each primitive to its size from the start of the body (XCDR1, as Fast DDS writes it
 after the 4-byte encapsulation header); a :class:`Codec` fixes some of its items (frames,
 ids, sizes) and writes and reads the others. The definitions are checked against the ``.msg``
