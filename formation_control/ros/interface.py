@@ -175,8 +175,9 @@ class MessageWire:
     """
     A stamped message of fixed layout as CDR bytes, its stamp and float64 ``fields`` in place.
 
-    The plant sends N odometries and hears N commands each step, the vehicles the reverse:
-    writing and reading them as bytes skips building message objects. The byte offsets of the
+    The plant sends N odometries each step, each vehicle hears its own: writing and reading
+    them as bytes skips building message objects (the formation states and commands have
+    their wires in :mod:`formation_control.protocol.messages`). The byte offsets of the
     fields are found by serializing ``msg`` with a distinct value in each. ``decode`` returns
     None for bytes whose other content (frame ids, the zero fields) differs from ``msg``'s,
     which the caller then deserializes and checks as a message.
