@@ -125,6 +125,15 @@ def test_a_silent_vehicle_and_one_that_hears_nobody():
                                                        'of its formation_state is false')]
 
 
+def test_a_vehicle_of_another_interface_version_is_named_as_such():
+    facts = _healthy()
+    stream = facts.streams[_state(2)]
+    stream.count, stream.refused = 0, 'a formation_state of vehicle 2 of interface version 2: ...'
+    assert ('error', '/vehicle_2', 'publishes no formation_state on /vehicle_2/formation_state '
+            'the doctor can read: a formation_state of vehicle 2 of interface version 2: ...'
+            ) in _problems(facts)
+
+
 @pytest.mark.parametrize('env, expected', [
     ({}, [('warning', 'ROS_DOMAIN_ID')]),
     ({'ROS_DOMAIN_ID': '300'}, [('error', 'ROS_DOMAIN_ID')]),
