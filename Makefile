@@ -145,6 +145,7 @@ bench-compare: setup
 bench-scripts: setup
 	$(PY) bench/sim_throughput.py
 	$(PY) bench/law_cost.py
+	$(PY) bench/wire.py
 	$(PY) bench/fleet.py rtf --sizes 5 16
 	$(PY) bench/fleet.py rtf --sizes 32 --per-process 2 4 --repeat 1 --duration 4
 	$(PY) bench/fleet.py rtf --sizes 16 --graphs complete ring --per-process 1 4 --duration 4

@@ -60,6 +60,8 @@ test_requires = [
     'ros-jazzy-domain-coordinator',      # domain_coordinator (test/rosutil.py)
     'colcon-common-extensions',          # test/integration/test_colcon.py
     'mcap',                              # test/integration/test_record.py: an indexed MCAP reader
+    'mcap-ros2-support',                 # test/integration/test_bag_schemas.py: an MCAP reader
+                                         # that is neither the project's nor rosbags
     # ament_flake8 and ament_pep257 declare no Python dependencies in their wheels; these are
     # the ones their package.xml names (python3-flake8, its plugins, pydocstyle).
     'ros-jazzy-ament-flake8',

@@ -18,7 +18,6 @@
 The processes are the plant, one ``vehicle`` process per vehicle and the ``monitor`` (the
 executables ``ros2 run`` starts).
 """
-import json
 import os
 from pathlib import Path
 import shutil
@@ -297,7 +296,7 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
             swarm.apply(fault)
             if fault.kind in faults.LINK_KINDS:
                 supervisor.cut_links(schedule.cut_links(fault))
-            supervisor.publish(swarm.faults[-1])
+            supervisor.publish(fault, swarm.faults[-1])
     if swarm.plant.returncode != 0:
         raise RuntimeError(f'the plant exited with {swarm.plant.returncode}:\n'
                            + swarm.log_tail())
@@ -314,23 +313,25 @@ class Supervisor:
     Fleet time is the fleet's ``clock`` in lockstep, and in real time vehicle 1's odometry
     stamps from the first one heard (the supervisor exists before the plant starts); every name
     is in the fleet's ``namespace``. Each applied fault is
-    published on :data:`interface.FAULTS_TOPIC` (std_msgs/String, JSON, latched) and so
+    published on :data:`names.FAULTS_TOPIC` (formation_control_msgs/FaultEvent, latched) and so
     recorded. With a bag, the plant holds step 0 until each of the recorder's readers is matched
     with a publisher of its topic (not merely discovered it), so the bag misses nothing.
     """
 
     def __init__(self, n, mode, bag=None, monitor=True, namespace='/'):
-        import rclpy
+        from formation_control_msgs.msg import FaultEvent
         from nav_msgs.msg import Odometry
+        import rclpy
         from rclpy.experimental import EventsExecutor
         from rclpy.node import Node
         from rclpy.parameter import Parameter
         from rosgraph_msgs.msg import Clock
-        from std_msgs.msg import Empty, String
+        from std_msgs.msg import Empty
 
         from formation_control.ros import interface as itf
-        from formation_control.ros.bag import BagRecorder, fleet_topics
-        self.String, self.Parameter, self.Empty = String, Parameter, Empty
+        from formation_control.ros.bag import BagRecorder, FAULT_EVENT, fleet_topics
+        from formation_control.ros.common import Rejections, subscribe_messages
+        self.Parameter, self.Empty = Parameter, Empty
         self.prefix = prefix = names.namespace_prefix(namespace)
         self.t, self.t0 = None, None
         self.context = rclpy.Context()
@@ -339,11 +340,12 @@ class Supervisor:
         self.node = Node('formation_swarm', context=self.context,
                          start_parameter_services=False)
         self.executor.add_node(self.node)
-        self.fault_pub = self.node.create_publisher(String, prefix + names.FAULTS_TOPIC,
+        self.fault_pub = self.node.create_publisher(FaultEvent, prefix + names.FAULTS_TOPIC,
                                                     itf.FAULTS_QOS)
         if mode == 'lockstep':
-            self.node.create_subscription(Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
-                                          itf.LATCHED_QOS)
+            subscribe_messages(self.node, Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
+                               Rejections(self.node.get_logger(), ['malformed']),
+                               qos_profile=itf.LATCHED_QOS)
         else:
             self.wire = itf.odom_wire(1)
             self.node.create_subscription(Odometry, prefix + names.topic(1, 'odom'), self._on_odom,
@@ -353,7 +355,7 @@ class Supervisor:
         if bag is not None:
             monitored = [prefix + t for t in (names.METRICS_TOPIC, names.MARKERS_TOPIC)]
             topics = [t for t in fleet_topics(n, prefix) if monitor or t[0] not in monitored]
-            topics.append((prefix + names.FAULTS_TOPIC, 'std_msgs/msg/String', itf.FAULTS_QOS))
+            topics.append((prefix + names.FAULTS_TOPIC, FAULT_EVENT, itf.FAULTS_QOS))
             self.topics = [t for t, _, _ in topics
                            if mode == 'lockstep' or t != prefix + names.CLOCK_TOPIC]
             try:
@@ -380,9 +382,10 @@ class Supervisor:
             self.t0 = got[0]
         self.t = max(self.t or 0.0, 1e-9 * (got[0] - self.t0))
 
-    def publish(self, record):
-        """Publish one applied fault (a dict) as JSON on the faults topic."""
-        self.fault_pub.publish(self.String(data=json.dumps(record)))
+    def publish(self, fault, record):
+        """Publish one applied fault (:class:`faults.Fault`, its record) on the faults topic."""
+        from formation_control.ros import interface as itf
+        self.fault_pub.publish(itf.fault_msg(fault, record, time.time_ns()))
 
     def cut_links(self, values):
         """Set ``cut_links`` of each vehicle of ``values`` ({id: ids}): its parameter service."""

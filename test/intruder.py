@@ -24,11 +24,10 @@ import json
 import signal
 import sys
 
-from geometry_msgs.msg import WrenchStamped
+from formation_control_msgs.msg import FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
 import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import JointState
 
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -45,16 +44,16 @@ def main():
         return lambda _msg: got.__setitem__(topic, got[topic] + 1)
 
     for k in range(1, n + 1):
-        for name, kind in (('formation_state', JointState), ('odom', Odometry)):
+        for name, kind in (('formation_state', FormationState), ('odom', Odometry)):
             topic = f'/vehicle_{k}/{name}'
             node.create_subscription(kind, topic, count(topic), QOS)
-    pubs = [node.create_publisher(WrenchStamped, f'/vehicle_{k}/cmd', QOS)
+    pubs = [node.create_publisher(VehicleCommand, f'/vehicle_{k}/cmd', QOS)
             for k in range(1, n + 1)] if inject else []
     sent = [0]
 
     def command():
-        msg = WrenchStamped()
-        msg.wrench.force.x, msg.wrench.torque.z = 50.0, 5.0
+        msg = VehicleCommand(kind=VehicleCommand.SECOND_ORDER, thrust=50.0,
+                             angular_acceleration=5.0)
         for pub in pubs:
             pub.publish(msg)
             sent[0] += 1

@@ -14,6 +14,7 @@
 
 """Test harness for ROS 2 nodes: a private domain, processes, in-process nodes, probes."""
 import contextlib
+import math
 import os
 from pathlib import Path
 import subprocess
@@ -21,6 +22,7 @@ import sys
 import tempfile
 import time
 
+from formation_control.protocol.messages import METRIC_DOC
 from formation_control.swarm import stop
 from rcl_interfaces.msg import Log
 import rclpy
@@ -65,6 +67,12 @@ class Processes:
         for proc in self.procs:
             proc.log.close()
         return codes
+
+
+def metric_values(msg):
+    """Return {metric: value} of a FormationMetrics message, those that apply (not NaN)."""
+    values = {name: getattr(msg, name) for name in METRIC_DOC}
+    return {name: v for name, v in values.items() if not math.isnan(v)}
 
 
 def output(proc):

@@ -16,32 +16,63 @@
 Read a rosbag2 bag written by ``swarm --bag`` with the ``rosbags`` library.
 
 (Or by ``ros2 bag record`` of the same topics.) The run it holds, as the simulator's
-:class:`simulator.Run`, and the series of ``/formation/metrics`` and ``/diagnostics``.
+:class:`simulator.Run`, and the series of ``/formation/metrics`` and ``/diagnostics``. The
+formation_control_msgs types are decoded by the definitions the bag carries
+(:mod:`formation_control.bags.schemas`). A bag of another interface version is refused with the
+version that wrote it: those of formation_control before formation_control_msgs (JointState
+formation states and metrics, WrenchStamped commands) are interface version 0.
 """
 from collections import defaultdict
 import json
 
+from formation_control.bags import schemas
 from formation_control.core.errors import UsageError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.models import ROW_OMEGA
 from formation_control.core.scenario import resolve
 from formation_control.protocol import names
-from formation_control.protocol.messages import input_from_cmd, stamp_ns, state_from_odom
+from formation_control.protocol.messages import (input_from_cmd, INTERFACE_VERSION,
+                                                 METRIC_DOC, stamp_ns, state_from_odom)
 from formation_control.sim.simulator import Run
 import numpy as np
 from rosbags.rosbag2 import Reader
-from rosbags.typesys import get_typestore, Stores
+
+LEGACY = {'sensor_msgs/msg/JointState', 'geometry_msgs/msg/WrenchStamped'}
+"""The stand-ins of interface version 0 for the formation states, commands and metrics."""
 
 
 def messages(path, topics):
-    """Yield (topic, message) for ``topics`` in a bag, in recorded order."""
-    store = get_typestore(Stores.ROS2_JAZZY)
+    """
+    Yield (topic, message) for ``topics`` in a bag, in recorded order.
+
+    Raises
+    ------
+    UsageError
+        A formation_control_msgs message, or a topic's type, of another interface version.
+
+    """
     with Reader(path) as reader:
         conns = [c for c in reader.connections if c.topic in topics]
         if not conns:                                    # rosbags reads every topic then
             return
+        store = schemas.typestore(schemas.bag_definitions(conns))
+        for conn in conns:
+            if conn.msgtype in LEGACY and not conn.topic.endswith('/diagnostics'):
+                _refuse(path, conn.topic, 0, f'its type {conn.msgtype}')
         for conn, _, data in reader.messages(connections=conns):
-            yield conn.topic, store.deserialize_cdr(data, conn.msgtype)
+            msg = store.deserialize_cdr(data, conn.msgtype)
+            version = getattr(msg, 'interface_version', INTERFACE_VERSION)
+            if version != INTERFACE_VERSION:
+                _refuse(path, conn.topic, version, 'its interface_version')
+            yield conn.topic, msg
+
+
+def _refuse(path, topic, version, why):
+    raise UsageError(f'{path}: written by formation_control of interface version {version} '
+                     f'({topic}: {why}); this formation_control reads formation_control_msgs '
+                     f'interface version {INTERFACE_VERSION} (version 0: before '
+                     f'formation_control_msgs, JointState and WrenchStamped stand-ins): read it '
+                     f'with the formation_control that wrote it')
 
 
 def _stamp(msg):
@@ -121,12 +152,18 @@ def read_run(path):
 
 
 def metrics(path):
-    """``formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array})."""
-    rows = [(_stamp(msg), dict(zip(msg.name, msg.position)))
+    """
+    ``formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array}).
+
+    The names are those of :data:`~formation_control.protocol.messages.METRIC_DOC` that apply
+    (not NaN in every sample).
+    """
+    rows = [(_stamp(msg), [float(getattr(msg, name)) for name in METRIC_DOC])
             for _, msg in messages(path, [fleet_prefix(path) + names.METRICS_TOPIC])]
-    fields = list(rows[0][1]) if rows else []
     t = np.array([s for s, _ in rows], np.int64) * 1e-9
-    return t, {name: np.array([r.get(name, np.nan) for _, r in rows]) for name in fields}
+    values = np.array([r for _, r in rows]).reshape(len(rows), len(METRIC_DOC))
+    return t, {name: values[:, i] for i, name in enumerate(METRIC_DOC)
+               if rows and not np.all(np.isnan(values[:, i]))}
 
 
 def diagnostics(path):

@@ -74,10 +74,16 @@ class Endpoint:
 
 @dataclass
 class Stream:
-    """What the doctor heard on one topic: the message count, the last hears flags (j: bool)."""
+    """
+    What the doctor heard on one topic: the count of messages it read, the last hears flags.
+
+    ``hears`` is {j: bool}; ``refused`` the text of the last message it could not read
+    (another interface version, malformed), ``''`` if none.
+    """
 
     count: int = 0
     hears: dict = field(default_factory=dict)
+    refused: str = ''
 
 
 @dataclass
@@ -280,15 +286,16 @@ def check_streams(facts):
         topic = facts.state_topics.get(k)
         stream = facts.streams.get(topic, Stream())
         if stream.count == 0:
-            out.append(Finding(ERROR, names[0], f'publishes no formation_state on {topic}'))
+            why = f' the doctor can read: {stream.refused}' if stream.refused else ''
+            out.append(Finding(ERROR, names[0], f'publishes no formation_state on {topic}{why}'))
         heard = {by_topic[t] for node, t in subs if node in names and t in by_topic
                  and t != topic}
         if heard and not heard & {by_topic[t] for t in pubs if t in by_topic}:
             out.append(Finding(ERROR, names[0], f'hears no neighbour: no vehicle of '
                                f'{sorted(heard)} publishes its formation_state'))
         elif stream.hears and not any(stream.hears.values()):
-            out.append(Finding(ERROR, names[0], 'hears no neighbour: every hears_j of its '
-                               'formation_state is 0'))
+            out.append(Finding(ERROR, names[0], 'hears no neighbour: every hears flag of its '
+                               'formation_state is false'))
     return out
 
 

@@ -16,12 +16,16 @@
 The one path of a node's incoming bytes: read in place, else deserialized and checked.
 
 Odometry, commands and formation states come as CDR bytes. Bytes in the canonical layout (the
-sender's frames, the names of its graph) are read in place by their wire
-(:class:`~formation_control.protocol.messages.StateWire`, ``interface.MessageWire``); any
+sender's frames and id, its graph, this interface version) are read in place by their wire
+(:class:`~formation_control.protocol.messages.StateWire`,
+:class:`~formation_control.protocol.messages.CommandWire`, ``interface.MessageWire``); any
 other bytes are deserialized (by the caller's function: this module loads no ROS) and the
-message is checked: its frames and, for a formation state, its names. What fails is a
-:class:`Rejection` naming its kind (``malformed``, ``wrong_frame``, ``foreign_id``); the
-node drops and counts it.
+message is checked: its interface version, frames, vehicle id and, for a formation state, its
+graph, for a command its kind. What fails is a :class:`Rejection` naming its kind
+(``malformed``, ``interface_version``, ``wrong_frame``, ``foreign_id``, ``wrong_kind``); the
+node drops and counts it. Every formation_control_msgs message begins with its
+``interface_version``: the rejection of bytes that do not deserialize says what their first
+byte reads when it is not this version.
 """
 from __future__ import annotations
 
@@ -29,11 +33,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
-from formation_control.protocol.messages import (CMD_FIELDS, FormationState, get_fields,
-                                                 ODOM_FIELDS, stamp_ns, StateWire)
+from formation_control.protocol.messages import (CMD_FIELDS, CommandWire, FormationState,
+                                                 get_fields, INTERFACE_VERSION, ODOM_FIELDS,
+                                                 stamp_ns, StateWire)
 from formation_control.protocol.names import Frames
 
 MALFORMED, WRONG_FRAME, FOREIGN_ID = 'malformed', 'wrong_frame', 'foreign_id'
+VERSION, WRONG_KIND = 'interface_version', 'wrong_kind'
 
 T = TypeVar('T')
 T_co = TypeVar('T_co', covariant=True)
@@ -70,12 +76,16 @@ class Intake(Generic[T]):
         Message -> a :class:`Rejection`, or None for a message to read.
     what : str
         What the bytes are, for the rejections (``'odometry of vehicle 2'``).
+    versioned : bool
+        A formation_control_msgs message: its first field is its ``interface_version``.
 
     """
 
     def __init__(self, wire: Wire[T], read: Callable[[Any], T],
-                 check: Callable[[Any], Rejection | None], what: str) -> None:
+                 check: Callable[[Any], Rejection | None], what: str,
+                 versioned: bool = False) -> None:
         self.wire, self.read, self.check, self.what = wire, read, check, what
+        self.versioned = versioned
 
     def __call__(self, data: bytes, deserialize: Callable[[bytes], Any]) -> T | Rejection:
         """
@@ -89,8 +99,36 @@ class Intake(Generic[T]):
         try:
             msg = deserialize(data)
         except Exception:
-            return Rejection(MALFORMED, f'undecodable {self.what} bytes')
+            return Rejection(MALFORMED, f'undecodable {self.what} bytes{self._first(data)}')
+        if self.versioned and msg.interface_version != INTERFACE_VERSION:
+            return version_rejection(self.what, msg.interface_version)
         return self.check(msg) or self.read(msg)
+
+    def _first(self, data: bytes) -> str:
+        """Return what the first field says of undecodable bytes, if another version."""
+        if not self.versioned or len(data) < 5 or data[4] == INTERFACE_VERSION:
+            return ''
+        return (f' (their first field, interface_version, reads {data[4]}; this node speaks '
+                f'formation_control_msgs version {INTERFACE_VERSION})')
+
+
+def version_rejection(what: str, version: int) -> Rejection:
+    """Return the rejection of a ``what`` (text) of interface version ``version``."""
+    return Rejection(VERSION, f'a {what} of interface version {version}: this node speaks '
+                              f'formation_control_msgs version {INTERFACE_VERSION} (run the '
+                              f'same formation_control_msgs on every node)')
+
+
+class _NoWire:
+    """The wire of a topic without a canonical layout: every message is deserialized."""
+
+    def decode(self, data: bytes) -> None:
+        return None
+
+
+def message(what: str) -> Intake[Any]:
+    """Return the rule of a topic whose messages are only deserialized: the message itself."""
+    return Intake(_NoWire(), lambda msg: msg, lambda msg: None, what)
 
 
 def odometry(wire: Wire[Stamped], k: int, world: str,
@@ -114,35 +152,56 @@ def odometry(wire: Wire[Stamped], k: int, world: str,
                   check, f'odometry of vehicle {k}')
 
 
-def command(wire: Wire[Stamped], k: int, base: str | None = None) -> Intake[Stamped]:
-    """Return vehicle k's command rule: (stamp ns, CMD_FIELDS values); frame ``base``."""
+def command(wire: CommandWire, base: str | None = None) -> Intake[Stamped]:
+    """
+    Return the command rule of ``wire``'s vehicle: (stamp ns, CMD_FIELDS values).
+
+    Its ``vehicle_id`` must be the wire's, its ``kind`` that of the wire's model (0 is a
+    default-constructed message) and, given, its frame ``base``.
+    """
+    k = wire.k
+
     def check(msg: Any) -> Rejection | None:
+        if msg.vehicle_id != k:
+            return Rejection(FOREIGN_ID, f'a command of vehicle {msg.vehicle_id} on vehicle '
+                                         f"{k}'s topic")
+        if msg.kind != wire.kind:
+            return Rejection(WRONG_KIND, f'a command of vehicle {k} of kind {msg.kind} (its '
+                                         f'model takes kind {wire.kind}; 0 is no kind)')
         if base is not None and msg.header.frame_id != base:
             return Rejection(WRONG_FRAME, f"a command on vehicle {k}'s topic in frame "
                                           f'{msg.header.frame_id!r}')
         return None
     return Intake(wire, lambda msg: (stamp_ns(msg.header.stamp), get_fields(msg, CMD_FIELDS)),
-                  check, f'command of vehicle {k}')
+                  check, f'command of vehicle {k}', versioned=True)
 
 
 def formation_state(wire: StateWire, frames: Frames | None = None) -> Intake[FormationState]:
     """
     Return the rule of the formation_state of ``wire``'s vehicle: a FormationState.
 
-    Its names must be the wire's (its graph, its estimate) and, with ``frames``
-    (:class:`~formation_control.protocol.names.Frames`), its frame that vehicle's base frame:
-    another vehicle's is ``foreign_id``, any other frame ``wrong_frame``.
+    Its ``vehicle_id`` must be the wire's vehicle (else ``foreign_id``), its neighbours those
+    of the wire (its graph) and its flow estimate there if the wire's is; with ``frames``
+    (:class:`~formation_control.protocol.names.Frames`), its frame the world frame.
     """
     k = wire.k
 
     def check(msg: Any) -> Rejection | None:
-        if tuple(msg.name) != wire.names or len(msg.position) != len(wire.names):
-            return Rejection(MALFORMED, f'a malformed formation_state of vehicle {k}')
+        if msg.vehicle_id != k:
+            return Rejection(FOREIGN_ID, f'a formation_state of vehicle {msg.vehicle_id} on '
+                                         f"vehicle {k}'s topic")
+        ids = tuple(map(int, msg.neighbour_ids))
+        if (ids != wire.hears or len(msg.hears) != len(ids)
+                or bool(msg.estimates_flow) != wire.estimates):
+            return Rejection(MALFORMED, f'a malformed formation_state of vehicle {k} (neighbours '
+                                        f'{list(ids)}, {len(msg.hears)} hears flags, '
+                                        f'estimates_flow {bool(msg.estimates_flow)}; its graph '
+                                        f'and flow_source give {list(wire.hears)}, '
+                                        f'{wire.estimates})')
         frame = msg.header.frame_id
-        if frames is None or frame == frames.base(k):
+        if frames is None or frame == frames.world:
             return None
-        kind = WRONG_FRAME if frames.vehicle_of(frame) is None else FOREIGN_ID
-        return Rejection(kind, f"a formation_state on vehicle {k}'s topic from {frame!r}")
-    return Intake(wire, lambda msg: FormationState.from_joint(
-        stamp_ns(msg.header.stamp), msg.name, msg.position), check, f'formation_state of '
-        f'vehicle {k}')
+        return Rejection(WRONG_FRAME, f"a formation_state on vehicle {k}'s topic in frame "
+                                      f'{frame!r} (world_frame is {frames.world!r})')
+    return Intake(wire, FormationState.of_message, check, f'formation_state of vehicle {k}',
+                  versioned=True)

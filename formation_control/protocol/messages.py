@@ -16,18 +16,19 @@
 What the fleet's messages carry, as plain values: the pure side of every conversion.
 
 A vehicle's state column X (6,) and input column u (2,) (:mod:`formation_control.core.models`)
-to and from the fields of its odometry (:data:`ODOM_FIELDS`) and command (:data:`CMD_FIELDS`),
-its formation_state as a record of named values (:class:`FormationState`) and its canonical
-CDR bytes (:class:`StateWire`), and stamps (:func:`stamp_ns`, :func:`set_stamp`). The
-functions taking a message read and write attributes only, so they serve rclpy messages and
-those a bag reader builds alike.
+to and from the fields of its odometry (:data:`ODOM_FIELDS`) and command (:data:`CMD_FIELDS`
+of a formation_control_msgs/VehicleCommand), its formation_state as a record of named values
+(:class:`FormationState`), the canonical CDR bytes of both (:class:`StateWire`,
+:class:`CommandWire`, laid out by :mod:`formation_control.protocol.cdr` from the field lists
+:data:`FORMATION_STATE` and :data:`VEHICLE_COMMAND` of the ``.msg`` files), and stamps
+(:func:`stamp_ns`, :func:`set_stamp`). The functions taking a message read and write
+attributes only, so they serve rclpy messages and those a bag reader builds alike.
 """
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 import math
 from operator import attrgetter
-import struct
 from types import MappingProxyType
 from typing import Any, Mapping, NamedTuple, Optional, TypeVar
 
@@ -35,6 +36,7 @@ from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
                                            ROW_THETA)
 from formation_control.core.scenario import Scenario
+from formation_control.protocol.cdr import Codec, Definition, HEADER, Layout, TIME
 from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 import numpy as np
 
@@ -67,28 +69,44 @@ METRIC_DOC = {
 }
 
 
+INTERFACE_VERSION = 1
+"""The INTERFACE_VERSION of formation_control_msgs these layouts are of; a message of another
+``interface_version`` is refused (:mod:`formation_control.protocol.intake`)."""
+
+
 STATE_FIELDS = ('x', 'y', 'heading', 'yaw_rate', 'phase', 'phase_rate', 'speed')
-"""formation_state: JointState.name, and .position holds these values (m, rad, rad/s, m/s) of
-the state the sender computes its command for: its odometry of the stamp predicted to the middle
-of the command's hold (``hold_prediction``; in real time also over its measured delay). On a
-communication graph other than the complete one, ``hears_j`` follows for each graph
-neighbour j of the sender: 1 while it hears j, else 0; with ``flow_source: estimated``,
-:data:`ESTIMATE_FIELDS` come last (:func:`state_names`)."""
+"""The float64 fields of a formation_control_msgs/FormationState (m, rad, rad/s, m/s) of the
+state the sender computes its command for: its odometry of the stamp predicted to
+``predicted_stamp`` (``hold_prediction``; in real time also over its measured delay)."""
 
 
-_FIRST = len(STATE_FIELDS)
-ESTIMATE_FIELDS = ('flow_hat_x', 'flow_hat_y')
-"""formation_state of an estimating vehicle: its flow estimate (m/s, world frame)."""
+FORMATION_STATE: Definition = (
+    ('interface_version', 'uint8'), ('header', HEADER), ('vehicle_id', 'uint32'),
+    ('predicted_stamp', TIME), *((name, 'float64') for name in STATE_FIELDS),
+    ('neighbour_ids', 'uint32[]'), ('hears', 'bool[]'), ('estimates_flow', 'bool'),
+    ('flow_hat_x', 'float64'), ('flow_hat_y', 'float64'))
+"""formation_control_msgs/FormationState, its fields in the order of FormationState.msg."""
 
 
-def state_names(hears: Iterable[int] = (), estimates: bool = False) -> tuple[str, ...]:
-    """
-    Return the names of a formation_state.
+CMD_FIELDS = ('thrust', 'steering_force', 'angular_acceleration', 'turn_rate')
+"""The float64 fields of a formation_control_msgs/VehicleCommand (N, N, rad/s^2, rad/s)."""
 
-    ``hears``: the sender's graph neighbours; ``estimates``: it estimates the flow.
-    """
-    return (STATE_FIELDS + tuple(f'hears_{j}' for j in hears)
-            + (ESTIMATE_FIELDS if estimates else ()))
+
+VEHICLE_COMMAND: Definition = (
+    ('interface_version', 'uint8'), ('header', HEADER), ('vehicle_id', 'uint32'),
+    ('kind', 'uint8'), *((name, 'float64') for name in CMD_FIELDS))
+"""formation_control_msgs/VehicleCommand, its fields in the order of VehicleCommand.msg."""
+
+
+COMMAND_KINDS = {'second_order': 2, 'first_order': 3}
+"""VehicleCommand.kind of a particle model (SECOND_ORDER, FIRST_ORDER); any other model's is
+RIGID_BODY (:func:`command_kind`)."""
+RIGID_BODY = 1
+
+
+def command_kind(model: str) -> int:
+    """Return the VehicleCommand ``kind`` of ``model``."""
+    return COMMAND_KINDS.get(model, RIGID_BODY)
 
 
 def quaternion_zw(theta: float) -> tuple[float, float]:
@@ -127,10 +145,6 @@ ODOM_FIELDS = ('pose.pose.position.x', 'pose.pose.position.y', 'pose.pose.orient
 """The fields of an Odometry the package writes (the others stay zero)."""
 
 
-CMD_FIELDS = ('wrench.force.x', 'wrench.force.y', 'wrench.torque.z')
-"""The fields of a WrenchStamped command (the others stay zero)."""
-
-
 def get_fields(msg: Any, fields: Iterable[str]) -> tuple[Any, ...]:
     return tuple(attrgetter(name)(msg) for name in fields)
 
@@ -138,7 +152,7 @@ def get_fields(msg: Any, fields: Iterable[str]) -> tuple[Any, ...]:
 def set_fields(msg: M, fields: Iterable[str], values: Iterable[float]) -> M:
     for name, value in zip(fields, values):
         owner, _, attr = name.rpartition('.')
-        setattr(attrgetter(owner)(msg), attr, float(value))
+        setattr(attrgetter(owner)(msg) if owner else msg, attr, float(value))
     return msg
 
 
@@ -171,17 +185,27 @@ def ground_velocity_of(values: Sequence[float]) -> complex:
     return complex(vx, vy) * complex(math.cos(theta), math.sin(theta))
 
 
-def cmd_values(u: Sequence[float] | RealArray, model: str) -> tuple[float, float, float]:
-    """Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,)."""
+def cmd_values(u: Sequence[float] | RealArray,
+               model: str) -> tuple[float, float, float, float]:
+    """
+    Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,).
+
+    Rigid bodies: thrust, steering force; a second-order particle: the angular acceleration;
+    a first-order one: the turn rate; the other fields are 0.
+    """
+    if model == 'second_order':
+        return 0.0, 0.0, float(u[1]), 0.0
     if model in PARTICLE_MODELS:
-        return 0.0, 0.0, float(u[1])
-    return float(u[0]), float(u[1]), 0.0
+        return 0.0, 0.0, 0.0, float(u[1])
+    return float(u[0]), float(u[1]), 0.0, 0.0
 
 
 def input_from_cmd_values(values: Sequence[float], model: str) -> tuple[float, float]:
     """Return the input column (2,) of the :data:`CMD_FIELDS` of a command."""
-    fx, fy, tz = values
-    return (0.0, tz) if model in PARTICLE_MODELS else (fx, fy)
+    thrust, steering, acceleration, turn_rate = values
+    if model == 'second_order':
+        return 0.0, acceleration
+    return (0.0, turn_rate) if model in PARTICLE_MODELS else (thrust, steering)
 
 
 def odom_values_of(msg: Any) -> tuple[float, ...]:
@@ -195,7 +219,7 @@ def state_from_odom(msg: Any, flow: complex, model: str) -> RealArray:
 
 
 def input_from_cmd(msg: Any, model: str) -> tuple[float, float]:
-    """Return the input column (2,) of a WrenchStamped command."""
+    """Return the input column (2,) of a VehicleCommand."""
     return input_from_cmd_values(get_fields(msg, CMD_FIELDS), model)
 
 
@@ -203,10 +227,11 @@ class FormationState(NamedTuple):
     """
     One vehicle's formation_state as named values: what it tells its neighbours each step.
 
-    ``hears`` maps each graph neighbour j of the sender to whether it hears j (empty on the
-    complete graph); ``flow_hat`` is its flow estimate (m/s, world frame) if it estimates the
-    flow. :meth:`names` and :meth:`values` are the JointState ``name`` and ``position`` arrays,
-    :meth:`from_joint` reads them back, and :class:`StateWire` is the same as CDR bytes.
+    ``stamp`` is that of the odometry sample, ``ahead`` the ns from it to the instant the
+    state is predicted to (``predicted_stamp``). ``hears`` maps each graph neighbour j of the
+    sender to whether it hears j (empty on the complete graph); ``flow_hat`` is its flow
+    estimate (m/s, world frame) if it estimates the flow. :meth:`of_message` reads a
+    formation_control_msgs/FormationState, :class:`StateWire` is the same as CDR bytes.
     """
 
     stamp: int
@@ -219,21 +244,34 @@ class FormationState(NamedTuple):
     speed: float
     hears: Mapping[int, bool] = MappingProxyType({})
     flow_hat: Optional[complex] = None
+    ahead: int = 0
 
     @classmethod
     def of_vehicle(cls, ns: int, X: RealArray, view_row: ViewRow,
                    hears: Optional[Mapping[int, bool]] = None,
-                   flow_hat: Optional[complex] = None) -> FormationState:
+                   flow_hat: Optional[complex] = None, ahead: int = 0) -> FormationState:
         """
         Return the state of stamp ``ns`` of a vehicle's state column X (6,).
 
-        ``view_row`` is its (r, phase, rate, speed) of the law's particle view.
+        ``view_row`` is its (r, phase, rate, speed) of the law's particle view, X predicted
+        ``ahead`` ns past ``ns``.
         """
         r, phase, rate, speed = view_row
         return cls(int(ns), float(r.real), float(r.imag), float(X[ROW_THETA]),
                    float(X[ROW_OMEGA]), float(phase), float(rate), float(speed),
                    {j: bool(h) for j, h in (hears or {}).items()},
-                   None if flow_hat is None else complex(flow_hat))
+                   None if flow_hat is None else complex(flow_hat), int(ahead))
+
+    @classmethod
+    def of_message(cls, msg: Any) -> FormationState:
+        """Return the state of a FormationState message (its attributes are read)."""
+        stamp = stamp_ns(msg.header.stamp)
+        values = map(float, get_fields(msg, STATE_FIELDS))
+        x, y, heading, yaw_rate, phase, phase_rate, speed = values
+        return cls(stamp, x, y, heading, yaw_rate, phase, phase_rate, speed,
+                   dict(zip(map(int, msg.neighbour_ids), map(bool, msg.hears))),
+                   complex(msg.flow_hat_x, msg.flow_hat_y) if msg.estimates_flow else None,
+                   stamp_ns(msg.predicted_stamp) - stamp)
 
     @property
     def r(self) -> complex:
@@ -245,92 +283,58 @@ class FormationState(NamedTuple):
         """(r, phase, phase_rate, speed): the sender's row of the law's particle view."""
         return self.r, self.phase, self.phase_rate, self.speed
 
-    def names(self) -> tuple[str, ...]:
-        """Return the JointState ``name`` array (:func:`state_names`)."""
-        return state_names(tuple(self.hears), self.flow_hat is not None)
+    @property
+    def predicted_stamp(self) -> int:
+        """Return the instant (ns) the state is predicted to."""
+        return self.stamp + self.ahead
 
-    def values(self) -> tuple[float, ...]:
-        """Return the JointState ``position`` array, in :meth:`names` order."""
-        extra = () if self.flow_hat is None else (self.flow_hat.real, self.flow_hat.imag)
-        return (self.x, self.y, self.heading, self.yaw_rate, self.phase, self.phase_rate,
-                self.speed, *(1.0 if h else 0.0 for h in self.hears.values()), *extra)
-
-    @classmethod
-    def from_joint(cls, ns: int, names: Iterable[str],
-                   values: Iterable[float]) -> FormationState:
-        """
-        Return the state of the JointState ``name`` and ``position`` arrays of stamp ``ns``.
-
-        A ``hears_j`` flag is true above 0.5. Raises ValueError unless ``names`` are those of
-        :func:`state_names` for some neighbours, one value each.
-        """
-        names, values = tuple(names), tuple(values)
-        hears = tuple(_hears_id(name) for name in names[len(STATE_FIELDS):]
-                      if name.startswith('hears_'))
-        estimates = names[-len(ESTIMATE_FIELDS):] == ESTIMATE_FIELDS
-        if len(values) != len(names) or names != state_names(hears, estimates):
-            raise ValueError(f'not the names of a formation_state: {list(names)}')
-        return cls.of_layout(int(ns), hears, estimates, tuple(map(float, values)))
-
-    @classmethod
-    def of_layout(cls, ns: int, hears: Sequence[int], estimates: bool,
-                  values: Sequence[float]) -> FormationState:
-        """Return the state of float ``values`` laid out by :func:`state_names`."""
-        x, y, heading, yaw_rate, phase, phase_rate, speed = values[:_FIRST]
-        flags = values[_FIRST:_FIRST + len(hears)]
-        return cls(ns, x, y, heading, yaw_rate, phase, phase_rate, speed,
-                   dict(zip(hears, [v > 0.5 for v in flags])),
-                   complex(values[-2], values[-1]) if estimates else None)
+    def fields(self) -> dict[str, Any]:
+        """Return the FormationState message fields of the values, by name (not the header)."""
+        flow = 0j if self.flow_hat is None else self.flow_hat
+        return {**dict(zip(STATE_FIELDS, self[1:8])),
+                'neighbour_ids': list(self.hears), 'hears': list(self.hears.values()),
+                'estimates_flow': self.flow_hat is not None, 'flow_hat_x': flow.real,
+                'flow_hat_y': flow.imag}
 
     def finite(self) -> bool:
         """Return whether every value is finite."""
-        return all(map(math.isfinite, self.values()))
+        flow = 0j if self.flow_hat is None else self.flow_hat
+        return all(map(math.isfinite, (*self[1:8], flow.real, flow.imag)))
 
     def hears_vehicle(self, k: int) -> bool:
         """Return whether the sender hears vehicle k (always, k not a flagged neighbour)."""
         return self.hears.get(k, True)
 
 
-def _hears_id(name: str) -> int:
-    try:
-        return int(name[len('hears_'):])
-    except ValueError:
-        raise ValueError(f'not a hears_j name: {name!r}') from None
+_HEARS = len(STATE_FIELDS) + 4
 
 
 class StateWire:
     """
     Vehicle k's formation_state as serialized bytes, without message objects.
 
-    sensor_msgs/JointState in little-endian CDR: every vehicle sends one and hears one from
-    each neighbour every step. ``encode`` writes a :class:`FormationState` in the canonical
-    layout (zero padding, empty velocity and effort) of the names :func:`state_names` gives for
-    the graph neighbours ``hears`` (and the flow estimate, ``estimates``), which ``decode``
-    reads in place; it returns None for any other bytes, which the caller then deserializes
-    and checks as a message (:mod:`formation_control.protocol.intake`).
+    formation_control_msgs/FormationState in little-endian CDR (:data:`FORMATION_STATE`): every
+    vehicle sends one and hears one from each neighbour every step. ``encode`` writes a
+    :class:`FormationState` in the canonical layout of vehicle k (zero padding, the world
+    frame, its graph neighbours ``hears`` and, ``estimates``, its flow estimate), which
+    ``decode`` reads in place; it returns None for any other bytes, which the caller then
+    deserializes and checks as a message (:mod:`formation_control.protocol.intake`).
     """
-
-    HEADER = b'\x00\x01\x00\x00'                      # CDR, little endian; alignment origin 4
 
     def __init__(self, k: int, hears: Iterable[int] = (), frames: Frames = DEFAULT_FRAMES,
                  estimates: bool = False) -> None:
-        self.k, self.hears, self.frame = k, tuple(hears), frames.base(k)
+        self.k, self.hears, self.frame = k, tuple(hears), frames.world
         self.estimates = estimates
-        self.names = state_names(self.hears, estimates)
-        body = bytearray()
-
-        def put(raw: bytes, align: int = 4) -> None:
-            body.extend(bytes(-(8 + len(body)) % align) + raw)  # body starts at 12 = 8 past origin
-        put(_cdr_string(self.frame))
-        put(struct.pack('<I', len(self.names)))
-        for name in self.names:
-            put(_cdr_string(name))
-        put(struct.pack('<I', len(self.names)))
-        put(b'', align=8)
-        self.middle = bytes(body)
-        self.values_at = 12 + len(body)
-        self.values = struct.Struct(f'<{len(self.names)}d')
-        self.tail = bytes(8)                              # velocity and effort: empty
+        n = len(self.hears)
+        layout = Layout(FORMATION_STATE, {'header.frame_id': len(self.frame.encode()),
+                                          'neighbour_ids': n, 'hears': n})
+        self.codec = Codec(layout, {
+            'interface_version': INTERFACE_VERSION, 'header.frame_id': self.frame,
+            'vehicle_id': k, **{f'neighbour_ids.{i}': j for i, j in enumerate(self.hears)},
+            'estimates_flow': estimates},
+            ('header.stamp.sec', 'header.stamp.nanosec', 'predicted_stamp.sec',
+             'predicted_stamp.nanosec', *STATE_FIELDS, *(f'hears.{i}' for i in range(n)),
+             'flow_hat_x', 'flow_hat_y'))
 
     @classmethod
     def of(cls, sc: Scenario, k: int, frames: Frames = DEFAULT_FRAMES) -> StateWire:
@@ -340,20 +344,48 @@ class StateWire:
 
     def encode(self, state: FormationState) -> bytes:
         """Return the bytes of a :class:`FormationState` in this layout."""
-        return b''.join((self.HEADER, struct.pack('<iI', *stamp_parts(state.stamp)),
-                         self.middle, self.values.pack(*state.values()), self.tail))
+        flow = state.flow_hat if self.estimates and state.flow_hat is not None else 0j
+        return self.codec.encode((*stamp_parts(state.stamp), *stamp_parts(state.predicted_stamp),
+                                  *state[1:8], *(state.hears[j] for j in self.hears),
+                                  flow.real, flow.imag))
 
     def decode(self, data: bytes) -> FormationState | None:
         """Return the :class:`FormationState` of canonical bytes, else None."""
-        if (len(data) < self.values_at + self.values.size or data[:4] != self.HEADER
-                or data[12:self.values_at] != self.middle):
+        got = self.codec.decode(data)
+        if got is None:
             return None
-        sec, nanosec = struct.unpack_from('<iI', data, 4)
-        return FormationState.of_layout(sec * 1_000_000_000 + nanosec, self.hears,
-                                        self.estimates,
-                                        self.values.unpack_from(data, self.values_at))
+        stamp = got[0] * 1_000_000_000 + got[1]
+        x, y, heading, yaw_rate, phase, phase_rate, speed = got[4:_HEARS]
+        return FormationState(stamp, x, y, heading, yaw_rate, phase, phase_rate, speed,
+                              dict(zip(self.hears, got[_HEARS:-2])),
+                              complex(got[-2], got[-1]) if self.estimates else None,
+                              got[2] * 1_000_000_000 + got[3] - stamp)
 
 
-def _cdr_string(text: str) -> bytes:
-    raw = text.encode() + b'\x00'
-    return struct.pack('<I', len(raw)) + raw
+class CommandWire:
+    """
+    Vehicle k's formation_control_msgs/VehicleCommand as CDR bytes (:data:`VEHICLE_COMMAND`).
+
+    The canonical layout has its base frame, its id and the ``kind`` of ``model``: ``encode``
+    writes the stamp and the :data:`CMD_FIELDS` values, ``decode`` reads them back as (stamp
+    ns, values), or returns None for any other bytes.
+    """
+
+    def __init__(self, k: int, model: str, frames: Frames = DEFAULT_FRAMES) -> None:
+        self.k, self.kind, self.frame = k, command_kind(model), frames.base(k)
+        layout = Layout(VEHICLE_COMMAND, {'header.frame_id': len(self.frame.encode())})
+        self.codec = Codec(layout, {'interface_version': INTERFACE_VERSION,
+                                    'header.frame_id': self.frame, 'vehicle_id': k,
+                                    'kind': self.kind},
+                           ('header.stamp.sec', 'header.stamp.nanosec', *CMD_FIELDS))
+
+    def encode(self, ns: int, values: Sequence[float]) -> bytes:
+        """Return the bytes of the command stamped ``ns`` with the :data:`CMD_FIELDS` values."""
+        return self.codec.encode((*stamp_parts(ns), *values))
+
+    def decode(self, data: bytes) -> tuple[int, tuple[float, ...]] | None:
+        """Return (stamp ns, CMD_FIELDS values) of canonical bytes, else None."""
+        got = self.codec.decode(data)
+        if got is None:
+            return None
+        return got[0] * 1_000_000_000 + got[1], got[2:]

@@ -142,11 +142,15 @@ class Vehicle:
                                       f'last one')
         if kind == REPEATED:
             return REPEATED
-        row = self.onboard.observe(X, flow, ground_velocity_of(values), self.delay.ahead)
+        delay = self.delay.ahead
+        row = self.onboard.observe(X, flow, ground_velocity_of(values), delay)
         self.known.store(self.k, ns, row)
+        ahead = 0 if self.sc.hold_prediction == 'none' else round(
+            (delay + self.sc.command_lead) * 1e9)
         return FormationState.of_vehicle(ns, self.onboard.predicted[:, 0], row,
                                          self.known.hears(self.wire.hears),
-                                         self.onboard.flow[0] if self.wire.estimates else None)
+                                         self.onboard.flow[0] if self.wire.estimates else None,
+                                         ahead)
 
     def heard(self, j: int, state: FormationState) -> bool | Rejection:
         """

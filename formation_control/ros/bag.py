@@ -17,10 +17,13 @@ Record topics of a run into a rosbag2 bag with the ``rosbags`` library.
 
 The bag has MCAP storage and metadata version 9, what Jazzy's ``ros2 bag info`` /
 ``ros2 bag play`` read. Messages are written as received (CDR bytes), each topic with the QoS
-its publishers offer.
+its publishers offer and its type's definition (the MCAP schema; formation_control_msgs' from
+its installed ``.msg`` files, :mod:`formation_control.bags.schemas`).
 """
 from pathlib import Path
 
+from ament_index_python.packages import get_package_share_directory
+from formation_control.bags import schemas
 from formation_control.bags.repair import finish_chunk
 from formation_control.protocol import names
 from formation_control.protocol.names import START_TOPIC
@@ -30,7 +33,11 @@ from rclpy.qos import HistoryPolicy, QoSProfile
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
                                 QosTime)
 from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import get_typestore, Stores
+
+FORMATION_STATE = 'formation_control_msgs/msg/FormationState'
+VEHICLE_COMMAND = 'formation_control_msgs/msg/VehicleCommand'
+FORMATION_METRICS = 'formation_control_msgs/msg/FormationMetrics'
+FAULT_EVENT = 'formation_control_msgs/msg/FaultEvent'
 
 
 FLUSH_PERIOD = 1.0
@@ -42,7 +49,7 @@ def fleet_topics(n, namespace='/'):
     prefix = namespace.rstrip('/') + '/'
     topics = [(prefix + names.CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (prefix + names.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
-              (prefix + names.METRICS_TOPIC, 'sensor_msgs/msg/JointState', itf.STREAM_QOS),
+              (prefix + names.METRICS_TOPIC, FORMATION_METRICS, itf.STREAM_QOS),
               (names.DIAGNOSTICS_TOPIC, 'diagnostic_msgs/msg/DiagnosticArray', itf.STREAM_QOS),
               (prefix + names.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray',
                itf.STREAM_QOS)]
@@ -50,10 +57,9 @@ def fleet_topics(n, namespace='/'):
         topics += [(prefix + names.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
                    (prefix + names.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped',
                     itf.LATCHED_QOS),
-                   (prefix + names.topic(k, 'formation_state'), 'sensor_msgs/msg/JointState',
+                   (prefix + names.topic(k, 'formation_state'), FORMATION_STATE,
                     itf.STATE_QOS),
-                   (prefix + names.topic(k, 'cmd'), 'geometry_msgs/msg/WrenchStamped',
-                    itf.STATE_QOS)]
+                   (prefix + names.topic(k, 'cmd'), VEHICLE_COMMAND, itf.STATE_QOS)]
     return topics
 
 
@@ -106,7 +112,8 @@ class BagRecorder(Node):
             raise RecordError(f'bag {path}: cannot be created ({err.strerror}): give a '
                               f'directory on a writable disk') from None
         super().__init__('formation_bag_recorder', **kwargs)
-        typestore = get_typestore(Stores.ROS2_JAZZY)
+        typestore = schemas.typestore(schemas.msg_files(
+            get_package_share_directory(schemas.MSGS)))
         self.count = 0
         self.failure = None
         self.done, self.exit_code = False, 0

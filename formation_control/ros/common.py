@@ -17,8 +17,8 @@ import collections
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from formation_control.protocol import names
-from formation_control.protocol.intake import Rejection
+from formation_control.protocol import intake, names
+from formation_control.protocol.intake import Rejection, VERSION
 from formation_control.ros import interface as itf
 import numpy as np
 from rclpy.clock import Clock, ClockType
@@ -44,6 +44,8 @@ class Rejections:
     """
     Counts of dropped input by kind, each drop logged (rate-limited) with the running total.
 
+    A message of another interface version is logged as an error, the others as warnings.
+
     Parameters
     ----------
     logger : rclpy logger
@@ -59,8 +61,11 @@ class Rejections:
     def __call__(self, kind, what):
         """Count a dropped ``what`` (text) of ``kind`` and log it; returns None."""
         self.counts[kind] += 1
-        self.logger.warn(f'dropped {what} ({kind}; total dropped: {self.total})',
-                         throttle_duration_sec=2.0)
+        text = f'dropped {what} ({kind}; total dropped: {self.total})'
+        if kind == VERSION:
+            self.logger.error(text, throttle_duration_sec=2.0)
+        else:
+            self.logger.warn(text, throttle_duration_sec=2.0)
 
     @property
     def total(self):
@@ -101,6 +106,23 @@ def subscribe(node, msg_type, topic, rule, reject, take):
             take(got)
     return node.create_subscription(msg_type, topic, on_bytes, raw=True,
                                     **itf.state_qos_kwargs())
+
+
+def subscribe_messages(node, msg_type, topic, take, reject, **qos):
+    """
+    Subscribe ``node`` to the raw bytes of ``topic``, each deserialized, then ``take``-n.
+
+    Bytes that do not deserialize are dropped and counted by ``reject`` (a
+    :class:`Rejections`, kind ``malformed``) instead of the middleware's log of each; ``qos``
+    are the keyword arguments of the QoS (``qos_profile=...``).
+    """
+    decode = Decoder(intake.message(f'{msg_type.__name__} on {topic}'), msg_type, reject)
+
+    def on_bytes(data):
+        got = decode(data)
+        if got is not None:
+            take(got)
+    return node.create_subscription(msg_type, topic, on_bytes, raw=True, **qos)
 
 
 def status(name, level, message, values, hardware_id=''):

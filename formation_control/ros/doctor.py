@@ -27,17 +27,19 @@ import os
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from formation_control.core.scenario import PARAMETER_NAMES
+from formation_control.core.scenario import PARAMETER_NAMES, resolve, ScenarioError
 from formation_control.ops import doctor
-from formation_control.protocol import messages, names
+from formation_control.protocol import intake, messages, names
+from formation_control.protocol.intake import Rejection
 from formation_control.ros import interface as itf
+from formation_control.ros.common import Rejections, subscribe_messages
+from formation_control_msgs.msg import FormationState
 from rcl_interfaces.srv import GetParameters
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import qos_check_compatible
 from rclpy.serialization import deserialize_message
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 ENVIRONMENT = ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY',
@@ -66,6 +68,7 @@ class Gatherer:
         self.executor = SingleThreadedExecutor(context=context) if self.own else executor
         self.executor.add_node(self.node)
         self.me = self.node.get_fully_qualified_name()
+        self.reject = Rejections(self.node.get_logger(), ['malformed'])
 
     def spin_until(self, predicate, timeout):
         end = time.monotonic() + timeout
@@ -117,14 +120,16 @@ class Gatherer:
                         if _fq(i.node_name, i.node_namespace) != self.me]
         return out
 
-    def _listen(self, facts, seconds):
+    def _listen(self, facts, sc, seconds):
         for k, topic in facts.state_topics.items():
             stream = facts.streams[topic] = doctor.Stream()
-            self.node.create_subscription(JointState, topic,
-                                          lambda data, s=stream: self._heard(s, data), raw=True,
-                                          qos_profile=itf.STATE_QOS)
-        self.node.create_subscription(DiagnosticArray, self.node.resolve_topic_name(
-            names.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), itf.STREAM_QOS)
+            rule = intake.formation_state(messages.StateWire.of(sc, k))
+            self.node.create_subscription(FormationState, topic,
+                                          lambda data, s=stream, r=rule: self._heard(s, r, data),
+                                          raw=True, qos_profile=itf.STATE_QOS)
+        subscribe_messages(self.node, DiagnosticArray, self.node.resolve_topic_name(
+            names.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), self.reject,
+            qos_profile=itf.STREAM_QOS)
         end = time.monotonic() + seconds                # a span: what arrives in it is counted
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.05)
@@ -138,17 +143,13 @@ class Gatherer:
                 facts.clock_lags.setdefault(who, []).append(lag)
 
     @staticmethod
-    def _heard(stream, data):
-        try:
-            msg = deserialize_message(data, JointState)
-        except Exception:
+    def _heard(stream, rule, data):
+        got = rule(data, lambda raw: deserialize_message(raw, FormationState))
+        if isinstance(got, Rejection):
+            stream.refused = got.what
             return
         stream.count += 1
-        try:
-            state = messages.FormationState.from_joint(0, msg.name, msg.position)
-        except ValueError:
-            return
-        stream.hears = dict(state.hears)
+        stream.hears = dict(got.hears)
 
     def _graph(self, facts, scenario_topic):
         node = self.node
@@ -164,20 +165,21 @@ class Gatherer:
                              env={k: os.environ[k] for k in ENVIRONMENT if k in os.environ})
         topic = node.resolve_topic_name(names.SCENARIO_TOPIC)
         box = []
-        node.create_subscription(String, topic, box.append, itf.LATCHED_QOS)
+        subscribe_messages(node, String, topic, box.append, self.reject,
+                           qos_profile=itf.LATCHED_QOS)
         self.spin_until(lambda: box, discover)
         if not box:
             self._graph(facts, topic)
             return facts
         try:
             facts.scenario = json.loads(box[0].data)
-            n = int(facts.scenario['num_vehicles'])
-        except (ValueError, KeyError, TypeError):
+            sc = resolve(facts.scenario)
+        except (ValueError, KeyError, TypeError, ScenarioError):
             facts.scenario = None
             return facts
         facts.state_topics = {k: node.resolve_topic_name(names.topic(k, 'formation_state'))
-                              for k in range(1, n + 1)}
-        self._listen(facts, listen)
+                              for k in range(1, sc.num_vehicles + 1)}
+        self._listen(facts, sc, listen)
         self._graph(facts, topic)
         for ids in doctor.vehicle_ids(facts).values():
             for name in set(ids):

@@ -37,38 +37,46 @@ topic                          type                             content
                                                                 (u, v), as a DVL or airspeed
                                                                 sensor gives it; with each
                                                                 odometry, same stamp
-``vehicle_k/formation_state``  sensor_msgs/JointState           see ``STATE_FIELDS``
-``vehicle_k/cmd``              geometry_msgs/WrenchStamped      force.x = T, force.y = F (N);
-                                                                torque.z = angular acceleration
-                                                                (second_order) or turn rate
-                                                                (first_order)
+``vehicle_k/formation_state``  formation_control_msgs/          what its neighbours need: pose,
+                               FormationState                   phase, rate, speed predicted to
+                                                                ``predicted_stamp``, whom it
+                                                                hears, its flow estimate (world
+                                                                frame)
+``vehicle_k/cmd``              formation_control_msgs/          thrust, steering_force (N) or
+                               VehicleCommand                   angular_acceleration
+                                                                (second_order) or turn_rate
+                                                                (first_order), by ``kind``
 =============================  ===============================  ==============================
 
 Fleet-wide: ``clock`` (lockstep), ``formation/scenario`` (std_msgs/String, latched: the
-plant's scenario as JSON), ``formation/metrics`` (sensor_msgs/JointState: the names of
-:data:`~formation_control.protocol.messages.METRIC_DOC` in ``name``, values in ``position``),
+plant's scenario as JSON), ``formation/metrics`` (formation_control_msgs/FormationMetrics:
+every metric of :data:`~formation_control.protocol.messages.METRIC_DOC` by name, the
+convergence latch), ``formation/faults`` (formation_control_msgs/FaultEvent, from ``swarm``),
 ``formation/markers`` (from the ``monitor`` node), and the absolute ``/diagnostics`` that
 diagnostic aggregators read. The names are those of :mod:`formation_control.protocol.names`,
-the plain values of the messages those of :mod:`formation_control.protocol.messages`
-(``STATE_FIELDS`` is there).
+the plain values of the messages and their canonical bytes those of
+:mod:`formation_control.protocol.messages`.
 
 Every stamp is the time of the sample a message comes from; in lockstep it names the step.
 """
 
 import copy
+import math
 import struct
 
 from formation_control.core.models import ROW_U, ROW_V
-from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, FormationState,
-                                                 ODOM_FIELDS, odom_values, set_fields, set_stamp,
+from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, command_kind,
+                                                 CommandWire, FormationState, METRIC_DOC,
+                                                 ODOM_FIELDS,
+                                                 odom_values, set_fields, set_stamp, set_time,
                                                  stamp_parts)
 from formation_control.protocol.names import DEFAULT_FRAMES, WORLD_FRAME
-from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
+import formation_control_msgs.msg as fcm
+from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.serialization import serialize_message
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 STALL = 3.0
@@ -144,8 +152,8 @@ def flow_msg(k, ns, flow, frames=DEFAULT_FRAMES):
 
 
 def cmd_msg(k, ns, u, model, frames=DEFAULT_FRAMES):
-    """Build the WrenchStamped of one vehicle's input column u (2,)."""
-    msg = WrenchStamped()
+    """Build the VehicleCommand of vehicle k's input column u (2,)."""
+    msg = fcm.VehicleCommand(vehicle_id=k, kind=command_kind(model))
     set_stamp(msg.header, ns)
     msg.header.frame_id = frames.base(k)
     return set_fields(msg, CMD_FIELDS, cmd_values(u, model))
@@ -164,19 +172,18 @@ def odom_wire(k, frames=DEFAULT_FRAMES, covariance=None):
     return MessageWire(msg, ODOM_FIELDS)
 
 
-def cmd_wire(k, frames=DEFAULT_FRAMES):
-    """Return the :class:`MessageWire` of vehicle k's command (:data:`CMD_FIELDS`)."""
-    msg = WrenchStamped()
-    msg.header.frame_id = frames.base(k)
-    return MessageWire(msg, CMD_FIELDS)
+def cmd_wire(k, model, frames=DEFAULT_FRAMES):
+    """Return the :class:`~formation_control.protocol.messages.CommandWire` of vehicle k."""
+    return CommandWire(k, model, frames)
 
 
 class MessageWire:
     """
     A stamped message of fixed layout as CDR bytes, its stamp and float64 ``fields`` in place.
 
-    The plant sends N odometries and hears N commands each step, the vehicles the reverse:
-    writing and reading them as bytes skips building message objects. The byte offsets of the
+    The plant sends N odometries each step, each vehicle hears its own: writing and reading
+    them as bytes skips building message objects (the formation states and commands have
+    their wires in :mod:`formation_control.protocol.messages`). The byte offsets of the
     fields are found by serializing ``msg`` with a distinct value in each. ``decode`` returns
     None for bytes whose other content (frame ids, the zero fields) differs from ``msg``'s,
     which the caller then deserializes and checks as a message.
@@ -214,23 +221,22 @@ class MessageWire:
                 tuple(struct.unpack_from('<d', data, o)[0] for o in self.offsets))
 
 
-def state_msg(k, ns, X, view_row, hears=(), hearing=(), frames=DEFAULT_FRAMES):
+def state_msg(k, ns, X, view_row, hears=(), hearing=(), frames=DEFAULT_FRAMES, ahead=0):
     """
     formation_state of vehicle k: its pose, heading, yaw rate and the law's phase values.
 
     ``hears`` are its graph neighbours' ids and ``hearing`` whether it hears each (bool).
     """
-    return formation_state_msg(k, FormationState.of_vehicle(ns, X, view_row,
-                                                            dict(zip(hears, hearing))), frames)
+    return formation_state_msg(k, FormationState.of_vehicle(
+        ns, X, view_row, dict(zip(hears, hearing)), ahead=ahead), frames)
 
 
 def formation_state_msg(k, state, frames=DEFAULT_FRAMES):
-    """Return the JointState of vehicle k's :class:`FormationState` ``state``."""
-    msg = JointState()
+    """Return the FormationState message of vehicle k's :class:`FormationState` ``state``."""
+    msg = fcm.FormationState(vehicle_id=k, **state.fields())
     set_stamp(msg.header, state.stamp)
-    msg.header.frame_id = frames.base(k)
-    msg.name = list(state.names())
-    msg.position = list(state.values())
+    set_time(msg.predicted_stamp, state.predicted_stamp)
+    msg.header.frame_id = frames.world
     return msg
 
 
@@ -238,11 +244,37 @@ def scenario_msg(sc):
     return String(data=sc.to_json())
 
 
-def metrics_msg(ns, values, world=WORLD_FRAME):
-    """``formation/metrics``: JointState with the metric names and their values (position)."""
-    msg = JointState()
+def metrics_msg(ns, values, world=WORLD_FRAME, t=math.nan, since=None):
+    """
+    ``formation/metrics``: the FormationMetrics of ``values`` ({metric: value}) stamped ns.
+
+    A metric of :data:`~formation_control.protocol.messages.METRIC_DOC` without a value (it
+    does not apply to the scenario) is NaN. ``t`` is the fleet time (s) of the sample,
+    ``since`` when the convergence latch last latched (s, None: not converged).
+    """
+    msg = fcm.FormationMetrics(time=float(t), converged=since is not None,
+                               convergence_time=math.nan if since is None else float(since))
     set_stamp(msg.header, ns)
     msg.header.frame_id = world
-    msg.name = list(values)
-    msg.position = [float(v) for v in values.values()]
+    for name in METRIC_DOC:
+        value = values.get(name, math.nan)
+        setattr(msg, name, int(value) if name == 'live_links' else float(value))
+    return msg
+
+
+def fault_msg(fault, record, ns):
+    """
+    ``formation/faults``: the FaultEvent of an applied fault.
+
+    ``fault`` is a :class:`~formation_control.protocol.faults.Fault`, ``record`` the swarm's
+    (``fault``, ``action``, ``scheduled``, ``applied``: fleet time or None); ``ns`` the wall
+    time of publication.
+    """
+    applied = record['applied']
+    msg = fcm.FaultEvent(kind=getattr(fcm.FaultEvent, fault.kind.upper()),
+                         vehicle_ids=list(fault.vehicles), fault=record['fault'],
+                         action=record['action'], scheduled_time=float(record['scheduled']),
+                         applied=applied is not None,
+                         applied_time=math.nan if applied is None else float(applied))
+    set_stamp(msg.header, ns)
     return msg

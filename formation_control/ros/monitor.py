@@ -18,7 +18,8 @@
 It learns the scenario from the plant's latched ``/formation/scenario``, hears every vehicle's
 odometry, command and formation state, and publishes
 
-- ``/formation/metrics`` (sensor_msgs/JointState, names in :data:`interface.METRIC_DOC`), every
+- ``/formation/metrics`` (formation_control_msgs/FormationMetrics: the metrics of
+  :data:`~formation_control.protocol.messages.METRIC_DOC` and the convergence latch), every
   ``period`` seconds of the fleet's time, once it holds an odometry of every vehicle from the
   current period (lockstep: of one step; real time: sampled within one control period);
 - ``/diagnostics``: one status per vehicle (stale odometry, command or formation state, saturated
@@ -44,7 +45,7 @@ from formation_control.protocol.node_parameters import MONITOR
 from formation_control.protocol.watch import WARN, Watch
 from formation_control.ros import common, interface as itf, markers, parameters
 from formation_control.view import picture
-from geometry_msgs.msg import WrenchStamped
+from formation_control_msgs.msg import FormationMetrics, FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
 import numpy as np
 from rcl_interfaces.msg import ParameterEvent
@@ -52,7 +53,6 @@ from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import qos_profile_parameter_events
 from rclpy.serialization import serialize_message
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
@@ -76,10 +76,13 @@ class MonitorNode(Node):
         self.wall, self.now = common.wall_clock()
         self.watch = None
         self.reject = common.Rejections(self.get_logger(),
-                                        ('malformed', 'non_finite', 'wrong_frame'))
-        self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
-        self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
-                                 qos_profile_parameter_events)
+                                        ('malformed', 'non_finite', 'wrong_frame',
+                                         'foreign_id', 'wrong_kind', 'interface_version'))
+        common.subscribe_messages(self, String, names.SCENARIO_TOPIC, self._on_scenario,
+                                  self.reject, qos_profile=itf.LATCHED_QOS)
+        common.subscribe_messages(self, ParameterEvent, '/parameter_events',
+                                  self._on_parameter_event, self.reject,
+                                  qos_profile=qos_profile_parameter_events)
         self.scenario_topic = self.resolve_topic_name(names.SCENARIO_TOPIC)
         self.diag_pub = common.diagnostics_publisher(self)
         self.live = None
@@ -130,11 +133,12 @@ class MonitorNode(Node):
         for k in range(1, sc.num_vehicles + 1):
             self._subscribe(Odometry, k, 'odom', intake.odometry(
                 itf.odom_wire(k), k, p['world_frame']), self._on_odom)
-            self._subscribe(WrenchStamped, k, 'cmd', intake.command(itf.cmd_wire(k), k),
+            self._subscribe(VehicleCommand, k, 'cmd', intake.command(itf.cmd_wire(k, sc.model)),
                             self._on_cmd)
-            self._subscribe(JointState, k, 'formation_state', intake.formation_state(
-                messages.StateWire.of(sc, k)), self._on_state)
-        self.metrics_pub = self.create_publisher(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
+            self._subscribe(FormationState, k, 'formation_state', intake.formation_state(
+                messages.StateWire.of(sc, k, names.Frames(p['world_frame']))), self._on_state)
+        self.metrics_pub = self.create_publisher(FormationMetrics, names.METRICS_TOPIC,
+                                                 itf.STREAM_QOS)
         self.markers_pub = self.create_publisher(MarkerArray, names.MARKERS_TOPIC, itf.STREAM_QOS)
         self.create_timer(p['markers_period'], self.publish_markers, clock=self.wall)
         self.get_logger().info(f'monitoring {sc.num_vehicles} x {sc.model}, {sc.formation}')
@@ -164,7 +168,8 @@ class MonitorNode(Node):
 
     def _sample(self, ns):
         values, latched = self.watch.sample(ns)
-        self.metrics_pub.publish(itf.metrics_msg(ns, values, self.p['world_frame']))
+        self.metrics_pub.publish(itf.metrics_msg(ns, values, self.p['world_frame'],
+                                                 self.watch.t, self.watch.latch.since))
         if self.live is not None:
             self.live.log_metrics(ns, values)
         if latched:

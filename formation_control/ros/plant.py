@@ -54,15 +54,16 @@ from formation_control.protocol.node_parameters import check_frames, PLANT
 from formation_control.protocol.onboard import needs_second_sensor
 from formation_control.protocol.plant import Plant
 from formation_control.ros import common, interface as itf, parameters
-from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
+from formation_control_msgs.msg import FormationState, VehicleCommand
+from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, String
 
-REJECTS = ('non_finite', 'wrong_frame', 'stale', 'malformed')
+REJECTS = ('non_finite', 'wrong_frame', 'stale', 'malformed', 'foreign_id', 'wrong_kind',
+           'interface_version')
 SNAPSHOT_PERIOD = 2.0
 """Wall seconds between two snapshots of the record (at least; see :meth:`PlantNode._snapshot`)."""
 LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
@@ -103,7 +104,8 @@ class PlantNode(Node):
             self.snapshot_timer = self.create_timer(SNAPSHOT_PERIOD, self._snapshot,
                                                     clock=self.wall)
         if self.p['wait_for_start']:
-            self.create_subscription(Empty, START_TOPIC, self._start, itf.LATCHED_QOS)
+            common.subscribe_messages(self, Empty, START_TOPIC, self._start, self.reject,
+                                      qos_profile=itf.LATCHED_QOS)
         else:
             self._start()
 
@@ -117,11 +119,12 @@ class PlantNode(Node):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
         self.odom_pubs = self._per_vehicle(Odometry, 'odom', **qos())
         self.odom_wires = [itf.odom_wire(k, self.frames, covariances(sc)) for k in ids]
-        self.cmd_subs = [self._subscribe(WrenchStamped, k, 'cmd', intake.command(
-            itf.cmd_wire(k, self.frames), k, self.frames.base(k)), self._on_cmd) for k in ids]
+        self.cmd_subs = [self._subscribe(VehicleCommand, k, 'cmd', intake.command(
+            itf.cmd_wire(k, sc.model, self.frames), self.frames.base(k)), self._on_cmd)
+            for k in ids]
         if sc.flow_source == 'estimated':
             for k in ids:
-                self._subscribe(JointState, k, 'formation_state', intake.formation_state(
+                self._subscribe(FormationState, k, 'formation_state', intake.formation_state(
                     messages.StateWire.of(sc, k, self.frames), self.frames),
                     lambda k, state: self.plant.estimate(k, state))
         self.flow_pubs = self.water_pubs = self.clock_pub = None

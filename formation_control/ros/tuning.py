@@ -27,6 +27,7 @@ import time
 from formation_control.core import scenario
 from formation_control.protocol import names
 from formation_control.ros import interface as itf
+from formation_control.ros.common import Rejections, subscribe_messages
 from formation_control.ros.parameters import EMPTY_TYPES
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
@@ -102,8 +103,10 @@ class FleetTuner:
         self.node, self.executor = node, executor
         self.prefix = names.namespace_prefix(namespace)
         self.announced = []
-        node.create_subscription(String, self.prefix + names.SCENARIO_TOPIC,
-                                 lambda msg: self.announced.append(msg.data), itf.LATCHED_QOS)
+        subscribe_messages(node, String, self.prefix + names.SCENARIO_TOPIC,
+                           lambda msg: self.announced.append(msg.data),
+                           Rejections(node.get_logger(), ['malformed']),
+                           qos_profile=itf.LATCHED_QOS)
 
     def spin_until(self, predicate, timeout):
         end = time.monotonic() + timeout

@@ -38,14 +38,15 @@ from formation_control.protocol.node_parameters import (check_frames, check_vehi
                                                         plant_differences, VEHICLE)
 from formation_control.protocol.vehicle import Vehicle
 from formation_control.ros import common, interface as itf, parameters
-from geometry_msgs.msg import TwistStamped, Vector3Stamped, WrenchStamped
+from formation_control_msgs.msg import FormationState, VehicleCommand
+from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 LINK_PARAMETERS = tuple(name for name in links.PARAMETERS if name != 'command_timeout')
-REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
+REJECTS = ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id',
+           'interface_version')
 LATENCIES = ('odom_to_command', 'stamp_to_command')
 """Real time, last 1000 commands: odometry handed to the node -> command sent (the node's own
 latency), and odometry stamp -> command sent (adds the transport, the queue and any lag of the
@@ -96,10 +97,10 @@ class VehicleNode(Node):
 
     def _create_topics(self, sc):
         k, qos, frames = self.k, itf.state_qos_kwargs, self.frames
-        self.state_pub = self.create_publisher(JointState, names.topic(k, 'formation_state'),
-                                               **qos())
-        self.cmd_pub = self.create_publisher(WrenchStamped, names.topic(k, 'cmd'), **qos())
-        self.cmd_wire = itf.cmd_wire(k, frames)
+        self.state_pub = self.create_publisher(FormationState,
+                                               names.topic(k, 'formation_state'), **qos())
+        self.cmd_pub = self.create_publisher(VehicleCommand, names.topic(k, 'cmd'), **qos())
+        self.cmd_wire = itf.cmd_wire(k, sc.model, frames)
         self.cmd_vel_pub = None
         if sc.plant_backend == 'jsbsim':
             self.cmd_vel_pub = self.create_publisher(TwistStamped, names.topic(k, 'cmd_vel'),
@@ -108,17 +109,21 @@ class VehicleNode(Node):
             k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
         self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
                                  **qos())
+        subscribe = common.subscribe_messages
         if sc.flow_source == 'known':
-            self.create_subscription(Vector3Stamped, names.topic(k, 'flow'), lambda msg: (
-                self._measured(self.me.flow_heard(messages.stamp_ns(msg.header.stamp), complex(
-                    msg.vector.x, msg.vector.y), msg.header.frame_id))), itf.LATCHED_QOS)
+            subscribe(self, Vector3Stamped, names.topic(k, 'flow'), lambda msg: self._measured(
+                self.me.flow_heard(messages.stamp_ns(msg.header.stamp), complex(
+                    msg.vector.x, msg.vector.y), msg.header.frame_id)), self.reject,
+                qos_profile=itf.LATCHED_QOS)
         if self.me.second == 'water':
-            self.create_subscription(TwistStamped, names.topic(k, 'water_velocity'), lambda msg: (
+            subscribe(self, TwistStamped, names.topic(k, 'water_velocity'), lambda msg: (
                 self._measured(self.me.water_heard(messages.stamp_ns(msg.header.stamp), (
-                    msg.twist.linear.x, msg.twist.linear.y), msg.header.frame_id))), **qos())
-        self.create_subscription(String, names.SCENARIO_TOPIC, self._on_scenario, itf.LATCHED_QOS)
+                    msg.twist.linear.x, msg.twist.linear.y), msg.header.frame_id))),
+                self.reject, **qos())
+        subscribe(self, String, names.SCENARIO_TOPIC, self._on_scenario, self.reject,
+                  qos_profile=itf.LATCHED_QOS)
         for j in sc.comm_graph.neighbours(k):
-            common.subscribe(self, JointState, names.topic(j, 'formation_state'),
+            common.subscribe(self, FormationState, names.topic(j, 'formation_state'),
                              intake.formation_state(messages.StateWire.of(sc, j, frames), frames),
                              self.reject, lambda state, j=j: self._heard(self.me.heard(j, state)))
         self.diag_pub = common.diagnostics_publisher(self)

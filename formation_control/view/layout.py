@@ -23,8 +23,11 @@ with the world frame ``map`` (``formation-control layout --format foxglove|class
 a test checks the files are up to date). Left: a top-down 3D panel in the world frame with the
 live view's scene (``/formation/scene``) and the RViz markers (``/formation/markers``; the live
 view serves both, a bag records the markers). Right: plots of |p|, V_c, the centre spread and
-the speed error, and the diagnostics. The topics are the absolute names a fleet's namespace
-gives (``formation-control layout --namespace /fleet_a``: ``/fleet_a/formation/metrics``).
+the speed error, and the diagnostics. A plot names its metric by field
+(``/formation/metrics.order_parameter``): a field of the live view's JSON channel and of the
+formation_control_msgs/FormationMetrics a bag holds, so the same layout plots both. The topics
+are the absolute names a fleet's namespace gives (``formation-control layout --namespace
+/fleet_a``: ``/fleet_a/formation/metrics``).
 """
 import json
 

@@ -120,9 +120,18 @@ def test_a_silent_vehicle_and_one_that_hears_nobody():
                                    'formation_state') in found
     assert [f[1] for f in found if 'hears no neighbour' in f[2]] == ['/vehicle_1']
     ring = _healthy(graph='ring')
-    ring.streams[_state(3)].hears = {'hears_1': False, 'hears_2': False}
-    assert _problems(ring) == [('error', '/vehicle_3', 'hears no neighbour: every hears_j of '
-                                                       'its formation_state is 0')]
+    ring.streams[_state(3)].hears = {2: False, 4: False}
+    assert _problems(ring) == [('error', '/vehicle_3', 'hears no neighbour: every hears flag '
+                                                       'of its formation_state is false')]
+
+
+def test_a_vehicle_of_another_interface_version_is_named_as_such():
+    facts = _healthy()
+    stream = facts.streams[_state(2)]
+    stream.count, stream.refused = 0, 'a formation_state of vehicle 2 of interface version 2: ...'
+    assert ('error', '/vehicle_2', 'publishes no formation_state on /vehicle_2/formation_state '
+            'the doctor can read: a formation_state of vehicle 2 of interface version 2: ...'
+            ) in _problems(facts)
 
 
 @pytest.mark.parametrize('env, expected', [

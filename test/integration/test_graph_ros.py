@@ -14,15 +14,14 @@
 
 """Communication graphs through ROS: neighbours only, mutual links, lockstep == simulator."""
 from formation_control.core import scenario
-from formation_control.protocol import messages, names
+from formation_control.protocol import names
 from formation_control.ros import interface as itf
-from geometry_msgs.msg import WrenchStamped
+from formation_control_msgs.msg import FormationMetrics, FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
-from rosutil import CONFIG
+from rosutil import CONFIG, metric_values
 from runs import assert_equal_runs, offline_run
-from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
 
@@ -51,13 +50,14 @@ def test_lockstep_fleet_on_a_graph_equals_the_offline_simulator(nodes, tmp_path,
 
 def test_formation_state_says_whom_the_vehicle_hears(nodes):
     cfg = CONFIG / 'particle_circular_ring.yaml'
-    states = nodes.collect(JointState, names.topic(5, 'formation_state'), itf.STATE_QOS)
+    states = nodes.collect(FormationState, names.topic(5, 'formation_state'), itf.STATE_QOS)
     nodes.plant(cfg)
     nodes.vehicle(5, cfg)
     assert nodes.spin_until(lambda: states, timeout=20)
     msg = states[0]
-    assert list(msg.name) == [*messages.STATE_FIELDS, 'hears_4', 'hears_6']
-    assert list(msg.position[-2:]) == [1.0, 1.0]         # lockstep: neighbours awaited
+    assert (msg.vehicle_id, list(msg.neighbour_ids)) == (5, [4, 6])
+    assert list(msg.hears) == [True, True]               # lockstep: neighbours awaited
+    assert msg.header.frame_id == 'map' and not msg.estimates_flow
 
 
 def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
@@ -65,9 +65,9 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
     cfg = CONFIG / 'particle_circular_ring.yaml'
     sc = scenario.load(cfg)
     node = nodes.vehicle(1, cfg, 'hold_prediction:=none')   # its command of the sampled state
-    cmds = nodes.collect(WrenchStamped, names.topic(1, 'cmd'), itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, names.topic(1, 'cmd'), itf.STATE_QOS)
     X = scenario.initial_state(sc)
-    pubs = {j: nodes.node.create_publisher(JointState, names.topic(j, 'formation_state'),
+    pubs = {j: nodes.node.create_publisher(FormationState, names.topic(j, 'formation_state'),
                                            itf.STATE_QOS) for j in (2, 12)}
     odom = nodes.node.create_publisher(Odometry, names.topic(1, 'odom'), itf.STATE_QOS)
     view = node.me.onboard.ctrl.view(X)
@@ -87,7 +87,7 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
     members[[0, 1]] = True
     ctrl = node.me.onboard.ctrl
     expected = ctrl.command(ctrl.view(X[:, members]), X[:, [0]], [0], members=members)
-    assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
+    assert cmds[0].angular_acceleration == pytest.approx(expected[1, 0], abs=1e-12)
     members[11] = True
     with_12 = ctrl.command(ctrl.view(X[:, members]), X[:, [0]], [0], members=members)
     assert abs(with_12[1, 0] - expected[1, 0]) > 1e-3
@@ -96,7 +96,7 @@ def test_a_neighbour_that_does_not_hear_the_vehicle_leaves_its_sums(nodes):
 def test_monitor_reports_the_live_graph_and_draws_its_links(nodes):
     cfg = CONFIG / 'rigid_circular_ring.yaml'
     n = scenario.load(cfg).num_vehicles
-    box = nodes.collect(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
+    box = nodes.collect(FormationMetrics, names.METRICS_TOPIC, itf.STREAM_QOS)
     marks = nodes.collect(MarkerArray, names.MARKERS_TOPIC, itf.STREAM_QOS)
     nodes.monitor('stale_timeout:=0.5', 'markers_period:=0.05')
     nodes.plant(cfg, 'duration:=30.0')
@@ -104,7 +104,7 @@ def test_monitor_reports_the_live_graph_and_draws_its_links(nodes):
              range(1, n + 1)]
 
     def latest(name):
-        return dict(zip(box[-1].name, box[-1].position)).get(name) if box else None
+        return metric_values(box[-1])[name] if box else None
     assert nodes.spin_until(lambda: latest('live_links') == n, timeout=30)
     assert latest('algebraic_connectivity') == pytest.approx(2 - 2 * np.cos(2 * np.pi / n))
     assert nodes.spin_until(lambda: any(m.ns == 'links' and len(m.points) == 2 * n

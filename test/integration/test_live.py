@@ -32,6 +32,7 @@ from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf, live as live_view
 from formation_control.ros.monitor import MonitorNode
 from formation_control.view import layout, picture, scene
+from formation_control_msgs.msg import FormationMetrics
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
 from json_schema_rules import check
@@ -39,8 +40,7 @@ from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message
-from rosutil import CONFIG
-from sensor_msgs.msg import JointState
+from rosutil import CONFIG, metric_values
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
@@ -124,6 +124,8 @@ def test_installed_layout_is_the_generated_one_and_plots_real_metrics(
     assert paths == [f'{prefix}formation/metrics.{name}' for name in
                      ('order_parameter', 'lyapunov', 'centre_spread', 'speed_error')]
     assert all(path.split('.', 1)[1] in messages.METRIC_DOC for path in paths)
+    fields = FormationMetrics.get_fields_and_field_types()         # a bag's messages: the same
+    assert all(fields[path.split('.', 1)[1]] == 'double' for path in paths)
     assert panels[-1]['panelType'] == 'DiagnosticsSummary'
     assert panels[-1]['config']['topicToRender'] == '/diagnostics'
     three_d = text['content']['items'][0]['content']
@@ -170,7 +172,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
         f'foxglove_port:={port}']))
     scene_topic, metrics_topic = '/fleet_a/formation/scene', '/fleet_a/formation/metrics'
     markers_topic = '/fleet_a/formation/markers'
-    ros_metrics = nodes.collect(JointState, metrics_topic, itf.STREAM_QOS)
+    ros_metrics = nodes.collect(FormationMetrics, metrics_topic, itf.STREAM_QOS)
     with client(port, subprotocols=[subprotocol]) as fox:
         topics = (scene_topic, metrics_topic, markers_topic, names.DIAGNOSTICS_TOPIC, '/tf')
         fox.wait_advertised(topics, lambda: nodes.spin_until(lambda: True))
@@ -205,8 +207,7 @@ def test_foxglove_client_sees_the_monitors_metrics_poses_and_diagnostics(nodes, 
     (log_time, live), = got[metrics_topic]
     assert log_time == stamp == messages.stamp_ns(ros_metrics[0].header.stamp)
     assert live.pop('timestamp') == {'sec': 4, 'nsec': 200_000_000}
-    assert live == {k: v for k, v in zip(ros_metrics[0].name, ros_metrics[0].position)
-                    if math.isfinite(v)}
+    assert live == metric_values(ros_metrics[0])
     log_time, update = got[scene_topic][-1]
     assert log_time == stamp
     assert {e.frame_id for e in update.entities} == {'odom'}

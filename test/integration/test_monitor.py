@@ -35,11 +35,12 @@ from formation_control.core.control import Controller
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from formation_control.sim import metrics, report
+from formation_control_msgs.msg import FormationMetrics
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
-from rosutil import BIN, CONFIG, domains, interrupt, ros_environment, shm_clean
-from sensor_msgs.msg import JointState
+from rosutil import (BIN, CONFIG, domains, interrupt, metric_values, ros_environment,
+                     shm_clean)
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 import yaml
@@ -295,7 +296,7 @@ def test_markers_show_each_vehicle_its_circle_centre_and_the_target(ros):
 def test_monitor_drops_and_counts_bad_odometry(nodes):
     sc = _scenario(num_vehicles=2)
     diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
-    metrics_box = nodes.collect(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
+    metrics_box = nodes.collect(FormationMetrics, names.METRICS_TOPIC, itf.STREAM_QOS)
     odom = _start_monitor(nodes, sc)
     odom[1].publish(_odom(1, 0, math.nan, 0.0, 0.0))
     odom[2].publish(_odom(2, 0, 0.0, 0.0, 0.0, frame='odom'))
@@ -310,7 +311,7 @@ def test_monitor_drops_and_counts_bad_odometry(nodes):
     X = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 1.0], [0.0, 0.0]])
     expected = metrics.snapshot(Controller(sc), X, np.zeros((2, 2))).values()
     expected.update(live_links=0.0, algebraic_connectivity=0.0)     # no formation state heard
-    got = dict(zip(metrics_box[0].name, metrics_box[0].position))
+    got = metric_values(metrics_box[0])
     assert got == pytest.approx(expected)
 
 
@@ -357,7 +358,7 @@ def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(rec
     from formation_control.ros.player import PlayerNode
     tmp, _, out = recorded
     bag, n = tmp / 'bag', out['num_vehicles']
-    box = nodes.collect(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
+    box = nodes.collect(FormationMetrics, names.METRICS_TOPIC, itf.STREAM_QOS)
     fleet = [names.topic(k, name) for k in range(1, n + 1)
              for name in ('odom', 'cmd', 'formation_state')]
     # Deep readers (overrides name the resolved topic): a moment's stall of this loaded
@@ -373,7 +374,7 @@ def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(rec
     t, values = bagfile.metrics(bag)
     stamps = np.rint(t * 1e9).astype(np.int64)
     assert nodes.spin_until(lambda: box and messages.stamp_ns(box[-1].header.stamp) >= stamps[-1])
-    replayed = {messages.stamp_ns(m.header.stamp): dict(zip(m.name, m.position)) for m in box}
+    replayed = {messages.stamp_ns(m.header.stamp): metric_values(m) for m in box}
     # Every sample from t = 0; the bag may lack the recorded monitor's first ones (published
     # before the recorder's reader matched its writer).
     period = int(round(monitor.get_parameter('period').value * 1e9))

@@ -21,7 +21,7 @@ from formation_control.ros import interface as itf, tuning
 from formation_control.ros.monitor import MonitorNode
 from formation_control.ros.plant import PlantNode
 from formation_control.ros.vehicle import VehicleNode
-from geometry_msgs.msg import WrenchStamped
+from formation_control_msgs.msg import FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
@@ -29,7 +29,6 @@ from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterEvent
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_parameter_events
 from rosutil import CONFIG
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
@@ -44,8 +43,9 @@ def test_a_namespaced_vehicle_takes_remapped_odometry_in_the_frames_it_is_given(
         '-p', 'world_frame:=odom', '-p', 'base_frame:=robot_{id}/base']))
     node = nodes.node
     odom = node.create_publisher(Odometry, '/nav/odom', itf.STATE_QOS)
-    peer = node.create_publisher(JointState, '/fleet_a/vehicle_2/formation_state', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/fleet_a/vehicle_1/cmd', itf.STATE_QOS)
+    peer = node.create_publisher(FormationState, '/fleet_a/vehicle_2/formation_state',
+                                 itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/fleet_a/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom.get_subscription_count()
                             and peer.get_subscription_count())
     X = np.array([[0.5, -1.0], [1.0, 2.0], [0.3, 2.5], [0.2, -0.4], [1.0, 1.0], [0.0, 0.0]])

@@ -19,10 +19,10 @@ from formation_control.core.control import Controller
 from formation_control.protocol import names
 from formation_control.ros import interface as itf
 from formation_control.sim import metrics
+from formation_control_msgs.msg import FormationMetrics
 import pytest
-from rosutil import CONFIG
+from rosutil import CONFIG, metric_values
 from runs import assert_equal_runs, offline_run
-from sensor_msgs.msg import JointState
 
 
 @pytest.mark.parametrize('name, overrides', [
@@ -40,11 +40,11 @@ def test_lockstep_pattern_fleet_equals_the_offline_simulator(nodes, tmp_path, na
 
 def test_monitor_publishes_the_phase_moments_and_the_separation(nodes, tmp_path):
     cfg = CONFIG / 'particle_circular_splay.yaml'
-    box = nodes.collect(JointState, names.METRICS_TOPIC, itf.STREAM_QOS)
+    box = nodes.collect(FormationMetrics, names.METRICS_TOPIC, itf.STREAM_QOS)
     nodes.monitor('period:=0.1')
     run = nodes.lockstep_run(cfg, tmp_path / 'run.npz', 'duration:=2.0')
     assert nodes.spin_until(lambda: box, timeout=20)
-    values = dict(zip(box[-1].name, box[-1].position))
+    values = metric_values(box[-1])
     wanted = [f'phase_order_{m}' for m in range(1, 7)] + ['min_separation']
     assert set(wanted) <= set(values)
     assert 'phase_order_7' not in values                    # m = 1..floor(N/2)

@@ -31,14 +31,13 @@ from formation_control.core.control import Controller
 from formation_control.protocol import links, messages, names
 from formation_control.ros import interface as itf
 from formation_control.sim import metrics, simulator
-from geometry_msgs.msg import WrenchStamped
+from formation_control_msgs.msg import FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rosgraph_msgs.msg import Clock
 from rosutil import CONFIG, output
-from sensor_msgs.msg import JointState
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
 RIGID = CONFIG / 'rigid_parallel.yaml'
@@ -62,12 +61,13 @@ def _status(box, name):
 
 # ---- bad input: dropped, logged, counted; the node carries on --------------------------------
 
-def _state(j, ns, values=None, frame=None, names=messages.STATE_FIELDS):
+def _state(j, ns, values=None, frame=None, **fields):
     msg = itf.state_msg(j, ns, np.array([1.0, 2.0, 0.3, 0.2, 1.0, 0.0]),
                         (complex(1.0, 2.0), 0.3, 0.2, 1.0))
     if values is not None:
-        msg.position = values
-    msg.name = list(names)
+        messages.set_fields(msg, messages.STATE_FIELDS, values)
+    for name, value in fields.items():
+        setattr(msg, name, value)
     if frame is not None:
         msg.header.frame_id = frame
     return msg
@@ -85,10 +85,13 @@ BAD_VEHICLE_INPUT = {
     'odom_undecodable': ('odom', lambda: b'\x00\x01\x00\x00 not an Odometry', 'malformed'),
     'state_undecodable': ('state', lambda: b'\x00\x01\x00\x00 garbage', 'malformed'),
     'state_non_finite': ('state', lambda: _state(2, 0, [float('inf')] * 7), 'non_finite'),
-    'state_malformed': ('state', lambda: _state(2, 0, [1.0] * 5, names=['x'] * 5), 'malformed'),
-    'state_foreign_id': ('state', lambda: _state(2, 0, frame='vehicle_9/base_link'),
-                         'foreign_id'),
-    'state_wrong_frame': ('state', lambda: _state(2, 0, frame='map'), 'wrong_frame'),
+    'state_malformed': ('state', lambda: _state(2, 0, neighbour_ids=[1], hears=[True]),
+                        'malformed'),                 # a ring's on the complete graph
+    'state_foreign_id': ('state', lambda: _state(2, 0, vehicle_id=9), 'foreign_id'),
+    'state_wrong_frame': ('state', lambda: _state(2, 0, frame='vehicle_2/base_link'),
+                          'wrong_frame'),
+    'state_interface_version': ('state', lambda: _state(2, 0, interface_version=2),
+                                'interface_version'),
     'state_stale': ('state', lambda: _state(2, 0), 'stale'),
 }
 
@@ -99,9 +102,9 @@ def test_vehicle_drops_counts_and_survives_bad_input(nodes, case):
     vehicle = nodes.vehicle(1, PARTICLE, 'num_vehicles:=2')
     node = nodes.node
     pubs = {'odom': node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS),
-            'state': node.create_publisher(JointState, '/vehicle_2/formation_state',
+            'state': node.create_publisher(FormationState, '/vehicle_2/formation_state',
                                            itf.STATE_QOS)}
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     assert nodes.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values()))
     if kind == 'stale':
@@ -114,8 +117,8 @@ def test_vehicle_drops_counts_and_survives_bad_input(nodes, case):
         kind) == '1', timeout=20), _status(diags, name)
     assert messages.stamp_ns(cmds[-1].header.stamp) == 400_000_000
     counts = _status(diags, name)[2]
-    others = [k for k in ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id')
-              if k != kind]
+    others = [k for k in ('non_finite', 'malformed', 'wrong_frame', 'stale', 'foreign_id',
+                          'interface_version') if k != kind]
     assert all(counts[k] == '0' for k in others), counts
     assert nodes.logged(vehicle, 'dropped')
 
@@ -123,7 +126,7 @@ def test_vehicle_drops_counts_and_survives_bad_input(nodes, case):
 def test_plant_drops_and_counts_bad_commands(nodes):
     nodes.plant(PARTICLE, 'num_vehicles:=2', 'exit_when_done:=false')
     node = nodes.node
-    cmd = {k: node.create_publisher(WrenchStamped, names.topic(k, 'cmd'), itf.STATE_QOS)
+    cmd = {k: node.create_publisher(VehicleCommand, names.topic(k, 'cmd'), itf.STATE_QOS)
            for k in (1, 2)}
     diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     clock = nodes.collect(Clock, '/clock', itf.LATCHED_QOS)
@@ -133,7 +136,13 @@ def test_plant_drops_and_counts_bad_commands(nodes):
     wrong = itf.cmd_msg(1, 0, (0.0, 0.1), 'second_order')
     wrong.header.frame_id = 'map'
     late = itf.cmd_msg(1, 5 * 20_000_000, (0.0, 0.1), 'second_order')
-    for msg in (bad, wrong, late, b'\x00\x01\x00\x00 not a WrenchStamped'):
+    kindless = VehicleCommand(vehicle_id=1, angular_acceleration=0.1)       # kind 0
+    first_order = itf.cmd_msg(1, 0, (0.0, 0.1), 'first_order')
+    foreign = itf.cmd_msg(2, 0, (0.0, 0.1), 'second_order')
+    newer = itf.cmd_msg(1, 0, (0.0, 0.1), 'second_order')
+    newer.interface_version = 2
+    for msg in (bad, wrong, late, b'\x00\x01\x00\x00 not a VehicleCommand', kindless,
+                first_order, foreign, newer):
         cmd[1].publish(msg)                           # bytes: published as they are
     for k in (1, 2):
         cmd[k].publish(itf.cmd_msg(k, 0, (0.0, 0.1), 'second_order'))
@@ -142,14 +151,15 @@ def test_plant_drops_and_counts_bad_commands(nodes):
     def counted():
         s = _status(diags, 'formation_control/plant')
         return s and (s[2]['non_finite'], s[2]['wrong_frame'], s[2]['stale'],
-                      s[2]['malformed']) == ('1', '1', '1', '1')
+                      s[2]['malformed'], s[2]['wrong_kind'], s[2]['foreign_id'],
+                      s[2]['interface_version']) == ('1', '1', '1', '1', '2', '1', '1')
     assert nodes.spin_until(counted), _status(diags, 'formation_control/plant')
 
 
 def test_plant_stops_a_vehicle_whose_state_turns_non_finite(nodes):
     plant = nodes.plant(RIGID, 'num_vehicles:=2', 'exit_when_done:=false')
     node = nodes.node
-    cmd = {k: node.create_publisher(WrenchStamped, names.topic(k, 'cmd'), itf.STATE_QOS)
+    cmd = {k: node.create_publisher(VehicleCommand, names.topic(k, 'cmd'), itf.STATE_QOS)
            for k in (1, 2)}
     odom = {k: nodes.collect(Odometry, names.topic(k, 'odom'), itf.STATE_QOS) for k in (1, 2)}
     diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
@@ -287,7 +297,7 @@ def test_rigid_scenarios_converge_with_lossy_late_links(ros, tmp_path, name, dur
     arrived = {k: [] for k in range(1, n + 1)}
     for k in arrived:
         ros.probe.node.create_subscription(
-            JointState, names.topic(k, 'formation_state'),
+            FormationState, names.topic(k, 'formation_state'),
             lambda _, info, k=k: arrived[k].append(info['received_timestamp']),
             QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL), raw=True)
     diags = ros.probe.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
@@ -326,8 +336,9 @@ def _vehicle_1_of_two(nodes, *params):
     nodes.vehicle(1, PARTICLE, 'num_vehicles:=2', *params)
     node = nodes.node
     odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
-    state = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    state = node.create_publisher(FormationState, '/vehicle_2/formation_state',
+                                  itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom.get_subscription_count()
                             and state.get_subscription_count())
     return odom, state, cmds
@@ -353,7 +364,7 @@ def test_vehicle_hears_a_neighbour_only_after_the_injected_delay(nodes):
         before = len(cmds)
         odom.publish(itf.odom_msg(1, next(step) * 20_000_000, X[:, 0], 0j))
         assert nodes.spin_until(lambda: len(cmds) > before)
-        return cmds[-1].wrench.torque.z
+        return cmds[-1].angular_acceleration
 
     sent = time.monotonic()
     state.publish(itf.state_msg(2, 0, X[:, 1], (view.r[1], view.phase[1], view.rate[1],
@@ -372,12 +383,12 @@ def test_vehicle_drops_the_seeded_share_of_what_it_hears(nodes):
     nodes.vehicle(1, PARTICLE, 'num_vehicles:=3', 'mode:=realtime',
                   *[f'{k}:={v}' for k, v in faults.items()])
     node = nodes.node
-    pubs = {j: node.create_publisher(JointState, names.topic(j, 'formation_state'),
+    pubs = {j: node.create_publisher(FormationState, names.topic(j, 'formation_state'),
                                      itf.STATE_QOS) for j in (2, 3)}
     diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     assert nodes.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values()))
     odom = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     sent = 200
     for n in range(sent // 2):
         for j, pub in pubs.items():
@@ -444,7 +455,7 @@ def test_vehicles_first_plant_last(ros, tmp_path):
     for k in range(1, 5):
         ros.procs.start('vehicle', *_args(CONFIG / 'particle_circular.yaml', *common,
                                           f'vehicle_id:={k}', 'use_sim_time:=true'))
-    states = ros.probe.collect(JointState, '/vehicle_4/formation_state', itf.STATE_QOS)
+    states = ros.probe.collect(FormationState, '/vehicle_4/formation_state', itf.STATE_QOS)
     assert ros.probe.spin_until(lambda: ros.probe.node.count_publishers('/vehicle_4/cmd') > 0)
     assert not states
     plant = ros.procs.start('plant', *_args(CONFIG / 'particle_circular.yaml', *common,
@@ -522,7 +533,7 @@ def test_plant_asks_again_a_vehicle_that_has_not_answered(nodes):
     """A vehicle that never got (or never handled) its odometry is sent the step again."""
     odom = nodes.collect(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
     nodes.plant(PARTICLE, 'num_vehicles:=1', 'duration:=1.0')
-    cmd = nodes.node.create_publisher(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    cmd = nodes.node.create_publisher(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom and cmd.get_subscription_count())
     assert nodes.spin_until(lambda: len(odom) > 1, timeout=5.0)
     assert [messages.stamp_ns(m.header.stamp) for m in odom[:2]] == [0, 0]
@@ -535,8 +546,8 @@ def test_plant_asks_again_a_vehicle_that_has_not_answered(nodes):
 def test_vehicle_answers_a_repeated_step_with_the_same_state_and_command(nodes):
     nodes.vehicle(1, PARTICLE, 'num_vehicles:=1')
     odom = nodes.node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
-    states = nodes.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    states = nodes.collect(FormationState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom.get_subscription_count())
     odom.publish(_odom(1, 0))
     assert nodes.spin_until(lambda: cmds and states)

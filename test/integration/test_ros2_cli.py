@@ -37,10 +37,10 @@ from formation_control.ros.monitor import MonitorNode
 from formation_control.ros.plant import PlantNode
 from formation_control.ros.vehicle import VehicleNode
 from formation_control.sim import simulator
+from formation_control_msgs.msg import FormationMetrics, VehicleCommand
 import numpy as np
 import pytest
 from rosutil import CONFIG, domains, Probe, ros_environment, shm_clean
-from sensor_msgs.msg import JointState
 import yaml
 
 BIN = Path(sys.executable).parent
@@ -222,7 +222,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     launch = _launch(cli, tmp_path / 'launch.log', 'scenario:=rigid_parallel',
                      'namespace:=fleet_a', 'num_vehicles:=4', 'mode:=realtime', 'duration:=600.0')
     diagnostics = cli.probe.collect(DiagnosticArray, '/diagnostics', itf.STREAM_QOS)
-    metrics = cli.probe.collect(JointState, '/fleet_a/formation/metrics', itf.STREAM_QOS)
+    metrics = cli.probe.collect(FormationMetrics, '/fleet_a/formation/metrics', itf.STREAM_QOS)
     assert cli.probe.spin_until(lambda: metrics, 60), (tmp_path / 'launch.log').read_text()
     set_ = subprocess.run([str(BIN / 'formation-control'), 'set', 'kappa:=3', 'K_f:=2',
                            '--namespace', 'fleet_a'], env=cli.env, capture_output=True,
@@ -237,6 +237,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         ['topic', 'echo', '--once', '/fleet_a/vehicle_3/cmd'],
         ['topic', 'echo', '--once', '/fleet_a/formation/metrics'],
         ['topic', 'info', '-v', '/fleet_a/vehicle_4/odom'],
+        ['topic', 'type', '/fleet_a/vehicle_2/formation_state'],
         ['param', 'dump', '/fleet_a/plant'],
         ['param', 'dump', '/fleet_a/vehicle_2'],
         ['param', 'dump', '/fleet_a/formation_monitor'],
@@ -249,7 +250,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         ['launch', 'formation_control', 'vehicle.launch.py', 'scenario:=rigid_parralel'],
     )
     hz, = cli.many((8.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
-    (_, nodes), odom, state, cmd, metric, info, *dumps = out           # batch loads the CPUs
+    (_, nodes), odom, state, cmd, metric, info, kind, *dumps = out     # batch loads the CPUs
     dumps, refusals, (run_rc, run_out), bad_launch = dumps[:3], dumps[3:7], dumps[7], dumps[8]
     fleet = {'/fleet_a/plant', '/fleet_a/formation_monitor',
              *(f'/fleet_a/vehicle_{k}' for k in range(1, 5))}
@@ -260,9 +261,18 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     assert set(nodes.split()) >= fleet, nodes
     msg = _message(odom[1])
     assert (msg['header']['frame_id'], msg['child_frame_id']) == ('map', 'vehicle_2/base_link')
-    assert _message(state[1])['name'] == list(messages.STATE_FIELDS)
-    assert _message(cmd[1])['header']['frame_id'] == 'vehicle_3/base_link'
-    assert 'order_parameter' in _message(metric[1])['name']
+    msg = _message(state[1])                                       # named fields
+    assert (msg['interface_version'], msg['vehicle_id'], msg['header']['frame_id']) == (
+        1, 2, 'map')
+    assert set(messages.STATE_FIELDS) <= set(msg) and isinstance(msg['phase_rate'], float)
+    assert (msg['neighbour_ids'], msg['hears'], msg['estimates_flow']) == ([], [], False)
+    assert set(msg['predicted_stamp']) == {'sec', 'nanosec'}
+    assert kind[1].split() == ['formation_control_msgs/msg/FormationState']
+    msg = _message(cmd[1])
+    assert (msg['header']['frame_id'], msg['vehicle_id']) == ('vehicle_3/base_link', 3)
+    assert msg['kind'] == VehicleCommand.RIGID_BODY and isinstance(msg['thrust'], float)
+    msg = _message(metric[1])
+    assert 0.0 <= msg['order_parameter'] <= 1.0 and isinstance(msg['converged'], bool)
     rates = [float(line.split()[-1]) for line in hz[1].splitlines()
              if line.startswith('average rate')]
     # 1 / dt_control, in one window at least: on a loaded machine some windows run slower
@@ -291,3 +301,37 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     assert launch.wait(timeout=30) == 0
     assert not [c for c in children if Path(f'/proc/{c}').exists()]
     assert 'every vehicle took' in (tmp_path / 'launch.log').read_text()
+
+
+def test_a_formation_state_of_another_interface_version_is_dropped_and_counted(cli, tmp_path):
+    """``ros2 topic pub`` of a FormationState of interface version 2: vehicle 1 refuses it."""
+    with open(tmp_path / 'vehicle.log', 'w') as log:
+        _refused_by_a_vehicle(cli, log)
+        cli.stop_all()
+    logged = (tmp_path / 'vehicle.log').read_text()
+    assert ('[ERROR]' in logged and 'dropped a formation_state of vehicle 2 of interface '
+            'version 2: this node speaks formation_control_msgs version 1' in logged), logged
+
+
+def _refused_by_a_vehicle(cli, log):
+    from diagnostic_msgs.msg import DiagnosticArray
+    cli.start('run', 'formation_control', 'vehicle', '--ros-args', '--params-file',
+              CONFIG / 'particle_parallel.yaml', '-p', 'num_vehicles:=2', '-p', 'vehicle_id:=1',
+              log=log)
+    diagnostics = cli.probe.collect(DiagnosticArray, '/diagnostics', itf.STREAM_QOS)
+    name = 'formation_control/vehicle_1/links'
+
+    def count():
+        for m in reversed(diagnostics):
+            for s in m.status:
+                if s.name == name:
+                    return {v.key: v.value for v in s.values}['interface_version']
+        return None
+    assert cli.probe.spin_until(lambda: count() == '0', 60)
+    (rc, text), = cli.many(['topic', 'pub', '--once', '-w', '1', '--qos-reliability',
+                            'reliable', '--qos-durability', 'transient_local',
+                            '/vehicle_2/formation_state',
+                            'formation_control_msgs/msg/FormationState',
+                            '{interface_version: 2, vehicle_id: 2, speed: 1.0}'])
+    assert rc == 0, text
+    assert cli.probe.spin_until(lambda: count() == '1', 30), count()

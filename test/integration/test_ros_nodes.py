@@ -29,7 +29,8 @@ from formation_control.core.laws import View
 from formation_control.core.scenario import initial_state, ScenarioError
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
-from geometry_msgs.msg import Vector3Stamped, WrenchStamped
+from formation_control_msgs.msg import FormationState, VehicleCommand
+from geometry_msgs.msg import Vector3Stamped
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
@@ -38,7 +39,6 @@ from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rosgraph_msgs.msg import Clock
 from rosutil import CONFIG, interrupt
-from sensor_msgs.msg import JointState
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
 
@@ -117,11 +117,11 @@ def test_realtime_plant_samples_each_vehicle_in_its_own_slot_of_the_period(nodes
 def test_realtime_plant_starts_the_clock_once_every_vehicle_is_up(nodes):
     odom = nodes.collect(Odometry, names.topic(1, 'odom'), itf.STATE_QOS)
     plant = nodes.plant(PARTICLE, 'num_vehicles:=2', 'mode:=realtime', 'exit_when_done:=false')
-    cmd = [nodes.node.create_publisher(WrenchStamped, names.topic(1, 'cmd'), itf.STATE_QOS)]
+    cmd = [nodes.node.create_publisher(VehicleCommand, names.topic(1, 'cmd'), itf.STATE_QOS)]
     assert nodes.spin_until(lambda: nodes.logged(plant, 'real time starts once vehicles [2] '
                                                         'are up'))
     assert not nodes.spin_until(lambda: odom, timeout=0.5)      # the plant checks every 0.05 s
-    cmd.append(nodes.node.create_publisher(WrenchStamped, names.topic(2, 'cmd'), itf.STATE_QOS))
+    cmd.append(nodes.node.create_publisher(VehicleCommand, names.topic(2, 'cmd'), itf.STATE_QOS))
     assert nodes.spin_until(lambda: len(odom) > 2)
     assert nodes.logged(plant, 'every vehicle is up: real time starts')
     sc = scenario.load(PARTICLE)
@@ -134,9 +134,10 @@ def test_vehicle_answers_its_neighbours_with_state_and_command(nodes):
     nodes.vehicle(1, PARTICLE, 'num_vehicles:=2')
     node = nodes.node
     odom_pub = node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
-    state_pub = node.create_publisher(JointState, '/vehicle_2/formation_state', itf.STATE_QOS)
-    states = nodes.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    state_pub = node.create_publisher(FormationState, '/vehicle_2/formation_state',
+                                      itf.STATE_QOS)
+    states = nodes.collect(FormationState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom_pub.get_subscription_count() > 0
                             and state_pub.get_subscription_count() > 0)
     sc = scenario.load(PARTICLE, ['num_vehicles:=2'])
@@ -153,13 +154,19 @@ def test_vehicle_answers_its_neighbours_with_state_and_command(nodes):
                                                      sent.speed[0])))
     odom_pub.publish(itf.odom_msg(1, ns, X[:, 0], 0j))
     assert nodes.spin_until(lambda: cmds and states)
-    assert list(states[0].name) == list(messages.STATE_FIELDS)
+    state = states[0]
+    assert (state.vehicle_id, state.header.frame_id, list(state.neighbour_ids)) == (1, 'map', [])
+    assert messages.stamp_ns(state.header.stamp) == ns
+    assert messages.stamp_ns(state.predicted_stamp) == ns + round(sc.dt_control / 2 * 1e9)
     heading = 0.3 + 0.2 * sc.dt_control / 2
-    np.testing.assert_allclose(states[0].position, [mine.r[0].real, mine.r[0].imag, heading,
-                                                    0.2, heading, 0.2, 1.0], atol=1e-12)
+    np.testing.assert_allclose(messages.get_fields(state, messages.STATE_FIELDS),
+                               [mine.r[0].real, mine.r[0].imag, heading, 0.2, heading, 0.2, 1.0],
+                               atol=1e-12)
     assert messages.stamp_ns(cmds[0].header.stamp) == ns
-    assert cmds[0].header.frame_id == 'vehicle_1/base_link'
-    assert cmds[0].wrench.torque.z == pytest.approx(expected[1, 0], abs=1e-12)
+    assert (cmds[0].header.frame_id, cmds[0].vehicle_id) == ('vehicle_1/base_link', 1)
+    assert (cmds[0].kind, cmds[0].interface_version) == (VehicleCommand.SECOND_ORDER, 1)
+    assert cmds[0].angular_acceleration == pytest.approx(expected[1, 0], abs=1e-12)
+    assert (cmds[0].thrust, cmds[0].steering_force, cmds[0].turn_rate) == (0.0, 0.0, 0.0)
 
 
 def test_realtime_vehicle_predicts_over_half_a_period_half_a_step_and_its_delay(nodes):
@@ -170,19 +177,21 @@ def test_realtime_vehicle_predicts_over_half_a_period_half_a_step_and_its_delay(
     """
     nodes.vehicle(1, PARTICLE, 'num_vehicles:=1', 'mode:=realtime')
     odom = nodes.node.create_publisher(Odometry, '/vehicle_1/odom', itf.STATE_QOS)
-    states = nodes.collect(JointState, '/vehicle_1/formation_state', itf.STATE_QOS)
-    cmds = nodes.collect(WrenchStamped, '/vehicle_1/cmd', itf.STATE_QOS)
+    states = nodes.collect(FormationState, '/vehicle_1/formation_state', itf.STATE_QOS)
+    cmds = nodes.collect(VehicleCommand, '/vehicle_1/cmd', itf.STATE_QOS)
     assert nodes.spin_until(lambda: odom.get_subscription_count() > 0)
     sc = scenario.load(PARTICLE)
     X = np.array([0.5, 1.0, 0.3, 0.2, 1.0, 0.0])
     base = sc.dt_control / 2 + sc.dt_integration / 2
     leads = []
     for step in range(4):
-        held = cmds[-1].wrench.torque.z if cmds else 0.0
+        held = cmds[-1].angular_acceleration if cmds else 0.0
         odom.publish(itf.odom_msg(1, step * 20_000_000, X, 0j))
         assert nodes.spin_until(lambda: len(states) > step and len(cmds) > step)
-        heading, yaw_rate = states[step].position[2:4]
+        heading, yaw_rate = states[step].heading, states[step].yaw_rate
         leads.append((heading - 0.3) / 0.2 if step == 0 else (yaw_rate - 0.2) / held)
+        stated = (messages.stamp_ns(states[step].predicted_stamp) - step * 20_000_000) * 1e-9
+        assert stated == pytest.approx(leads[-1], abs=1e-6)      # predicted_stamp says how far
     assert leads[0] == pytest.approx(base, abs=1e-12)           # no delay measured yet
     assert all(base < lead < base + sc.dt_control for lead in leads[1:]), leads
 
@@ -269,21 +278,25 @@ def test_bad_parameter_at_start_up_is_refused_by_the_node_naming_it(nodes, exe, 
     assert named in str(refused.value)
 
 
-@pytest.mark.parametrize('k', [1, 9, 12, 345])
-def test_state_wire_bytes_are_the_formation_state_message(k):
-    """The vehicles' hand-written CDR is what rclpy makes of the same JointState, and back."""
+@pytest.mark.parametrize('k, hears, hearing, flow_hat', [
+    (1, (), (), None), (9, (8, 10), (True, False), None),
+    (12, (1, 5, 11), (False, True, True), 0.25 - 0.5j), (345, (), (), 1j)])
+def test_state_wire_bytes_are_the_formation_state_message(k, hears, hearing, flow_hat):
+    """The vehicles' hand-written CDR is what rclpy makes of the same FormationState, and back."""
     from rclpy.serialization import deserialize_message, serialize_message
     X = np.array([1.5, -2.0, 0.3, -0.2, 1.1, 0.05])
     row = (1.5 - 2.0j, 0.7, -0.1, 1.1)
     ns = 1_795_000_123_456_789_012
-    wire = messages.StateWire(k)
-    state = messages.FormationState.of_vehicle(ns, X, row)
+    wire = messages.StateWire(k, hears, estimates=flow_hat is not None)
+    state = messages.FormationState.of_vehicle(ns, X, row, dict(zip(hears, hearing)), flow_hat,
+                                               ahead=12_500_000)
+    msg = itf.formation_state_msg(k, state)
     data = wire.encode(state)
-    assert deserialize_message(data, JointState) == itf.state_msg(k, ns, X, row)
-    assert wire.decode(data) == state
-    assert wire.decode(serialize_message(itf.state_msg(k, ns, X, row))) in (
-        None, wire.decode(data))
-    assert messages.StateWire(k + 1).decode(data) is None
+    assert deserialize_message(data, FormationState) == msg
+    assert len(data) == len(serialize_message(msg))
+    assert wire.decode(serialize_message(msg)) == state == wire.decode(data)
+    assert messages.FormationState.of_message(msg) == state
+    assert messages.StateWire(k + 1, hears).decode(data) is None
     assert wire.decode(data[:-20]) is None
 
 
@@ -305,9 +318,11 @@ def test_odometry_and_command_bytes_are_the_messages(k):
     other.pose.covariance[0] = 0.1                             # a real odometry's covariance
     assert odom.decode(serialize_message(other)) is None
     assert itf.odom_wire(k + 1).decode(data) is None
-    cmd = itf.cmd_wire(k)
-    for model, u in (('rigid', (0.8, -0.02)), ('second_order', (0.0, 1.7))):
+    for model, u in (('rigid', (0.8, -0.02)), ('second_order', (0.0, 1.7)),
+                     ('first_order', (0.0, -0.4))):
+        cmd = itf.cmd_wire(k, model)
         data = cmd.encode(ns, messages.cmd_values(u, model))
-        assert deserialize_message(data, WrenchStamped) == itf.cmd_msg(k, ns, u, model)
+        assert deserialize_message(data, VehicleCommand) == itf.cmd_msg(k, ns, u, model)
+        assert cmd.decode(serialize_message(itf.cmd_msg(k, ns, u, model))) == cmd.decode(data)
         assert messages.input_from_cmd_values(cmd.decode(data)[1], model) == u
-    assert itf.cmd_wire(k + 1).decode(data) is None
+        assert itf.cmd_wire(k + 1, model).decode(data) is None

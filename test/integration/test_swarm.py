@@ -127,12 +127,12 @@ def _fleet_pids(domain_id, parent):
 
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
-    from geometry_msgs.msg import WrenchStamped
+    from formation_control_msgs.msg import VehicleCommand
 
     from formation_control.ros.interface import STATE_QOS
     swarm = ros.procs.start('formation-control', 'swarm', CONFIG / 'particle_parallel.yaml',
                             '-p', 'num_vehicles:=3', '--duration', '600')
-    cmds = ros.probe.collect(WrenchStamped, '/vehicle_3/cmd', STATE_QOS)
+    cmds = ros.probe.collect(VehicleCommand, '/vehicle_3/cmd', STATE_QOS)
     assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
     fleet = _fleet_pids(ros.domain_id, swarm.pid)
     assert len(fleet) == 5
@@ -182,10 +182,14 @@ def _statuses(bag, name):
 
 
 def _faults_in(bag):
+    """Return the swarm's records of the bag's FaultEvents, and their (kind, vehicle ids)."""
     with AnyReader([bag]) as reader:
-        faults = [c for c in reader.connections if c.topic == '/' + names.FAULTS_TOPIC]
-        return [json.loads(reader.deserialize(raw, c.msgtype).data) for c, _, raw
-                in reader.messages(faults)]
+        conns = [c for c in reader.connections if c.topic == '/' + names.FAULTS_TOPIC]
+        assert [c.msgtype for c in conns] == ['formation_control_msgs/msg/FaultEvent']
+        events = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(conns)]
+    return ([{'fault': e.fault, 'action': e.action, 'scheduled': e.scheduled_time,
+              'applied': e.applied_time if e.applied else None} for e in events],
+            [(e.kind, list(e.vehicle_ids)) for e in events])
 
 
 def test_swarm_survives_scripted_faults(ros, tmp_path):
@@ -206,7 +210,9 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     applied = [f['applied'] for f in out['faults']]
     # at the first fleet step the swarm sees at or after the time: later on a loaded machine
     assert all(0 <= f['applied'] - f['scheduled'] < 2.0 for f in out['faults']), out['faults']
-    assert _faults_in(bag) == out['faults']
+    records, kinds = _faults_in(bag)
+    assert records == out['faults']
+    assert kinds == [(1, [6]), (3, [2]), (4, [2]), (5, [1, 3]), (6, [1, 3])]  # KILL .. MEND
     (lost,) = out['lost']
     assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
     assert 0.2 <= lost['time'] < 2.0                    # its death is seen a few steps later

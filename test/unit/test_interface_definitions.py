@@ -22,9 +22,10 @@ listed in CMakeLists.txt (a .msg file not listed there is not built).
 """
 from pathlib import Path
 import re
+import sys
 
 from formation_control.core.models import PARTICLE_MODELS
-from formation_control.protocol import faults
+from formation_control.protocol import cdr, faults, messages
 from formation_control.protocol.messages import METRIC_DOC
 import pytest
 from rosidl_adapter.parser import parse_message_file
@@ -101,3 +102,36 @@ def test_a_command_kind_per_particle_model_and_one_for_rigid_bodies():
     assert 0 not in kinds.values() and len(set(kinds.values())) == len(kinds)
     assert {'thrust', 'steering_force', 'angular_acceleration', 'turn_rate'} <= set(
         fields('VehicleCommand'))
+
+
+def _definition(parsed, nested):
+    """Return a parsed .msg's fields as (name, type) pairs, nested types expanded."""
+    out = []
+    for f in parsed.fields:
+        kind = f'{f.type.pkg_name}/{f.type.type}' if f.type.pkg_name else str(f.type)
+        out.append((f.name, _definition(nested[kind], nested) if kind in nested else kind))
+    return tuple(out)
+
+
+SHARE = Path(sys.prefix) / 'share'
+
+
+@pytest.mark.skipif(not (SHARE / 'std_msgs' / 'msg' / 'Header.msg').is_file(),
+                    reason='std_msgs is not installed in this environment')
+@pytest.mark.parametrize('name, definition', [('FormationState', messages.FORMATION_STATE),
+                                              ('VehicleCommand', messages.VEHICLE_COMMAND)])
+def test_the_wire_layouts_are_the_msg_definitions(name, definition):
+    """The canonical bytes' field lists, nested Header and Time included, are the .msg files'."""
+    nested = {f'{pkg}/{msg}': parse_message_file(pkg, str(SHARE / pkg / 'msg' / f'{msg}.msg'))
+              for pkg, msg in (('std_msgs', 'Header'), ('builtin_interfaces', 'Time'))}
+    assert _definition(spec(name), nested) == definition
+    assert (definition[0], constants(name)['INTERFACE_VERSION']) == (
+        ('interface_version', 'uint8'), messages.INTERFACE_VERSION)
+    assert _definition(nested['std_msgs/Header'], nested) == cdr.HEADER
+
+
+def test_the_command_kinds_are_the_msg_constants():
+    kinds = constants('VehicleCommand')
+    assert {m: messages.command_kind(m) for m in ('rigid', 'second_order', 'first_order')} == {
+        'rigid': kinds['RIGID_BODY'], 'second_order': kinds['SECOND_ORDER'],
+        'first_order': kinds['FIRST_ORDER']}

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """The formation_state record, the decode-or-check path, the delay and hears-me (no DDS)."""
-import hashlib
+import struct
 from types import SimpleNamespace
 
 from formation_control.core import scenario
@@ -35,72 +35,77 @@ ROW = (1.5 - 2.0j, 0.7, -0.1, 1.1)
 NS = 1_795_000_123_456_789_012
 OTHER = Frames('world', 'robot_{id}/base')
 
-GOLDEN = [   # sha256 of the bytes StateWire wrote before the record (commit 40cf5cb)
-    (1, (), (), None, DEFAULT_FRAMES,
-     '1273e24bb88a64dbe601f344c1693366f44ea59638f95f7cfd5bd55fcf7883bf'),
-    (1, (), (), None, OTHER, '21c9be48391de97655e130e46bf302836e4e60dd4ba01ad4ae9cc092c81d06d1'),
-    (3, (2, 4), (True, False), None, DEFAULT_FRAMES,
-     'b291275b099734db0c20a48e4c84e9df9e36613055332478664f1507be9405fc'),
-    (3, (2, 4), (True, False), None, OTHER,
-     'cce73e9149d298f4b2e81de11e8dd1d9b9b5aab5a3e59fbd996b8547f0a5109a'),
-    (12, (1, 5, 11), (False, True, True), 0.25 - 0.5j, DEFAULT_FRAMES,
-     '8c09771a7ecf7e5ceb7b3cf87e068897f8ff332f021963a2f15a0b8b596e5457'),
-    (12, (1, 5, 11), (False, True, True), 0.25 - 0.5j, OTHER,
-     '68cea6b3f23b64e9203b135fe9f9ba2331cafe71bd2c6b02f680c021e5623b04'),
-    (7, (), (), -1.0 + 0.125j, DEFAULT_FRAMES,
-     'd6d7bef376e3780599dd6237f0ba15bafddd74cf580a77e66e6ccc8d6fe0b8a1'),
-    (7, (), (), -1.0 + 0.125j, OTHER,
-     'b2dcae9837dcd3ccc8f33151eaea94a5bfc71bbbf5fe14958bfcb7951f72b725'),
+CASES = [   # k, graph neighbours, whether it hears each, flow estimate, frames
+    (1, (), (), None, DEFAULT_FRAMES),
+    (1, (), (), None, OTHER),
+    (3, (2, 4), (True, False), None, DEFAULT_FRAMES),
+    (12, (1, 5, 11), (False, True, True), 0.25 - 0.5j, OTHER),
+    (7, (), (), -1.0 + 0.125j, DEFAULT_FRAMES),
 ]
+AHEAD = 10_000_000
 
 
 def _state(hears, hearing, flow_hat, ns=NS):
-    return FormationState.of_vehicle(ns, X, ROW, dict(zip(hears, hearing)), flow_hat)
+    return FormationState.of_vehicle(ns, X, ROW, dict(zip(hears, hearing)), flow_hat, AHEAD)
 
 
-@pytest.mark.parametrize('k, hears, hearing, flow_hat, frames, digest', GOLDEN)
-def test_the_record_writes_exactly_the_bytes_of_before(k, hears, hearing, flow_hat, frames,
-                                                       digest):
+def _message(k, state, frame='map', **changes):
+    """Return a FormationState message as a bag reader builds one: attributes only."""
+    fields = {**state.fields(), 'vehicle_id': k, 'interface_version': 1, **changes}
+    return SimpleNamespace(header=SimpleNamespace(stamp=_time(state.stamp), frame_id=frame),
+                           predicted_stamp=_time(state.predicted_stamp), **fields)
+
+
+def _time(ns):
+    return SimpleNamespace(sec=ns // 10**9, nanosec=ns % 10**9)
+
+
+@pytest.mark.parametrize('k, hears, hearing, flow_hat, frames', CASES)
+def test_the_wire_reads_back_what_it_writes_and_only_its_own_layout(k, hears, hearing, flow_hat,
+                                                                    frames):
     wire = StateWire(k, hears, frames, flow_hat is not None)
     state = _state(hears, hearing, flow_hat)
     data = wire.encode(state)
-    assert hashlib.sha256(data).hexdigest() == digest
     assert wire.decode(data) == state
+    assert state.predicted_stamp == NS + AHEAD and state.flow_hat == flow_hat
     assert StateWire(k + 1, hears, frames, flow_hat is not None).decode(data) is None
-    assert wire.decode(data[:-20]) is None
+    assert StateWire(k, hears, Frames('odom'), flow_hat is not None).decode(data) is None
+    assert StateWire(k, hears, frames, flow_hat is None).decode(data) is None
+    assert wire.decode(data[:-8]) is None
+    assert wire.decode(data[:4] + bytes([2]) + data[5:]) is None        # interface version 2
+    assert data[4] == messages.INTERFACE_VERSION
 
 
-@pytest.mark.parametrize('k, hears, hearing, flow_hat, frames, digest', GOLDEN)
-def test_the_record_round_trips_the_joint_state_arrays(k, hears, hearing, flow_hat, frames,
-                                                       digest):
+def test_the_wire_bytes_are_the_cdr_of_the_msg_definition():
+    """Hand-checked offsets of FormationState.msg in XCDR1 (body from byte 4, aligned there)."""
+    state = _state((2, 4), (True, False), 0.25 - 0.5j)
+    data = StateWire(3, (2, 4), DEFAULT_FRAMES, True).encode(state)
+    body = data[4:]
+    sec, nanosec = messages.stamp_parts(NS)
+    psec, pnanosec = messages.stamp_parts(NS + AHEAD)
+    assert data[:4] == b'\x00\x01\x00\x00' and body[0] == 1                # interface_version
+    assert struct.unpack_from('<iII4s', body, 4) == (sec, nanosec, 4, b'map\x00')
+    assert struct.unpack_from('<IiI', body, 20) == (3, psec, pnanosec)     # vehicle_id, stamp
+    assert struct.unpack_from('<7d', body, 32) == (1.5, -2.0, 0.3, -0.2, 0.7, -0.1, 1.1)
+    assert struct.unpack_from('<4I3?', body, 88) == (2, 2, 4, 2, True, False, True)
+    assert struct.unpack_from('<2d', body, 112) == (0.25, -0.5) and len(body) == 128
+
+
+@pytest.mark.parametrize('k, hears, hearing, flow_hat, frames', CASES)
+def test_a_message_reads_as_the_wire_reads_its_bytes(k, hears, hearing, flow_hat, frames):
     state = _state(hears, hearing, flow_hat)
-    names, values = state.names(), state.values()
-    assert names == messages.state_names(hears, flow_hat is not None)
-    assert names[:7] == messages.STATE_FIELDS
-    assert values[:7] == (1.5, -2.0, 0.3, -0.2, 0.7, -0.1, 1.1)
-    assert values[7:7 + len(hears)] == tuple(float(h) for h in hearing)
-    assert FormationState.from_joint(NS, names, values) == state
+    assert FormationState.of_message(_message(k, state, frames.world)) == state
     assert state.r == ROW[0] and state.row == ROW
-    assert state.flow_hat == flow_hat
 
 
-def test_a_formation_state_is_read_by_its_names():
-    state = FormationState.from_joint(5, ['x', 'y', 'heading', 'yaw_rate', 'phase',
-                                          'phase_rate', 'speed', 'hears_4', 'hears_6'],
-                                      [1, 2, 3, 4, 5, 6, 7, 0.9, 0.1])
-    assert (state.stamp, state.x, state.speed) == (5, 1.0, 7.0)
-    assert state.hears == {4: True, 6: False}
-    assert state.flow_hat is None
+def test_a_state_says_whom_the_sender_hears():
+    state = FormationState(5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, {4: True, 6: False})
+    assert (state.stamp, state.x, state.speed, state.predicted_stamp) == (5, 1.0, 7.0, 5)
+    assert state.flow_hat is None and state.finite()
     assert state.hears_vehicle(4) and not state.hears_vehicle(6)
     assert state.hears_vehicle(2)                    # not its graph neighbour: not flagged
-    with pytest.raises(ValueError, match='names of a formation_state'):
-        FormationState.from_joint(0, ['x'] * 5, [1.0] * 5)
-    with pytest.raises(ValueError, match='hears_j'):
-        FormationState.from_joint(0, [*messages.STATE_FIELDS, 'hears_me'], [0.0] * 8)
-    with pytest.raises(ValueError):
-        FormationState.from_joint(0, messages.STATE_FIELDS, [0.0] * 6)
-    assert not FormationState.from_joint(0, messages.STATE_FIELDS,
-                                         [0.0] * 6 + [float('nan')]).finite()
+    assert not state._replace(speed=float('nan')).finite()
+    assert not state._replace(flow_hat=complex(0.0, float('inf'))).finite()
 
 
 def test_a_stamp_splits_into_seconds_and_nanoseconds():
@@ -111,15 +116,9 @@ def test_a_stamp_splits_into_seconds_and_nanoseconds():
     assert messages.stamp_ns(header.stamp) == NS
 
 
-def _joint(state, frame, names=None):
-    return SimpleNamespace(header=SimpleNamespace(stamp=SimpleNamespace(
-        sec=state.stamp // 10**9, nanosec=state.stamp % 10**9), frame_id=frame),
-        name=list(state.names() if names is None else names), position=list(state.values()))
-
-
 def _from(msg):
     def deserialize(data):
-        if data == b'garbage':
+        if data.startswith(b'garb'):
             raise RuntimeError('not CDR')
         return msg
     return deserialize
@@ -130,21 +129,33 @@ def test_canonical_bytes_are_read_in_place_and_others_checked():
     rule = intake.formation_state(wire, DEFAULT_FRAMES)
     state = _state((2, 4), (True, False), None)
     assert rule(wire.encode(state), _from(None)) == state          # never deserialized
-    assert rule(b'other', _from(_joint(state, 'vehicle_3/base_link'))) == state
-    cases = {b'garbage': (None, 'malformed', 'undecodable formation_state of vehicle 3 bytes'),
-             b'names': (_joint(state, 'vehicle_3/base_link', ['x'] * 9), 'malformed',
-                        'a malformed formation_state of vehicle 3'),
-             b'foreign': (_joint(state, 'vehicle_9/base_link'), 'foreign_id',
-                          "a formation_state on vehicle 3's topic from 'vehicle_9/base_link'"),
-             b'frame': (_joint(state, 'map'), 'wrong_frame',
-                        "a formation_state on vehicle 3's topic from 'map'")}
+    assert rule(b'other', _from(_message(3, state))) == state
+    cases = {b'garb\x01age': (None, 'malformed',
+                              'undecodable formation_state of vehicle 3 bytes'),
+             b'graph': (_message(3, state, neighbour_ids=[2, 5]), 'malformed',
+                        'a malformed formation_state of vehicle 3 (neighbours [2, 5], 2 hears '
+                        'flags, estimates_flow False; its graph and flow_source give [2, 4], '
+                        'False)'),
+             b'foreign': (_message(9, state), 'foreign_id',
+                          "a formation_state of vehicle 9 on vehicle 3's topic"),
+             b'frame': (_message(3, state, 'odom'), 'wrong_frame',
+                        "a formation_state on vehicle 3's topic in frame 'odom' (world_frame is "
+                        "'map')"),
+             b'version': (_message(3, state, interface_version=2), 'interface_version',
+                          'a formation_state of vehicle 3 of interface version 2: this node '
+                          'speaks formation_control_msgs version 1 (run the same '
+                          'formation_control_msgs on every node)')}
     for data, (msg, kind, what) in cases.items():
         assert rule(data, _from(msg)) == Rejection(kind, what)
+    newer = rule(b'garb\x02age', _from(None))                     # version 2, undecodable
+    assert newer == Rejection('malformed', 'undecodable formation_state of vehicle 3 bytes '
+                                           '(their first field, interface_version, reads 2; '
+                                           'this node speaks formation_control_msgs version 1)')
     unchecked = intake.formation_state(wire)                       # the monitor's: no frame
-    assert unchecked(b'frame', _from(_joint(state, 'map'))) == state
+    assert unchecked(b'frame', _from(_message(3, state, 'odom'))) == state
 
 
-def test_odometry_and_commands_are_checked_for_their_frames():
+def test_odometry_and_commands_are_checked_for_their_frames_ids_and_kinds():
     stamp = SimpleNamespace(sec=1, nanosec=5)
 
     def odom(frame, child):
@@ -164,12 +175,37 @@ def test_odometry_and_commands_are_checked_for_their_frames():
     assert rule(b'garbage', _from(None)) == Rejection(
         'malformed', 'undecodable odometry of vehicle 2 bytes')
     assert intake.odometry(none, 2, 'map')(b'x', _from(odom('map', 'x'))) == good
-    cmd = SimpleNamespace(header=SimpleNamespace(stamp=stamp, frame_id='map'),
-                          wrench=SimpleNamespace(force=SimpleNamespace(x=1.0, y=2.0),
-                                                 torque=SimpleNamespace(z=3.0)))
-    assert intake.command(none, 2, 'vehicle_2/base_link')(b'x', _from(cmd)) == Rejection(
+
+    def cmd(frame='vehicle_2/base_link', **changes):
+        fields = {'interface_version': 1, 'vehicle_id': 2, 'kind': 2, 'thrust': 0.0,
+                  'steering_force': 0.0, 'angular_acceleration': 3.0, 'turn_rate': 0.0,
+                  **changes}
+        return SimpleNamespace(header=SimpleNamespace(stamp=stamp, frame_id=frame), **fields)
+    wire = messages.CommandWire(2, 'second_order')
+    rule = intake.command(wire, 'vehicle_2/base_link')
+    assert rule(b'x', _from(cmd())) == (1_000_000_005, (0.0, 0.0, 3.0, 0.0))
+    assert rule(wire.encode(7, (0.0, 0.0, 0.5, 0.0)), _from(None)) == (7, (0.0, 0.0, 0.5, 0.0))
+    assert rule(b'x', _from(cmd('map'))) == Rejection(
         'wrong_frame', "a command on vehicle 2's topic in frame 'map'")
-    assert intake.command(none, 2)(b'x', _from(cmd)) == (1_000_000_005, (1.0, 2.0, 3.0))
+    assert rule(b'x', _from(cmd(kind=0))) == Rejection(
+        'wrong_kind', 'a command of vehicle 2 of kind 0 (its model takes kind 2; 0 is no kind)')
+    assert rule(b'x', _from(cmd(kind=3))).kind == 'wrong_kind'
+    assert rule(b'x', _from(cmd(vehicle_id=1))).kind == 'foreign_id'
+    assert rule(b'x', _from(cmd(interface_version=0))).kind == 'interface_version'
+    assert intake.command(wire)(b'x', _from(cmd('map'))) == (1_000_000_005, (0.0, 0.0, 3.0, 0.0))
+
+
+@pytest.mark.parametrize('model, kind, values', [
+    ('rigid', 1, (0.5, -0.25, 0.0, 0.0)), ('rigid_cop', 1, (0.5, -0.25, 0.0, 0.0)),
+    ('second_order', 2, (0.0, 0.0, -0.25, 0.0)), ('first_order', 3, (0.0, 0.0, 0.0, -0.25))])
+def test_a_command_names_what_its_model_takes(model, kind, values):
+    assert messages.command_kind(model) == kind
+    assert messages.cmd_values((0.5, -0.25), model) == values
+    u = (0.5, -0.25) if kind == 1 else (0.0, -0.25)
+    assert messages.input_from_cmd_values(values, model) == u
+    wire = messages.CommandWire(4, model)
+    assert wire.decode(wire.encode(NS, values)) == (NS, values)
+    assert messages.CommandWire(5, model).decode(wire.encode(NS, values)) is None
 
 
 def test_the_delay_is_a_running_mean_of_clipped_delays_plus_the_wait():
@@ -262,19 +298,19 @@ def test_the_plant_protocol_refuses_bad_commands_and_reports_who_it_waits_for():
     plant = Plant(sc, True, 2.0, clock)
     assert plant.advance() is None                  # not started
     ns = plant.begin()
-    assert plant.command(1, ns, (0.0, 0.0, float('nan'))) == Rejection(
+    assert plant.command(1, ns, (0.0, 0.0, float('nan'), 0.0)) == Rejection(
         'non_finite', 'a non-finite command of vehicle 1')
-    assert plant.command(1, ns + 1, (0.0, 0.0, 0.1)) == Rejection(
+    assert plant.command(1, ns + 1, (0.0, 0.0, 0.1, 0.0)) == Rejection(
         'stale', 'a command of vehicle 1 for another step')
-    assert plant.command(1, ns, (0.0, 0.0, 0.1)) is True
-    assert plant.command(1, ns, (0.0, 0.0, 0.1)) is False      # the step answered again
+    assert plant.command(1, ns, (0.0, 0.0, 0.1, 0.0)) is True
+    assert plant.command(1, ns, (0.0, 0.0, 0.1, 0.0)) is False      # the step answered again
     assert plant.advance() is None                  # vehicle 2 still awaited
     clock.t += 5.0
     assert plant.stalled(3.0) == (pytest.approx(5.0), [2])
     level, text, values = plant.status({'stale': 1})
     assert (level, values['step'], values['stale'], values['repeated_commands']) == (
         'ok', 0, 1, 1)
-    assert plant.command(2, ns, (0.0, 0.0, -0.1)) is True
+    assert plant.command(2, ns, (0.0, 0.0, -0.1, 0.0)) is True
     which, ns1, step = plant.advance()
     assert which.all() and step and ns1 == round(sc.dt_control * 1e9)
     assert plant.fleet.pending[1].tolist() == [0.1, -0.1]
