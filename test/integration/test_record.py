@@ -164,7 +164,8 @@ def test_a_launch_killed_leaves_no_process_and_its_bag_repairs(ros, tmp_path):
     launch_file = Path(__file__).resolve().parents[2] / 'launch' / 'fleet.launch.py'
     log = tempfile.TemporaryFile('w+')
     launch = subprocess.Popen([str(BIN / 'ros2'), 'launch', str(launch_file),
-                               'scenario:=rigid_parallel', 'duration:=60', f'record:={bag}'],
+                               'scenario:=rigid_parallel', 'duration:=60', f'record:={bag}',
+                               'vehicles_per_process:=1'],
                               env=env, stdout=log, stderr=subprocess.STDOUT,
                               stdin=subprocess.DEVNULL)
     launch.log = log
