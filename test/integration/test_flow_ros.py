@@ -45,11 +45,16 @@ def test_lockstep_rigid_fleet_estimating_the_flow_equals_the_offline_simulator(n
     assert abs(estimates[0] - offline.sc.flow_c) < 0.1          # learning it after 3 s
 
     def reported():
-        for msg in diags:
+        """Return vehicle 1's latest links report (a report may predate its learning)."""
+        for msg in reversed(diags):
             for status in msg.status:
                 if status.name == 'formation_control/vehicle_1/links':
                     return {v.key: v.value for v in status.values}
-    assert nodes.spin_until(reported, timeout=10.0)
+
+    def current():
+        last = reported()
+        return last and abs(float(last['flow_hat_x']) - estimates[0].real) < 1e-5
+    assert nodes.spin_until(current, timeout=10.0), reported()
     assert reported()['flow_source'] == 'estimated'
     assert abs(float(reported()['flow_hat_x']) - offline.sc.flow_c.real) < 0.2
 
