@@ -20,11 +20,20 @@ MSGS_BUILD := $(VENV)/build/$(MSGS)
 MSGS_STAMP := $(VENV)/.installed-$(MSGS)
 MSGS_SOURCES := $(wildcard $(MSGS)/msg/*.msg) $(MSGS)/CMakeLists.txt $(MSGS)/package.xml \
 	tools/rosidl_wheel_includes.cmake
+# tf2_msgs/msg/TFMessage (the type of /tf and /tf_static, which the monitor publishes): no
+# ros-jazzy wheel has it, so third_party/tf2_msgs (that message alone, its standard definition,
+# hence ROS's type hash) is built the same way, but only when the venv has no tf2_msgs of its
+# own: a ROS installation's is used as it is. The stamp says which ("built" or "found").
+TF2 := third_party/tf2_msgs
+TF2_BUILD := $(VENV)/build/tf2_msgs
+TF2_STAMP := $(VENV)/.installed-tf2_msgs
+TF2_SOURCES := $(TF2)/msg/TFMessage.msg $(TF2)/CMakeLists.txt $(TF2)/package.xml \
+	tools/rosidl_wheel_includes.cmake
 # cmake, a C++ compiler and the Python headers, checked before anything is installed.
 CHECK_BUILD_TOOLS := command -v cmake >/dev/null && command -v "$${CXX:-c++}" >/dev/null && \
 	$(PYTHON) -c 'import os, sys, sysconfig; \
 	sys.exit(not os.path.exists(sysconfig.get_paths()["include"] + "/Python.h"))' || \
-	{ echo 'make setup: building $(MSGS) needs cmake, a C++ compiler and the Python headers:' \
+	{ echo 'make setup: building $(MSGS) and $(TF2) needs cmake, a C++ compiler and the Python headers:' \
 	'install them (Debian/Ubuntu: sudo apt-get install cmake g++ python3-dev)'; exit 1; }
 # The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
 # into the venv when present, so that the tests with `ros2` run; without it they skip, unless
@@ -36,7 +45,7 @@ export MPLBACKEND := Agg
 .PHONY: setup upgrade demo test test-fast docs lint copyright bench bench-scripts bench-compare \
 	envelope setup-browser clean
 
-setup: $(STAMP) $(MSGS_STAMP)
+setup: $(STAMP) $(MSGS_STAMP) $(TF2_STAMP)
 
 # pip, setuptools and wheel at their pins first: the package is built with them
 # (--no-build-isolation), not with whatever setuptools is newest. check_pins.py fails if a
@@ -54,15 +63,25 @@ $(STAMP): setup.py package.xml $(CONSTRAINTS)
 
 # CMAKE_PROJECT_INCLUDE: the wheels' exported targets name their build host's Python include
 # directories; tools/rosidl_wheel_includes.cmake repoints them (nothing in the venv changes).
-$(MSGS_STAMP): $(STAMP) $(MSGS_SOURCES)
-	@$(CHECK_BUILD_TOOLS)
-	venv=$$(cd $(VENV) && pwd); export PATH="$$venv/bin:$$PATH" AMENT_PREFIX_PATH="$$venv" \
-		CMAKE_PREFIX_PATH="$$venv"; \
-	cmake -S $(MSGS) -B $(MSGS_BUILD) -DCMAKE_INSTALL_PREFIX="$$venv" -DBUILD_TESTING=OFF \
+BUILD_INTERFACES = venv=$$(cd $(VENV) && pwd); export PATH="$$venv/bin:$$PATH" \
+	AMENT_PREFIX_PATH="$$venv" CMAKE_PREFIX_PATH="$$venv"; \
+	cmake -S $(1) -B $(2) -DCMAKE_INSTALL_PREFIX="$$venv" -DBUILD_TESTING=OFF \
 		-DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE="$$venv/bin/python" \
 		-DCMAKE_PROJECT_INCLUDE=$(abspath tools/rosidl_wheel_includes.cmake) && \
-	cmake --build $(MSGS_BUILD) -j1 && cmake --install $(MSGS_BUILD)
+	cmake --build $(2) -j1 && cmake --install $(2)
+$(MSGS_STAMP): $(STAMP) $(MSGS_SOURCES)
+	@$(CHECK_BUILD_TOOLS)
+	$(call BUILD_INTERFACES,$(MSGS),$(MSGS_BUILD))
 	touch $(MSGS_STAMP)
+
+# "found": a tf2_msgs the venv had before this package built one (a ROS installation's).
+$(TF2_STAMP): $(STAMP) $(TF2_SOURCES)
+	@if [ "$$(cat $(TF2_STAMP) 2>/dev/null)" != built ] && \
+		$(PY) -c 'import tf2_msgs.msg' 2>/dev/null; then \
+		echo 'make setup: using the tf2_msgs of the ROS installation'; \
+		echo found > $(TF2_STAMP); exit 0; fi; \
+	$(CHECK_BUILD_TOOLS); \
+	$(call BUILD_INTERFACES,$(TF2),$(TF2_BUILD)) && echo built > $(TF2_STAMP)
 
 # Refresh the pins on purpose: the newest release of every dependency (and of what the
 # ros2-tools installer pulls from PyPI), installed into a throw-away venv without

@@ -32,7 +32,9 @@ Channels, named as the monitor resolves its topics (absolute: a fleet in ``/flee
   ``ros2msg``, what ``foxglove_bridge`` serves), for the Diagnostics panels;
 - ``/tf``: ``tf2_msgs/msg/TFMessage`` as CDR with the frames of :mod:`~formation_control.view.
   frames` (each vehicle's base frame in the world frame, ``map`` above it), at the scene's
-  stamps, so that a 3D panel draws in ``map`` or follows a vehicle's base frame.
+  stamps, so that a 3D panel draws in ``map`` or follows a vehicle's base frame: the monitor's
+  ``/tf`` and ``/tf_static`` of the ROS graph together (:mod:`formation_control.ros.tf`), in one
+  channel (a WebSocket client joining late still gets ``map``).
 
 ``formation-control layout --namespace NS --world-frame F`` prints the layout of these names.
 Each message is logged at the fleet time of the state it shows (ns).
@@ -40,34 +42,18 @@ Each message is logged at the fleet time of the state it shows (ns).
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
 from formation_control.protocol.names import BASE_FRAME, WORLD_FRAME
+from formation_control.ros import tf
 from formation_control.ros.relay import Relay
 from formation_control.view import frames, scene
 import foxglove
 from foxglove.channels import SceneUpdateChannel
+from rclpy.serialization import serialize_message
 from rosbags.typesys import get_typestore, Stores
 
 DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
 MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 TF_MESSAGE = 'tf2_msgs/msg/TFMessage'
-TF_TOPIC = '/tf'
 TYPES = get_typestore(Stores.ROS2_JAZZY)
-
-
-def tf_message(ns, transforms):
-    """Return the TFMessage (CDR bytes) of :class:`~formation_control.view.frames.Transform` s."""
-    t = TYPES.types
-    sec, nsec = messages.stamp_parts(ns)
-    stamp = t['builtin_interfaces/msg/Time'](sec=sec, nanosec=nsec)
-
-    def stamped(tr):
-        pose = t['geometry_msgs/msg/Transform'](
-            translation=t['geometry_msgs/msg/Vector3'](*tr.translation),
-            rotation=t['geometry_msgs/msg/Quaternion'](*tr.rotation))
-        return t['geometry_msgs/msg/TransformStamped'](
-            header=t['std_msgs/msg/Header'](stamp=stamp, frame_id=tr.parent),
-            child_frame_id=tr.child, transform=pose)
-    message = t[TF_MESSAGE](transforms=[stamped(tr) for tr in transforms])
-    return bytes(TYPES.serialize_cdr(message, TF_MESSAGE))
 
 
 def ros2msg_schema(type_name):
@@ -114,7 +100,7 @@ class LiveView:
         self.markers = foxglove.Channel(node.resolve_topic_name(names.MARKERS_TOPIC),
                                         schema=ros2msg_schema(MARKER_ARRAY),
                                         message_encoding='cdr', context=self.context)
-        self.tf = foxglove.Channel(TF_TOPIC, schema=ros2msg_schema(TF_MESSAGE),
+        self.tf = foxglove.Channel(tf.TF_TOPIC, schema=ros2msg_schema(TF_MESSAGE),
                                    message_encoding='cdr', context=self.context)
         self.diagnostics = foxglove.Channel(node.resolve_topic_name(names.DIAGNOSTICS_TOPIC),
                                             schema=ros2msg_schema(DIAGNOSTIC_ARRAY),
@@ -140,8 +126,9 @@ class LiveView:
             self.scene.log(scene.fleet_scene(*picture, frame=self.frame),
                            log_time=int(picture.ns))
         if self.tf.has_sinks():
-            transforms = frames.fleet_transforms(picture, self.frame, self.base)
-            self.tf.log(tf_message(picture.ns, transforms), log_time=int(picture.ns))
+            message = tf.tf_message(picture.ns, frames.fleet_transforms(
+                picture, self.frame, self.base))
+            self.tf.log(serialize_message(message), log_time=int(picture.ns))
 
     def log_metrics(self, ns, values):
         if self.metrics.has_sinks():

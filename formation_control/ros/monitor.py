@@ -26,6 +26,9 @@ odometry, command and formation state, and publishes
   command, not converging) and one for the formation ("converged" with the time it took),
   every ``diagnostics_period`` wall seconds and whenever the formation's status changes;
 - ``/formation/markers`` for RViz, every ``markers_period`` wall seconds while subscribed;
+- the fleet's frames (REP-105, :mod:`formation_control.ros.tf`): ``map`` to ``world_frame`` on
+  the latched ``/tf_static`` (when they differ), each vehicle's ``base_frame`` in the world
+  frame on ``/tf``, at the markers' pose and period while subscribed;
 - with ``foxglove_port``, a Foxglove live view of the same (:mod:`formation_control.ros.live`):
   the scene every ``markers_period`` while a client subscribes, every metrics sample, every
   ``/diagnostics``.
@@ -44,6 +47,7 @@ from formation_control.protocol import intake, messages, names
 from formation_control.protocol.node_parameters import MONITOR
 from formation_control.protocol.watch import WARN, Watch
 from formation_control.ros import common, interface as itf, markers, parameters
+from formation_control.ros.tf import FleetFrames
 from formation_control.view import picture
 from formation_control_msgs.msg import FormationMetrics, FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
@@ -85,6 +89,7 @@ class MonitorNode(Node):
                                   qos_profile=qos_profile_parameter_events)
         self.scenario_topic = self.resolve_topic_name(names.SCENARIO_TOPIC)
         self.diag_pub = common.diagnostics_publisher(self)
+        self.frames = FleetFrames(self, self.p['world_frame'], self.p['base_frame'])
         self.live = None
         if self.p['foxglove_port']:
             from formation_control.ros.live import LiveView
@@ -186,11 +191,12 @@ class MonitorNode(Node):
             self.live.log_diagnostics(messages.stamp_ns(msg.header.stamp), serialize_message(msg))
 
     def publish_markers(self):
-        """Publish the markers and the live view's scene, to whichever has a subscriber."""
+        """Publish the markers, ``/tf`` and the live view's scene, to whichever is subscribed."""
         rviz = self.markers_pub.get_subscription_count() > 0
+        tf = self.frames.wanted()
         live = self.live is not None and self.live.wants_scene()
         live_markers = self.live is not None and self.live.wants_markers()
-        shown = self.watch.picture() if rviz or live or live_markers else None
+        shown = self.watch.picture() if rviz or tf or live or live_markers else None
         if shown is None:
             return
         X, ns, trails, ground, centres, target = shown
@@ -202,6 +208,8 @@ class MonitorNode(Node):
                 self.markers_pub.publish(msg)
             if live_markers:
                 self.live.log_markers(ns, serialize_message(msg))
+        if tf:
+            self.frames.publish(pic)
         if live:
             self.live.log_scene(pic)
 

@@ -19,7 +19,9 @@ Each vehicle's base frame (``base_frame``, default ``vehicle_{id}/base_link``) i
 world frame at its pose (r_k, theta_k) of the picture; when the world frame is not ``map``,
 ``map`` is its parent by identity (a fleet localised without drift: map = odom), so a ``map``
 frame is always there. The 3D panels of Foxglove-type apps and RViz draw in any of them: the
-world frame, or a vehicle's base frame to follow that vehicle.
+world frame, or a vehicle's base frame to follow that vehicle. On the ROS graph the monitor
+publishes :func:`static_transforms` on ``/tf_static`` and :func:`vehicle_transforms` on ``/tf``
+(:mod:`formation_control.ros.tf`); its live view serves both on its ``/tf`` channel.
 """
 import math
 from typing import NamedTuple
@@ -45,9 +47,17 @@ def planar(parent, child, z, angle):
                      (0.0, 0.0, math.sin(0.5 * angle), math.cos(0.5 * angle)))
 
 
+def static_transforms(world=WORLD_FRAME):
+    """Return the Transforms that never change: ``map`` to the world frame, if they differ."""
+    return [] if world == MAP_FRAME else [planar(MAP_FRAME, world, 0j, 0.0)]
+
+
+def vehicle_transforms(picture, world=WORLD_FRAME, base=BASE_FRAME):
+    """Return the Transforms of a Picture's vehicles: each base frame in the world frame."""
+    return [planar(world, base_frame(base, k + 1), z, float(theta))
+            for k, (z, theta) in enumerate(zip(picture.positions, picture.headings))]
+
+
 def fleet_transforms(picture, world=WORLD_FRAME, base=BASE_FRAME):
     """Return the Transforms of a Picture: ``map`` to the world frame, the world to each base."""
-    out = [] if world == MAP_FRAME else [planar(MAP_FRAME, world, 0j, 0.0)]
-    out += [planar(world, base_frame(base, k + 1), z, float(theta))
-            for k, (z, theta) in enumerate(zip(picture.positions, picture.headings))]
-    return out
+    return static_transforms(world) + vehicle_transforms(picture, world, base)

@@ -47,3 +47,12 @@ def test_map_is_there_above_another_world_frame():
     got = frames.fleet_transforms(_picture([0j], [0.0]), 'odom', 'b{id}')
     assert [(t.parent, t.child) for t in got] == [('map', 'odom'), ('odom', 'b1')]
     assert got[0].translation == (0.0, 0.0, 0.0) and got[0].rotation == (0.0, 0.0, 0.0, 1.0)
+
+
+@pytest.mark.parametrize('world, static', [('map', []), ('odom', [('map', 'odom')])])
+def test_the_static_frames_and_the_vehicles_make_the_fleet_tree(world, static):
+    pic = _picture([1j, 2 + 0j], [0.5, 1.0])
+    assert [(t.parent, t.child) for t in frames.static_transforms(world)] == static
+    moving = frames.vehicle_transforms(pic, world, 'b{id}')
+    assert [(t.parent, t.child) for t in moving] == [(world, 'b1'), (world, 'b2')]
+    assert frames.static_transforms(world) + moving == frames.fleet_transforms(pic, world, 'b{id}')
