@@ -29,6 +29,7 @@ Both are absolute (one tree per ROS domain, as tf2 expects): fleets that share a
 ``base_frame`` s that differ (for example ``fleet_a/vehicle_{id}/base_link``).
 """
 from formation_control.protocol import messages
+from formation_control.ros import interface as itf
 from formation_control.view import frames
 from geometry_msgs.msg import TransformStamped
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -39,9 +40,7 @@ TF_STATIC_TOPIC = '/tf_static'
 TF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                     reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)
-TF_STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                           reliability=ReliabilityPolicy.RELIABLE,
-                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
+TF_STATIC_QOS = itf.LATCHED_QOS
 
 
 def tf_message(ns, transforms):
