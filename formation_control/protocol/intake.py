@@ -98,9 +98,8 @@ class Intake(Generic[T]):
 
         ``deserialize`` turns bytes into the topic's message (it may raise on garbage).
         """
-        got = self.wire.decode(data)
-        if got is None:
-            got = self._message(data, deserialize)
+        read = self.wire.decode(data)
+        got: T | Rejection = self._message(data, deserialize) if read is None else read
         if self.valid is None or isinstance(got, Rejection):
             return got
         return self.valid(got) or got
