@@ -223,6 +223,31 @@ def turn_demand(sc: Scenario, X: RealArray, U: RealArray) -> RealArray:
     return np.stack([np.full(np.shape(rate), sc.airspeed), rate])
 
 
+def law_input(sc: Scenario, omega: RealArray, demand: RealArray) -> RealArray:
+    """
+    Return the law's inputs an autopilot ``demand`` stands for: :func:`turn_demand` inverted.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its model and turn_lag.
+    omega : array_like, shape (N,)
+        The yaw rates the demands were computed from (rad/s).
+    demand : array_like, shape (2, N)
+        Airspeed (m/s) and turn rate (rad/s) demands.
+
+    Returns
+    -------
+    ndarray, shape (2, N)
+        Row 0 zero, row 1 the turn rate (first order) or ``(omega_cmd - omega) / turn_lag``.
+
+    """
+    rate = np.asarray(demand, float)[1]
+    if sc.model != 'first_order':
+        rate = (rate - np.asarray(omega, float)) / sc.turn_lag
+    return np.stack([np.zeros(np.shape(rate)), rate])
+
+
 def required_bank(sc: Scenario) -> float:
     """
     Return the largest bank a circle of the scenario needs in its uniform wind.

@@ -20,14 +20,21 @@ over the integration steps (:class:`simulator.Stepper`), records every ``record_
 (:class:`simulator.Recorder`) and stops a vehicle whose state turns non-finite: frozen at its
 last finite state, zero command, no more odometry; the others go on.
 :func:`stability.likely_cause` names why.
+
+Aircraft (``plant_backend: jsbsim``) take either: the law's command
+(:meth:`FleetPlant.set_command`, its autopilot demand :func:`aircraft.turn_demand` of the state
+at the hold, as the offline simulator) or the autopilot demand itself
+(:meth:`FleetPlant.set_demand`, what the plant node reads on ``cmd_vel``), which is held as
+sent and recorded as the law's input it stands for against the yaw rate of the odometry last
+sent (:func:`aircraft.law_input`).
 """
 from __future__ import annotations
 
 from typing import Any
 
-from formation_control.core import stability
+from formation_control.core import aircraft, stability
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
-from formation_control.core.models import ROW_THETA, ROW_U, ROW_V
+from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
 from formation_control.core.scenario import Scenario
 from formation_control.protocol.messages import odom_values
 from formation_control.sim.simulator import Recorder, Run, Stepper
@@ -54,6 +61,11 @@ class FleetPlant:
         Vehicles stopped by a non-finite state.
     estimates : dict of int to (N,) complex
         The flow estimates the vehicles sent for each recorded step (NaN: not heard).
+    demand : (2, N) float
+        Aircraft: the autopilot demand each vehicle sent (airspeed, turn rate); NaN: that of
+        its ``pending`` command.
+    told_rate : (N,) float
+        The yaw rate of the odometry last sent to each vehicle (rad/s).
 
     """
 
@@ -65,6 +77,8 @@ class FleetPlant:
         self.pending = np.zeros((2, sc.num_vehicles))
         self.stopped = np.zeros(sc.num_vehicles, bool)
         self.estimates: dict[int, ComplexArray] = {}
+        self.demand = np.full((2, sc.num_vehicles), np.nan)
+        self.told_rate = self.stepper.X[ROW_OMEGA].copy()
 
     @property
     def X(self) -> RealArray:
@@ -88,6 +102,12 @@ class FleetPlant:
         water_velocity message carries: of the true state, or with sensors
         (:mod:`sensors`) of what each vehicle measures, the sample the simulator commands from.
         """
+        out = self._odometry(which)
+        for i, (values, _) in zip(which, out):
+            self.told_rate[i] = values[-1]
+        return out
+
+    def _odometry(self, which: IntArray) -> list[tuple[tuple[float, ...], RealArray]]:
         stepper = self.stepper
         if stepper.sensors is None:
             X, flow = stepper.X, stepper.true_flow()
@@ -118,6 +138,21 @@ class FleetPlant:
     def set_command(self, i: int, u: ArrayLike) -> None:
         """Hold ``u`` (2,) as vehicle index ``i``'s command from the next step on."""
         self.pending[:, i] = u
+        self.demand[:, i] = np.nan
+
+    def set_demand(self, i: int, demand: ArrayLike) -> None:
+        """
+        Hold an aircraft's autopilot ``demand`` (airspeed m/s, turn rate rad/s) from the next step.
+
+        Vehicle index ``i``'s command becomes the law's input it stands for, against the yaw
+        rate it was last told (:func:`aircraft.law_input`), for the record.
+        """
+        if self.stepper.aircraft is None:
+            raise ValueError("parameter 'plant_backend' = 'native': the plant takes the law's "
+                             'command (cmd), an autopilot demand (cmd_vel) needs jsbsim')
+        self.demand[:, i] = demand
+        self.pending[:, i] = aircraft.law_input(self.sc, self.told_rate[[i]],
+                                                self.demand[:, [i]])[:, 0]
 
     def hold(self, off: BoolArray, boundary: bool) -> bool:
         """
@@ -132,8 +167,15 @@ class FleetPlant:
             False when the run is over (nothing more to integrate).
 
         """
-        self.pending[:, np.asarray(off) | self.stopped] = 0.0
-        held = self.stepper.hold(self.pending)
+        off = np.asarray(off) | self.stopped
+        self.pending[:, off] = 0.0
+        self.demand[:, off] = np.nan
+        demand = None
+        if self.stepper.aircraft is not None:
+            demand = np.where(np.isnan(self.demand),
+                              aircraft.turn_demand(self.sc, self.stepper.X, self.pending),
+                              self.demand)
+        held = self.stepper.hold(self.pending, demand)
         if boundary:
             self.recorder.record(self.n, self.stepper.X, held, channels=self.stepper.channels)
             if self.n >= self.recorder.steps:

@@ -21,25 +21,27 @@ sender's frames and id, its graph, this interface version) are read in place by 
 :class:`~formation_control.protocol.messages.CommandWire`, ``interface.MessageWire``); any
 other bytes are deserialized (by the caller's function: this module loads no ROS) and the
 message is checked: its interface version, frames, vehicle id and, for a formation state, its
-graph, for a command its kind. What fails is a :class:`Rejection` naming its kind
-(``malformed``, ``interface_version``, ``wrong_frame``, ``foreign_id``, ``wrong_kind``); the
-node drops and counts it. Every formation_control_msgs message begins with its
-``interface_version``: the rejection of bytes that do not deserialize says what their first
-byte reads when it is not this version.
+graph, for a command its kind; an aircraft's autopilot demand (``cmd_vel``) is checked for
+finite values on either path. What fails is a :class:`Rejection` naming its kind
+(``malformed``, ``interface_version``, ``wrong_frame``, ``foreign_id``, ``wrong_kind``,
+``non_finite``); the node drops and counts it. Every formation_control_msgs message begins with
+its ``interface_version``: the rejection of bytes that do not deserialize says what their
+first byte reads when it is not this version.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+import math
 from typing import Any, Generic, Protocol, TypeVar
 
-from formation_control.protocol.messages import (CMD_FIELDS, CommandWire, FormationState,
-                                                 get_fields, INTERFACE_VERSION, ODOM_FIELDS,
-                                                 stamp_ns, StateWire)
+from formation_control.protocol.messages import (CMD_FIELDS, CMD_VEL_FIELDS, CommandWire,
+                                                 FormationState, get_fields, INTERFACE_VERSION,
+                                                 ODOM_FIELDS, stamp_ns, StateWire)
 from formation_control.protocol.names import Frames
 
 MALFORMED, WRONG_FRAME, FOREIGN_ID = 'malformed', 'wrong_frame', 'foreign_id'
-VERSION, WRONG_KIND = 'interface_version', 'wrong_kind'
+VERSION, WRONG_KIND, NON_FINITE = 'interface_version', 'wrong_kind', 'non_finite'
 
 T = TypeVar('T')
 T_co = TypeVar('T_co', covariant=True)
@@ -78,14 +80,17 @@ class Intake(Generic[T]):
         What the bytes are, for the rejections (``'odometry of vehicle 2'``).
     versioned : bool
         A formation_control_msgs message: its first field is its ``interface_version``.
+    valid : callable, optional
+        Value -> a :class:`Rejection`, or None: checks the value of either path.
 
     """
 
     def __init__(self, wire: Wire[T], read: Callable[[Any], T],
                  check: Callable[[Any], Rejection | None], what: str,
-                 versioned: bool = False) -> None:
+                 versioned: bool = False,
+                 valid: Callable[[T], Rejection | None] | None = None) -> None:
         self.wire, self.read, self.check, self.what = wire, read, check, what
-        self.versioned = versioned
+        self.versioned, self.valid = versioned, valid
 
     def __call__(self, data: bytes, deserialize: Callable[[bytes], Any]) -> T | Rejection:
         """
@@ -93,9 +98,13 @@ class Intake(Generic[T]):
 
         ``deserialize`` turns bytes into the topic's message (it may raise on garbage).
         """
-        got = self.wire.decode(data)
-        if got is not None:
+        read = self.wire.decode(data)
+        got: T | Rejection = self._message(data, deserialize) if read is None else read
+        if self.valid is None or isinstance(got, Rejection):
             return got
+        return self.valid(got) or got
+
+    def _message(self, data: bytes, deserialize: Callable[[bytes], Any]) -> T | Rejection:
         try:
             msg = deserialize(data)
         except Exception:
@@ -174,6 +183,30 @@ def command(wire: CommandWire, base: str | None = None) -> Intake[Stamped]:
         return None
     return Intake(wire, lambda msg: (stamp_ns(msg.header.stamp), get_fields(msg, CMD_FIELDS)),
                   check, f'command of vehicle {k}', versioned=True)
+
+
+def autopilot_demand(wire: Wire[Stamped], k: int, base: str) -> Intake[Stamped]:
+    """
+    Return aircraft k's ``cmd_vel`` rule: (stamp ns, (airspeed, turn rate)) of a TwistStamped.
+
+    Its frame must be ``base`` (the vehicle's base frame), its airspeed and turn rate
+    (:data:`CMD_VEL_FIELDS`) finite; its other components are not read.
+    """
+    what = f'cmd_vel of vehicle {k}'
+
+    def check(msg: Any) -> Rejection | None:
+        if msg.header.frame_id != base:
+            return Rejection(WRONG_FRAME, f"a cmd_vel on vehicle {k}'s topic in frame "
+                                          f'{msg.header.frame_id!r} (expected {base!r})')
+        return None
+
+    def valid(got: Stamped) -> Rejection | None:
+        if all(map(math.isfinite, got[1])):
+            return None
+        return Rejection(NON_FINITE, f'a non-finite {what}: airspeed, turn rate {got[1]}')
+    return Intake(wire, lambda msg: (stamp_ns(msg.header.stamp),
+                                     get_fields(msg, CMD_VEL_FIELDS)),
+                  check, what, valid=valid)
 
 
 def formation_state(wire: StateWire, frames: Frames | None = None) -> Intake[FormationState]:

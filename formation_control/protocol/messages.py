@@ -144,6 +144,10 @@ ODOM_FIELDS = ('pose.pose.position.x', 'pose.pose.position.y', 'pose.pose.orient
                'twist.twist.angular.z')
 """The fields of an Odometry the package writes (the others stay zero)."""
 
+CMD_VEL_FIELDS = ('twist.linear.x', 'twist.angular.z')
+"""The fields of an aircraft's autopilot demand, a geometry_msgs/TwistStamped on ``cmd_vel``:
+airspeed (m/s) and turn rate (rad/s, counter-clockwise); the others are not read."""
+
 
 def get_fields(msg: Any, fields: Iterable[str]) -> tuple[Any, ...]:
     return tuple(attrgetter(name)(msg) for name in fields)

@@ -15,8 +15,9 @@
 """
 The plant's side of the fleet's protocol, without DDS: commands in, steps and odometry out.
 
-The ``plant`` node decodes each command (:mod:`intake`), hands it to a :class:`Plant` and
-publishes the steps it returns. The plant holds the fleet (:class:`fleet.FleetPlant`), the
+The ``plant`` node decodes each command (:mod:`intake`; an aircraft's is its autopilot demand
+on ``cmd_vel``, :meth:`Plant.demand`), hands it to a :class:`Plant` and publishes the steps it
+returns. The plant holds the fleet (:class:`fleet.FleetPlant`), the
 commands each lockstep step waits for (:class:`lockstep.CommandGate`) and, in real time, the
 pacing of the integration steps (:class:`lockstep.Pacer`). Refused commands come back as an
 :class:`intake.Rejection`; vehicles that diverge are reported in ``Plant.errors``.
@@ -110,12 +111,29 @@ class Plant:
         u = input_from_cmd_values(values, self.sc.model)
         if not np.all(np.isfinite(u)):
             return Rejection('non_finite', f'a non-finite command of vehicle {k}')
+        answer = self._answer(k, ns, 'command')
+        if answer is True:
+            self.fleet.set_command(k - 1, u)
+        return answer
+
+    def demand(self, k: int, ns: int, demand: Sequence[float]) -> bool | Rejection:
+        """
+        Take aircraft k's cmd_vel stamped ns: its autopilot's airspeed and turn-rate demand.
+
+        It answers the step as a command does (:meth:`command`); its values are finite
+        (:func:`intake.autopilot_demand` checked them).
+        """
+        answer = self._answer(k, ns, 'cmd_vel')
+        if answer is True:
+            self.fleet.set_demand(k - 1, demand)
+        return answer
+
+    def _answer(self, k: int, ns: int, what: str) -> bool | Rejection:
         kind = self.gate.command(k - 1, ns)
         if kind == REPEATED:
             return False
         if kind == STALE:
-            return Rejection('stale', f'a command of vehicle {k} for another step')
-        self.fleet.set_command(k - 1, u)
+            return Rejection('stale', f'a {what} of vehicle {k} for another step')
         return True
 
     def estimate(self, k: int, state: FormationState) -> None:

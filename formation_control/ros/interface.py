@@ -46,6 +46,12 @@ topic                          type                             content
                                VehicleCommand                   angular_acceleration
                                                                 (second_order) or turn_rate
                                                                 (first_order), by ``kind``
+``vehicle_k/cmd_vel``          geometry_msgs/TwistStamped       aircraft (``plant_backend:
+                                                                jsbsim``): the autopilot
+                                                                demand, linear.x airspeed,
+                                                                angular.z turn rate, base
+                                                                frame; the plant flies it
+                                                                (``cmd`` is then monitoring)
 =============================  ===============================  ==============================
 
 Fleet-wide: ``clock`` (lockstep), ``formation/scenario`` (std_msgs/String, latched: the
@@ -65,11 +71,10 @@ import math
 import struct
 
 from formation_control.core.models import ROW_U, ROW_V
-from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, command_kind,
-                                                 CommandWire, FormationState, METRIC_DOC,
-                                                 ODOM_FIELDS,
-                                                 odom_values, set_fields, set_stamp, set_time,
-                                                 stamp_parts)
+from formation_control.protocol.messages import (CMD_FIELDS, cmd_values, CMD_VEL_FIELDS,
+                                                 command_kind, CommandWire, FormationState,
+                                                 METRIC_DOC, ODOM_FIELDS, odom_values,
+                                                 set_fields, set_stamp, set_time, stamp_parts)
 from formation_control.protocol.names import DEFAULT_FRAMES, WORLD_FRAME
 import formation_control_msgs.msg as fcm
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
@@ -170,6 +175,13 @@ def odom_wire(k, frames=DEFAULT_FRAMES, covariance=None):
     if covariance is not None:
         msg.pose.covariance, msg.twist.covariance = covariance
     return MessageWire(msg, ODOM_FIELDS)
+
+
+def cmd_vel_wire(k, frames=DEFAULT_FRAMES):
+    """Return the :class:`MessageWire` of aircraft k's ``cmd_vel`` (:data:`CMD_VEL_FIELDS`)."""
+    msg = TwistStamped()
+    msg.header.frame_id = frames.base(k)
+    return MessageWire(msg, CMD_VEL_FIELDS)
 
 
 def cmd_wire(k, model, frames=DEFAULT_FRAMES):

@@ -33,6 +33,12 @@ ground velocity has it, the flow a vehicle is told has not). Known to the vehicl
 every odometry; for estimating rigid bodies each odometry comes with the through-water velocity
 on ``/vehicle_k/water_velocity``.
 
+An aircraft's command (``plant_backend: jsbsim``) is its autopilot demand on ``vehicle_k/cmd_vel``
+(geometry_msgs/TwistStamped, its base frame: linear.x airspeed, angular.z turn rate), which the
+autopilot flies as sent; the plant does not subscribe to its ``cmd``, which the vehicle still
+publishes for the monitor, the bags and ``watch``. The lockstep gate and ``wait_for_fleet`` wait
+for ``cmd_vel`` then.
+
 A vehicle that was heard and then sends no command for ``command_timeout`` wall seconds is gone:
 its command is zero, and lockstep stops waiting for it until it speaks again. A vehicle whose
 state diverges (non-finite or exploding) is stopped with an error naming it and the likely
@@ -119,9 +125,14 @@ class PlantNode(Node):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
         self.odom_pubs = self._per_vehicle(Odometry, 'odom', **qos())
         self.odom_wires = [itf.odom_wire(k, self.frames, covariances(sc)) for k in ids]
-        self.cmd_subs = [self._subscribe(VehicleCommand, k, 'cmd', intake.command(
-            itf.cmd_wire(k, sc.model, self.frames), self.frames.base(k)), self._on_cmd)
-            for k in ids]
+        if sc.plant_backend == 'jsbsim':
+            self.cmd_subs = [self._subscribe(TwistStamped, k, 'cmd_vel', intake.autopilot_demand(
+                itf.cmd_vel_wire(k, self.frames), k, self.frames.base(k)), self._on_demand)
+                for k in ids]
+        else:
+            self.cmd_subs = [self._subscribe(VehicleCommand, k, 'cmd', intake.command(
+                itf.cmd_wire(k, sc.model, self.frames), self.frames.base(k)), self._on_cmd)
+                for k in ids]
         if sc.flow_source == 'estimated':
             for k in ids:
                 self._subscribe(FormationState, k, 'formation_state', intake.formation_state(
@@ -191,7 +202,12 @@ class PlantNode(Node):
             self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
 
     def _on_cmd(self, k, got):
-        held = self.plant.command(k, *got)
+        self._held(self.plant.command(k, *got))
+
+    def _on_demand(self, k, got):
+        self._held(self.plant.demand(k, *got))
+
+    def _held(self, held):
         if isinstance(held, intake.Rejection):
             return self.reject(held.kind, held.what)
         if held:

@@ -17,7 +17,8 @@
 
 It hears its own odometry and flow, publishes its ``formation_state`` (pose, heading, yaw
 rate and the phase values of the law), hears the formation states of its neighbours, and
-publishes its own command. It knows nothing of the others but what it receives. With
+publishes its own command (an aircraft also its autopilot demand on ``cmd_vel``, which its
+plant flies). It knows nothing of the others but what it receives. With
 ``flow_source: estimated`` it hears no flow: it estimates it from its odometry and, a rigid
 body, its through-water velocity (``water_velocity``); its estimate is in its diagnostics.
 
@@ -101,10 +102,11 @@ class VehicleNode(Node):
                                                names.topic(k, 'formation_state'), **qos())
         self.cmd_pub = self.create_publisher(VehicleCommand, names.topic(k, 'cmd'), **qos())
         self.cmd_wire = itf.cmd_wire(k, sc.model, frames)
-        self.cmd_vel_pub = None
+        self.cmd_vel_pub = self.last_cmd_vel = None
         if sc.plant_backend == 'jsbsim':
             self.cmd_vel_pub = self.create_publisher(TwistStamped, names.topic(k, 'cmd_vel'),
                                                      **qos())
+            self.cmd_vel_wire = itf.cmd_vel_wire(k, frames)
         self.odometry = common.Decoder(intake.odometry(itf.odom_wire(
             k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
         self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
@@ -161,6 +163,8 @@ class VehicleNode(Node):
             self.state_pub.publish(self.last_state)
             if self.me.known.commanded_ns == self.me.known.odom_ns:
                 self.cmd_pub.publish(self.last_cmd)
+                if self.cmd_vel_pub is not None:
+                    self.cmd_vel_pub.publish(self.last_cmd_vel)
             return
         self.last_state = self.me.wire.encode(got)
         if self.mode == 'realtime':                       # the plant first, the neighbours next
@@ -201,11 +205,8 @@ class VehicleNode(Node):
 
     def _publish_cmd_vel(self, ns, u):
         """Publish an aircraft's autopilot demand: airspeed and turn rate, in its base frame."""
-        msg = TwistStamped()
-        messages.set_time(msg.header.stamp, ns)
-        msg.header.frame_id = self.frames.base(self.k)
-        msg.twist.linear.x, msg.twist.angular.z = self.me.autopilot_demand(u)
-        self.cmd_vel_pub.publish(msg)
+        self.last_cmd_vel = self.cmd_vel_wire.encode(ns, self.me.autopilot_demand(u))
+        self.cmd_vel_pub.publish(self.last_cmd_vel)
 
     def _publish_diagnostics(self):
         stalled = self.me.stalled(self.now(), self.born, itf.STALL)

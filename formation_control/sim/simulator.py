@@ -251,16 +251,18 @@ class Stepper:
             return est.update(seen.X, seen.v_ground, near).copy()
         return est.update(self.X, ground_velocity(self.X, self.true_flow()), near).copy()
 
-    def hold(self, U: ArrayLike) -> RealArray:
+    def hold(self, U: ArrayLike, demand: ArrayLike | None = None) -> RealArray:
         """
         Hold the inputs ``U`` (2, N) over the next period; return them as held.
 
         The first-order turn rate is the state omega, so it is written into ``X`` too. Aircraft
-        hold the autopilot demand of ``U`` (:func:`aircraft.turn_demand`).
+        hold the autopilot ``demand`` (2, N), by default that of ``U``
+        (:func:`aircraft.turn_demand`).
         """
         self.U = np.array(U, float)
         if self.aircraft is not None:
-            self.aircraft.hold(aircraft.turn_demand(self.sc, self.X, self.U))
+            self.aircraft.hold(aircraft.turn_demand(self.sc, self.X, self.U)
+                               if demand is None else np.asarray(demand, float))
         elif self.sc.model == 'first_order' and self.world is None:
             self.X[ROW_OMEGA] = self.U[1]
         return self.U

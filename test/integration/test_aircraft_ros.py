@@ -16,14 +16,17 @@
 JSBSim aircraft in the ROS nodes: the plant flies them, lockstep equals the offline simulator.
 
 The plant node integrates each vehicle with its own FGFDMExec (plant_backend: jsbsim); each
-vehicle node commands from its odometry in the map frame, and the plant's autopilot turns the
-command into the turn-rate demand the offline simulator holds. Each vehicle also publishes that
-demand, the interface of a guided autopilot mode, as geometry_msgs/TwistStamped on
-``vehicle_k/cmd_vel`` (linear.x airspeed, angular.z turn rate, its base frame).
+vehicle node commands from its odometry in the map frame and sends its autopilot demand, the
+interface of a guided autopilot mode, as geometry_msgs/TwistStamped on ``vehicle_k/cmd_vel``
+(linear.x airspeed, angular.z turn rate, its base frame): the turn-rate demand the offline
+simulator holds, which the plant's autopilot flies. The law's ``cmd`` is not the plant's input.
 """
+from formation_control.core import scenario
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
+from formation_control_msgs.msg import VehicleCommand
 from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
 from rosutil import CONFIG
@@ -56,3 +59,39 @@ def test_lockstep_aircraft_equal_the_offline_simulator(nodes, tmp_path, cfg):
             assert abs(msg.twist.angular.z - rate) < 1e-9
             compared += 1
     assert compared >= 3
+
+
+def test_the_aircraft_plant_flies_cmd_vel_and_drops_a_wrong_frame(nodes):
+    """Lockstep waits for cmd_vel; 0.05 rad/s demanded is flown, the cmd turning away is not."""
+    cfg = CONFIG / 'aircraft_circular.yaml'
+    overrides = ['num_vehicles:=1', 'duration:=16.0']
+    sc = scenario.load(cfg, overrides)
+    odom = nodes.collect(Odometry, names.topic(1, 'odom'), itf.STATE_QOS)
+    cmd = nodes.node.create_publisher(VehicleCommand, names.topic(1, 'cmd'), itf.STATE_QOS)
+    cmd_vel = nodes.node.create_publisher(TwistStamped, names.topic(1, 'cmd_vel'),
+                                          itf.STATE_QOS)
+    plant = nodes.plant(cfg, *overrides, 'exit_when_done:=false')
+    assert nodes.spin_until(lambda: cmd_vel.get_subscription_count() > 0 and odom)
+    assert cmd.get_subscription_count() == 0
+    wrong = itf.water_velocity_msg(1, 0, np.zeros(6))
+    wrong.header.frame_id = 'map'
+    cmd_vel.publish(wrong)
+    assert nodes.spin_until(lambda: plant.reject.counts['wrong_frame'] == 1)
+    period, rates = round(sc.dt_control * 1e9), []
+    for n in range(sc.periods + 1):
+        ns = n * period
+        assert nodes.spin_until(lambda: any(messages.stamp_ns(m.header.stamp) == ns
+                                            for m in odom))
+        rates.append(next(m.twist.twist.angular.z for m in odom
+                          if messages.stamp_ns(m.header.stamp) == ns))
+        cmd.publish(itf.cmd_msg(1, ns, (0.0, -2.0), sc.model))
+        demand = TwistStamped()
+        messages.set_stamp(demand.header, ns)
+        demand.header.frame_id = 'vehicle_1/base_link'
+        demand.twist.linear.x, demand.twist.angular.z = sc.airspeed, 0.05
+        cmd_vel.publish(demand)
+        del odom[:-20]
+    assert nodes.spin_until(lambda: plant.plant.finished)
+    late = np.array(rates[len(rates) // 2:])
+    assert late.mean() == pytest.approx(0.05, abs=0.005)
+    assert 0.045 < late.min() and late.max() < 0.06        # the cmd's a = -2: below -0.1

@@ -22,10 +22,12 @@ than the docs' figures); the same turbulence seed gives the same run.
 """
 from dataclasses import replace
 import math
+import time
 
 from formation_control.core import aircraft, scenario
 from formation_control.core.control import Controller, law_units
 from formation_control.core.scenario import initial_state, resolve, ScenarioError
+from formation_control.protocol.plant import Plant
 from formation_control.sim import metrics, simulator
 import numpy as np
 import pytest
@@ -76,6 +78,39 @@ def test_the_coordinated_turn_and_the_demand():
     X[3] = [0.05, 0.1]
     np.testing.assert_allclose(aircraft.turn_demand(sc, X, U),
                                [[51.0, 51.0], [0.05 + 0.5 * 0.2, 0.1 - 0.5 * 0.4]])
+
+
+@pytest.mark.parametrize('model', ['second_order', 'first_order'])
+def test_the_law_input_of_a_demand_inverts_the_demand(model):
+    sc = circle(model=model, controller='first_order' if model == 'first_order' else
+                'backstepping')
+    X, U = np.zeros((6, 2)), np.array([[0.0, 0.0], [0.2, -0.4]])
+    X[3] = [0.05, 0.1]
+    np.testing.assert_allclose(aircraft.law_input(sc, X[3], aircraft.turn_demand(sc, X, U)), U,
+                               rtol=0, atol=1e-15)
+
+
+def test_a_plant_flies_the_autopilot_demand_it_is_sent():
+    """Aircraft 2 told 0.05 rad/s on cmd_vel flies it; aircraft 1's law command turns it away."""
+    sc = circle(num_vehicles=2, duration=8.0)
+    plant = Plant(sc, True, 60.0, time.monotonic)
+    due, rates = (None, plant.begin(), True), []
+    while due is not None:
+        told = [values[-1] for values, _ in plant.fleet.odometry(np.arange(2))]
+        assert plant.command(1, due[1], (0.0, 0.0, -2.0, 0.0)) is True
+        assert plant.demand(2, due[1], (sc.airspeed, 0.05)) is True
+        assert plant.fleet.pending[1, 1] == pytest.approx((0.05 - told[1]) / sc.turn_lag)
+        rates.append(plant.fleet.X[3].copy())
+        due = plant.advance()
+    late = np.array(rates[len(rates) // 2:])
+    assert late[:, 1].mean() == pytest.approx(0.05, abs=0.01)
+    assert late[:, 0].max() < -0.1                                  # the bank limit's rate
+    run = plant.fleet.run({})
+    np.testing.assert_array_equal(run.channels['turn_rate_demand'][1:, 1], 0.05)
+    np.testing.assert_array_equal(run.channels['airspeed_demand'][1:], sc.airspeed)
+    native = Plant(scenario.load(CONFIG / 'particle_circular.yaml'), True, 60.0, time.monotonic)
+    with pytest.raises(ValueError, match="'plant_backend' = 'native'"):
+        native.demand(1, native.begin(), (1.0, 0.1))
 
 
 def test_the_map_frame_round_trip():

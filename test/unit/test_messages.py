@@ -195,6 +195,27 @@ def test_odometry_and_commands_are_checked_for_their_frames_ids_and_kinds():
     assert intake.command(wire)(b'x', _from(cmd('map'))) == (1_000_000_005, (0.0, 0.0, 3.0, 0.0))
 
 
+def test_an_aircraft_cmd_vel_is_checked_for_its_frame_and_finite_values():
+    def twist(frame='vehicle_2/base_link', x=51.0, z=0.05):
+        return SimpleNamespace(header=SimpleNamespace(stamp=SimpleNamespace(sec=1, nanosec=5),
+                                                      frame_id=frame),
+                               twist=SimpleNamespace(linear=SimpleNamespace(x=x, y=0.0),
+                                                     angular=SimpleNamespace(z=z)))
+    none = SimpleNamespace(decode=lambda data: None)
+    rule = intake.autopilot_demand(none, 2, 'vehicle_2/base_link')
+    assert rule(b'x', _from(twist())) == (1_000_000_005, (51.0, 0.05))
+    assert rule(b'x', _from(twist('map'))) == Rejection(
+        'wrong_frame', "a cmd_vel on vehicle 2's topic in frame 'map' (expected "
+                       "'vehicle_2/base_link')")
+    assert rule(b'x', _from(twist(z=float('inf')))).kind == 'non_finite'
+    assert rule(b'garbage', _from(None)) == Rejection(
+        'malformed', 'undecodable cmd_vel of vehicle 2 bytes')
+    canonical = SimpleNamespace(decode=lambda data: (7, (float('nan'), 0.1)))
+    nan = intake.autopilot_demand(canonical, 2, 'vehicle_2/base_link')(b'x', _from(None))
+    assert nan == Rejection('non_finite', 'a non-finite cmd_vel of vehicle 2: airspeed, turn '
+                                          'rate (nan, 0.1)')
+
+
 @pytest.mark.parametrize('model, kind, values', [
     ('rigid', 1, (0.5, -0.25, 0.0, 0.0)), ('rigid_cop', 1, (0.5, -0.25, 0.0, 0.0)),
     ('second_order', 2, (0.0, 0.0, -0.25, 0.0)), ('first_order', 3, (0.0, 0.0, 0.0, -0.25))])
