@@ -1,0 +1,224 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+
+"""
+A flood of malformed samples on every topic the fleet's nodes subscribe, from another process.
+
+A lockstep fleet (plant, vehicles, monitor; built in this process, ``use_sim_time`` as the
+swarm runs them) starts once a flooder process (test/flooder.py) has matched every one of its
+subscriptions, and runs under the flood. The samples are mutations of real serialized
+messages of each topic's type (random bytes, truncations, flipped bytes, length fields of
+2^31-1 and 2^32-1, a zeroed encapsulation header, trailing garbage), each checked undecodable
+here, and messages with NaN or infinite doubles. Every node survives, counts each sample under
+its reason, keeps its log short and free of the middleware's per-sample errors, and the fleet's
+record equals the offline simulator's: nothing of the flood was taken for data.
+"""
+import json
+import math
+import subprocess
+import sys
+import threading
+
+from diagnostic_msgs.msg import DiagnosticArray
+from formation_control.core import scenario
+from formation_control.protocol import names
+from formation_control.ros import interface as itf
+from formation_control.sim import simulator
+from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+from rcl_interfaces.msg import Parameter, ParameterEvent
+from rclpy.qos import qos_profile_parameter_events
+from rclpy.serialization import deserialize_message, serialize_message
+from rosgraph_msgs.msg import Clock
+from rosutil import CONFIG
+from runs import assert_equal_runs, offline_run
+from std_msgs.msg import Empty, String
+
+RIGID = CONFIG / 'rigid_parallel.yaml'
+OVERRIDES = ('num_vehicles:=3', 'flow_source:=estimated', 'duration:=2.0')
+"""Estimating rigid bodies: the vehicles hear water_velocity, the plant formation states."""
+NODE_PARAMS = ('use_sim_time:=true',)
+LOG_BOUND = 25
+"""Lines each node may log over the whole run: its start-up and end, and the dropped samples'
+warnings (throttled to one per 2 s per kind of line)."""
+MIDDLEWARE_ERRORS = ('Fast CDR exception', 'error state is being overwritten')
+X = np.array([1.0, 2.0, 0.3, 0.2, 1.0, 0.0])
+
+
+def _undecodable(template, msg_type, rng):
+    """Return mutations of the serialized ``template`` that do not deserialize as ``msg_type``."""
+    data = serialize_message(template)
+    n = len(data)
+    out = [rng.bytes(int(m)) for m in rng.integers(1, 2 * n, 6)]
+    out += [b'\x00\x01\x00\x00' + rng.bytes(int(m)) for m in rng.integers(1, n, 6)]
+    out += [data[:m] for m in sorted({1, 3, 4, 5, 8, n // 2, n - 1}) if 0 < m < n]
+    for i in rng.integers(0, n, 12):
+        out.append(data[:i] + bytes([data[i] ^ 0xff]) + data[i + 1:])
+    for length in (b'\xff\xff\xff\x7f', b'\xff\xff\xff\xff'):
+        out += [data[:i] + length + data[i + 4:] for i in range(4, n - 3, 4)]
+    out.append(b'\x00\x00\x00\x00' + data[4:])
+    out += [data[:m] + rng.bytes(16) for m in (n // 3, n - 2) if m > 0]
+    kept = []
+    for sample in out:
+        if sample and sample not in kept and not _decodes(sample, msg_type):
+            kept.append(sample)
+    return kept
+
+
+def _decodes(data, msg_type):
+    try:
+        deserialize_message(data, msg_type)
+    except Exception:
+        return False
+    return True
+
+
+def _odom(k, value):
+    return itf.odom_msg(k, 20_000_000, np.array([value, 2.0, 0.3, 0.2, 1.0, 0.0]), 0j)
+
+
+def _water(k, value):
+    return itf.water_velocity_msg(k, 20_000_000, np.array([1.0, 2.0, 0.3, value, 1.0, 0.0]))
+
+
+def _plan(sc):
+    """Return the flooder's topics and, per node, the samples it is sent by reason."""
+    from formation_control_msgs.msg import FormationState, VehicleCommand
+    rng = np.random.default_rng(32)
+    n, graph = sc.num_vehicles, sc.comm_graph
+    state_qos = dict(reliability='RELIABLE', durability='TRANSIENT_LOCAL', depth=1000)
+    topics, heard = [], {'plant': [], 'formation_monitor': []}
+    for k in range(1, n + 1):
+        heard[f'vehicle_{k}'] = []
+
+    def add(topic, msg_type, template, readers, nan=(), qos=state_qos):
+        samples = _undecodable(template, msg_type, rng)
+        bad = [serialize_message(m) for m in nan]
+        topics.append({'topic': topic, 'type': msg_type.__module__.split('.')[0] + '/msg/'
+                       + msg_type.__name__, 'matches': len(readers), **qos,
+                       'samples': [s.hex() for s in samples + bad]})
+        for name in readers:
+            heard[name].append((topic, len(samples)))
+
+    for k in range(1, n + 1):
+        vehicle = f'vehicle_{k}'
+        add(names.topic(k, 'odom'), Odometry, _odom(k, 1.0), [vehicle, 'formation_monitor'],
+            [_odom(k, v) for v in (math.nan, math.inf, -math.inf)])
+        add(names.topic(k, 'water_velocity'), TwistStamped, _water(k, 0.2), [vehicle],
+            [_water(k, v) for v in (math.nan, math.inf)])
+        add(names.topic(k, 'cmd'), VehicleCommand, itf.cmd_msg(k, 0, (1.0, 0.1), 'rigid'),
+            ['plant', 'formation_monitor'])
+        listeners = [f'vehicle_{j}' for j in range(1, n + 1) if k in graph.neighbours(j)]
+        add(names.topic(k, 'formation_state'), FormationState, itf.state_msg(
+            k, 0, X, (complex(1.0, 2.0), 0.3, 0.2, 1.0), graph.neighbours(k),
+            [True] * len(graph.neighbours(k))), listeners + ['plant', 'formation_monitor'])
+    latched = dict(reliability='RELIABLE', durability='TRANSIENT_LOCAL', depth=1000)
+    add('/' + names.SCENARIO_TOPIC, String, itf.scenario_msg(sc),
+        [f'vehicle_{k}' for k in range(1, n + 1)] + ['formation_monitor'], qos=latched)
+    add('/' + names.START_TOPIC, Empty, Empty(), ['plant'], qos=latched)
+    events = qos_profile_parameter_events
+    add('/parameter_events', ParameterEvent, ParameterEvent(
+        node='/vehicle_1', changed_parameters=[Parameter(name='kappa')]), ['formation_monitor'],
+        qos=dict(reliability=events.reliability.name, durability=events.durability.name,
+                 depth=1000))
+    clock = _undecodable(Clock(), Clock, rng)
+    topics.append({'topic': '/clock', 'type': 'rosgraph_msgs/msg/Clock', 'matches': n + 2,
+                   'reliability': 'BEST_EFFORT', 'durability': 'VOLATILE', 'depth': 1,
+                   'samples': [s.hex() for s in clock]})
+    return topics, heard
+
+
+def _status(box, name):
+    for msg in reversed(box):
+        for s in msg.status:
+            if s.name == name:
+                return {v.key: v.value for v in s.values}
+    return None
+
+
+class Flooder:
+    """The flooder process; its output lines are read as they come."""
+
+    def __init__(self, plan_path, env):
+        self.proc = subprocess.Popen(
+            [sys.executable, str(CONFIG.parent / 'test' / 'flooder.py'), str(plan_path)],
+            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.lines = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.lines.append(line.strip())
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+
+
+def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes, tmp_path,
+                                                                          capfd):
+    import os
+    sc = scenario.load(RIGID, list(OVERRIDES))
+    topics, heard = _plan(sc)
+    plan = tmp_path / 'plan.json'
+    plan.write_text(json.dumps(topics))
+    record = tmp_path / 'run.npz'
+    params = OVERRIDES + NODE_PARAMS
+    plant = nodes.plant(RIGID, *params, 'wait_for_start:=true', f'record_path:={record}')
+    vehicles = [nodes.vehicle(k, RIGID, *params) for k in range(1, sc.num_vehicles + 1)]
+    monitor = nodes.monitor(*NODE_PARAMS)
+    diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+    start = nodes.node.create_publisher(Empty, '/' + names.START_TOPIC, itf.LATCHED_QOS)
+    flooder = Flooder(plan, dict(os.environ, ROS_DOMAIN_ID=str(nodes.context.get_domain_id())))
+    try:
+        assert nodes.spin_until(lambda: 'matched' in flooder.lines or flooder.proc.poll()
+                                is not None, timeout=60), flooder.lines
+        assert 'matched' in flooder.lines, flooder.lines
+        start.publish(Empty())
+        assert nodes.spin_until(lambda: plant.done and flooder.proc.poll() is not None,
+                                timeout=120), flooder.lines
+        sent = json.loads(flooder.lines[-1])
+        everyone = [plant, *vehicles, monitor]
+        expected = {}
+        for node in everyone:
+            got = [(sent[topic], m) for topic, m in heard[node.get_name()]]
+            expected[node.get_name()] = (sum(sum(i < m for i in s) for s, m in got),
+                                         sum(sum(i >= m for i in s) for s, m in got))
+
+        def counted():
+            return all(node.reject.counts['malformed'] > expected[node.get_name()][0]
+                       for node in everyone)
+        nodes.spin_until(counted, timeout=10)
+    finally:
+        flooder.close()
+    clock_sent = len(sent['/clock'])
+    for node in everyone:
+        malformed, non_finite = expected[node.get_name()]
+        counts = dict(node.reject.counts)
+        assert malformed < counts.pop('malformed') <= malformed + clock_sent, node.get_name()
+        assert counts.pop('non_finite', 0) == non_finite, node.get_name()
+        assert not any(counts.values()), (node.get_name(), counts)
+    assert_equal_runs(simulator.load_run(record), offline_run(RIGID, OVERRIDES))
+    for node, name in [(plant, 'formation_control/plant')] + [
+            (v, f'formation_control/vehicle_{v.k}/links') for v in vehicles]:
+        assert nodes.spin_until(lambda: (_status(diags, name) or {}).get('malformed') == str(
+            node.reject.counts['malformed']), timeout=5), _status(diags, name)
+    for node in everyone:
+        lines = [m.msg for m in nodes.rosout if m.name == node.get_name()]
+        assert len(lines) <= LOG_BOUND, lines
+    err = capfd.readouterr().err
+    assert not [e for e in MIDDLEWARE_ERRORS if e in err], err[-2000:]
