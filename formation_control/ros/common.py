@@ -20,6 +20,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from formation_control.protocol import intake, names
 from formation_control.protocol.intake import Rejection, VERSION
 from formation_control.ros import interface as itf
+from formation_control.ros.fits import fits
 import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -83,8 +84,13 @@ class Decoder:
     """
 
     def __init__(self, intake, msg_type, reject):
-        self.intake, self.reject = intake, reject
-        self.deserialize = lambda data: deserialize_message(data, msg_type)
+        self.intake, self.reject, self.msg_type = intake, reject, msg_type
+
+    def deserialize(self, data):
+        """Return the message of ``data``; raises ValueError on bytes no message fits."""
+        if not fits(data, self.msg_type):
+            raise ValueError('no message of the type fits the bytes')
+        return deserialize_message(data, self.msg_type)
 
     def __call__(self, data):
         got = self.intake(data, self.deserialize)
