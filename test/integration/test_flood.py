@@ -16,9 +16,9 @@
 """
 A flood of malformed samples on every topic the fleet's nodes subscribe, from another process.
 
-A lockstep fleet (plant, vehicles, monitor; built in this process, ``use_sim_time`` as the
-swarm runs them) starts once a flooder process (test/flooder.py) has matched every one of its
-subscriptions, and runs under the flood. The samples are mutations of real serialized
+A lockstep fleet (plant, vehicles, monitor, recorder; built in this process, ``use_sim_time``
+as the swarm runs them) starts once a flooder process (test/flooder.py) has matched every one
+of its subscriptions, and runs under the flood. The samples are mutations of real serialized
 messages of each topic's type (random bytes, truncations, flipped bytes, length fields of
 2^31-1 and 2^32-1, a zeroed encapsulation header, trailing garbage), each checked undecodable
 here, and messages with NaN or infinite doubles. Every node survives, counts each sample under
@@ -36,6 +36,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core import scenario
 from formation_control.protocol import names
 from formation_control.ros import interface as itf
+from formation_control.ros.bag import FleetRecorder
 from formation_control.sim import simulator
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
@@ -44,7 +45,7 @@ from rcl_interfaces.msg import Parameter, ParameterEvent
 from rclpy.qos import qos_profile_parameter_events
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
-from rosutil import CONFIG
+from rosutil import CONFIG, node_args
 from runs import assert_equal_runs, offline_run
 from std_msgs.msg import Empty, String
 
@@ -102,7 +103,7 @@ def _plan(sc):
     rng = np.random.default_rng(32)
     n, graph = sc.num_vehicles, sc.comm_graph
     state_qos = {'reliability': 'RELIABLE', 'durability': 'TRANSIENT_LOCAL', 'depth': 1000}
-    topics, heard = [], {'plant': [], 'formation_monitor': []}
+    topics, heard = [], {'plant': [], 'formation_monitor': [], 'formation_bag_recorder': []}
     for k in range(1, n + 1):
         heard[f'vehicle_{k}'] = []
 
@@ -136,7 +137,7 @@ def _plan(sc):
         node='/vehicle_1', changed_parameters=[Parameter(name='kappa')]), ['formation_monitor'],
         qos={'reliability': events.reliability.name, 'durability': events.durability.name,
              'depth': 1000})
-    add('/clock', Clock, Clock(), ['plant', 'formation_monitor'] + [
+    add('/clock', Clock, Clock(), ['plant', 'formation_monitor', 'formation_bag_recorder'] + [
         f'vehicle_{k}' for k in range(1, n + 1)], qos={
             'reliability': 'BEST_EFFORT', 'durability': 'VOLATILE', 'depth': 1})
     return topics, heard
@@ -185,6 +186,9 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
     plant = nodes.plant(RIGID, *params, 'wait_for_start:=true', f'record_path:={record}')
     vehicles = [nodes.vehicle(k, RIGID, *params) for k in range(1, sc.num_vehicles + 1)]
     monitor = nodes.monitor(*NODE_PARAMS)
+    recorder = nodes.add(FleetRecorder(str(tmp_path / 'bag'), sc.num_vehicles,
+                                       context=nodes.context,
+                                       cli_args=node_args(None, *NODE_PARAMS)))
     diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
     start = nodes.node.create_publisher(Empty, '/' + names.START_TOPIC, itf.LATCHED_QOS)
     domain = dict(os.environ, ROS_DOMAIN_ID=str(nodes.context.get_domain_id()))
@@ -197,7 +201,7 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
         assert nodes.spin_until(lambda: plant.done and flooder.proc.poll() is not None,
                                 timeout=120), flooder.lines
         sent = json.loads(flooder.lines[-1])
-        everyone = [plant, *vehicles, monitor]
+        everyone = [plant, *vehicles, monitor, recorder]
         expected = {}
         for node in everyone:
             expected[node.get_name()] = [0, 0, 0]
