@@ -115,8 +115,10 @@ class BagRecorder(Node):
                               f'directory on a writable disk') from None
         super().__init__('formation_bag_recorder', **kwargs)
         from formation_control.ros.common import clock_bytes, Rejections
+        from formation_control.ros.parameters import guard_services
         self.reject = Rejections(self.get_logger(), ['malformed'])
         clock_bytes(self, self.reject)
+        guard_services(self)
         typestore = schemas.typestore(schemas.msg_files(
             get_package_share_directory(schemas.MSGS)))
         self.count = 0

@@ -41,7 +41,8 @@ from formation_control.sim import simulator
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
 import numpy as np
-from rcl_interfaces.msg import Parameter, ParameterEvent
+from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
+from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 from rclpy.qos import qos_profile_parameter_events
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
@@ -59,6 +60,15 @@ warnings (throttled to one per 2 s per kind of line)."""
 MIDDLEWARE_ERRORS = ('Fast CDR exception', 'error state is being overwritten',
                      'sequence size exceeds remaining buffer')
 X = np.array([1.0, 2.0, 0.3, 0.2, 1.0, 0.0])
+BAD_PARAMETERS = [Parameter(name='kappa', value=ParameterValue(type=99)),
+                  Parameter(name='', value=ParameterValue(type=99)),
+                  Parameter(name='kappa', value=ParameterValue(type=4, string_value='x')),
+                  Parameter(name='cut_links', value=ParameterValue(type=9,
+                                                                   string_array_value=['a'])),
+                  Parameter(name='kappa', value=ParameterValue(type=3, double_value=math.nan)),
+                  Parameter(name='x' * 10_000, value=ParameterValue(type=2, integer_value=1))]
+"""Requests rclpy reads but refuses, and a parameter type that does not exist (99), which
+killed every node before :func:`parameters.guard_services`."""
 
 
 def _undecodable(template, msg_type, rng):
@@ -143,6 +153,33 @@ def _plan(sc):
     return topics, heard
 
 
+def _ask_malformed(nodes, everyone):
+    """Send every node's parameter services malformed requests; return their futures."""
+    futures = []
+    for node in everyone:
+        for srv, name, request in (
+                (SetParameters, 'set_parameters', SetParameters.Request(
+                    parameters=BAD_PARAMETERS)),
+                (SetParametersAtomically, 'set_parameters_atomically',
+                 SetParametersAtomically.Request(parameters=BAD_PARAMETERS)),
+                (GetParameters, 'get_parameters', GetParameters.Request(
+                    names=['', 'x' * 10_000]))):
+            client = nodes.node.create_client(srv, f'/{node.get_name()}/{name}')
+            assert nodes.spin_until(client.service_is_ready)
+            futures.append(client.call_async(request))
+            if srv is SetParameters:
+                futures += [client.call_async(SetParameters.Request(parameters=[p]))
+                            for p in BAD_PARAMETERS]
+    return futures
+
+
+def _refused(response):
+    if isinstance(response, GetParameters.Response):
+        return True
+    results = getattr(response, 'results', None) or [response.result]
+    return not any(r.successful for r in results)
+
+
 def _status(box, name):
     for msg in reversed(box):
         for s in msg.status:
@@ -198,6 +235,7 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
                                 is not None, timeout=60), flooder.lines
         assert 'matched' in flooder.lines, flooder.lines
         start.publish(Empty())
+        asked = _ask_malformed(nodes, [plant, *vehicles, monitor, recorder])
         assert nodes.spin_until(lambda: plant.done and flooder.proc.poll() is not None,
                                 timeout=120), flooder.lines
         sent = json.loads(flooder.lines[-1])
@@ -214,6 +252,8 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
             return all(node.reject.counts['malformed'] >= sum(expected[node.get_name()][::2])
                        for node in everyone)
         nodes.spin_until(counted, timeout=10)
+        assert nodes.spin_until(lambda: all(f.done() for f in asked))
+        assert all(_refused(f.result()) for f in asked)
     finally:
         flooder.close()
     for node in everyone:
