@@ -264,10 +264,13 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
         counts.pop('stale', None)       # a step asked again (the loaded machine) is answered twice
         assert not any(counts.values()), (node.get_name(), counts)
     assert_equal_runs(simulator.load_run(record), offline_run(RIGID, OVERRIDES))
-    for node, name in [(plant, 'formation_control/plant')] + [
-            (v, f'formation_control/vehicle_{v.k}/links') for v in vehicles]:
-        assert nodes.spin_until(lambda: (_status(diags, name) or {}).get('malformed') == str(
-            node.reject.counts['malformed']), timeout=5), _status(diags, name)
+    published = [(name, 'malformed', node.reject.counts['malformed'])
+                 for node, name in [(plant, 'formation_control/plant')] + [
+                     (v, f'formation_control/vehicle_{v.k}/links') for v in vehicles]]
+    published.append(('formation_control/formation', 'rejected_messages', monitor.reject.total))
+    for name, key, count in published:
+        assert nodes.spin_until(lambda: (_status(diags, name) or {}).get(key) == str(count),
+                                timeout=5), _status(diags, name)
     for node in everyone:
         lines = [m.msg for m in nodes.rosout if m.name == node.get_name()]
         assert len(lines) <= LOG_BOUND, lines
