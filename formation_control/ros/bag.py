@@ -99,8 +99,10 @@ class BagRecorder(Node):
     Every :data:`FLUSH_PERIOD` wall seconds the messages so far are written out as a finished
     chunk, so a recorder killed at any moment leaves them whole in the ``.mcap`` (without the
     summary and ``metadata.yaml`` its close writes: ``formation-control repair`` rebuilds
-    those). A write that fails (a full disk, an unwritable directory) stops the recording:
-    :attr:`failure` says what failed and what was kept; nothing written before is lost.
+    those). It writes the bytes as received, undecoded; its own ``/clock`` (``use_sim_time``)
+    is decoded, undecodable samples counted in :attr:`reject` (``malformed``). A write that
+    fails (a full disk, an unwritable directory) stops the recording: :attr:`failure` says
+    what failed and what was kept; nothing written before is lost.
     """
 
     def __init__(self, path, topics, **kwargs):
@@ -112,6 +114,11 @@ class BagRecorder(Node):
             raise RecordError(f'bag {path}: cannot be created ({err.strerror}): give a '
                               f'directory on a writable disk') from None
         super().__init__('formation_bag_recorder', **kwargs)
+        from formation_control.ros.common import clock_bytes, Rejections
+        from formation_control.ros.parameters import guard_services
+        self.reject = Rejections(self.get_logger(), ['malformed'])
+        clock_bytes(self, self.reject)
+        guard_services(self)
         typestore = schemas.typestore(schemas.msg_files(
             get_package_share_directory(schemas.MSGS)))
         self.count = 0

@@ -20,9 +20,12 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from formation_control.protocol import intake, names
 from formation_control.protocol.intake import Rejection, VERSION
 from formation_control.ros import interface as itf
+from formation_control.ros.fits import fits
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
+from rosgraph_msgs.msg import Clock as ClockMsg
 
 
 def wall_clock():
@@ -81,8 +84,13 @@ class Decoder:
     """
 
     def __init__(self, intake, msg_type, reject):
-        self.intake, self.reject = intake, reject
-        self.deserialize = lambda data: deserialize_message(data, msg_type)
+        self.intake, self.reject, self.msg_type = intake, reject, msg_type
+
+    def deserialize(self, data):
+        """Return the message of ``data``; raises ValueError on bytes no message fits."""
+        if not fits(data, self.msg_type):
+            raise ValueError('no message of the type fits the bytes')
+        return deserialize_message(data, self.msg_type)
 
     def __call__(self, data):
         got = self.intake(data, self.deserialize)
@@ -123,6 +131,24 @@ def subscribe_messages(node, msg_type, topic, take, reject, **qos):
         if got is not None:
             take(got)
     return node.create_subscription(msg_type, topic, on_bytes, raw=True, **qos)
+
+
+def clock_bytes(node, reject):
+    """
+    Take ``/clock`` (``use_sim_time``) as bytes too: undecodable ones counted, not logged each.
+
+    rclpy's time source subscribes to ``/clock`` with its message type: the middleware logs a
+    "Fast CDR exception" and rcutils an "error state is being overwritten" block for every
+    undecodable sample. Its subscription is replaced by one of the same QoS through
+    :func:`subscribe_messages` (kind ``malformed``) feeding the time source alike.
+    """
+    source = node._time_source
+    if source._clock_sub is None:
+        return
+    node.destroy_subscription(source._clock_sub)
+    source._clock_sub = subscribe_messages(
+        node, ClockMsg, '/clock', source.clock_callback, reject,
+        qos_profile=QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
 
 
 def status(name, level, message, values, hardware_id=''):

@@ -82,6 +82,7 @@ class MonitorNode(Node):
         self.reject = common.Rejections(self.get_logger(),
                                         ('malformed', 'non_finite', 'wrong_frame',
                                          'foreign_id', 'wrong_kind', 'interface_version'))
+        common.clock_bytes(self, self.reject)
         common.subscribe_messages(self, String, names.SCENARIO_TOPIC, self._on_scenario,
                                   self.reject, qos_profile=itf.LATCHED_QOS)
         common.subscribe_messages(self, ParameterEvent, '/parameter_events',

@@ -167,6 +167,42 @@ def validator(node, check=None):
     return on_set
 
 
+def guard_services(node):
+    """
+    Answer a parameter request rclpy cannot read with a refusal, instead of dying of it.
+
+    rclpy's parameter services raise out of the executor, and so end the node, on a request
+    naming a parameter type that does not exist (``value.type`` 99: "99 is not a valid
+    Parameter.Type"). Each is wrapped: such a request gets its empty response (for a set, every
+    result unsuccessful with the reason), a throttled warning and nothing else.
+    """
+    for service in node.services:
+        if getattr(service.callback, 'guarded', False):
+            continue
+        service.callback = _guarded(node, service.callback, service.srv_type.Response)
+
+
+def _guarded(node, callback, response_type):
+    def answer(request, response):
+        try:
+            return callback(request, response)
+        except (ValueError, TypeError) as err:
+            node.get_logger().warn(f'refused a malformed parameter request ({err})',
+                                   throttle_duration_sec=2.0)
+            return _refusal(request, response_type(), f'malformed request: {err}')
+    answer.guarded = True
+    return answer
+
+
+def _refusal(request, response, reason):
+    if hasattr(response, 'results'):
+        response.results = [SetParametersResult(successful=False, reason=reason)
+                            for _ in request.parameters]
+    elif hasattr(response, 'result'):
+        response.result = SetParametersResult(successful=False, reason=reason)
+    return response
+
+
 def declare_node(node, table, names=None):
     """
     Declare node parameters from a table of :mod:`node_parameters` and return their values.
@@ -186,6 +222,7 @@ def declare_node(node, table, names=None):
         name -> value (an array gives a tuple).
 
     """
+    guard_services(node)
     values = {}
     for name in table if names is None else names:
         default, spec = table[name]

@@ -95,6 +95,7 @@ class PlantNode(Node):
         self.plant = Plant(sc, self.mode == 'lockstep', timeout['command_timeout'], self.now)
         self.fleet = self.plant.fleet
         self.reject = common.Rejections(self.get_logger(), REJECTS)
+        common.clock_bytes(self, self.reject)
         self.missing = self.fleet_timer = None
         self.done = self.ended = False
         self.exit_code = 0

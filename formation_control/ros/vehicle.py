@@ -76,6 +76,7 @@ class VehicleNode(Node):
         self.born = self.now()
         self.me = Vehicle(sc, k, self.mode == 'lockstep', link, self.now, self.frames)
         self.reject = common.Rejections(self.get_logger(), REJECTS)
+        common.clock_bytes(self, self.reject)
         self.latency = common.Latencies(LATENCIES)
         self._create_topics(sc)
         self.add_on_set_parameters_callback(parameters.validator(self, lambda params: links.check(

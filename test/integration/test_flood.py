@@ -1,0 +1,279 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+
+"""
+A flood of malformed samples on every topic the fleet's nodes subscribe, from another process.
+
+A lockstep fleet (plant, vehicles, monitor, recorder; built in this process, ``use_sim_time``
+as the swarm runs them) starts once a flooder process (test/flooder.py) has matched every one
+of its subscriptions, and runs under the flood. The samples are mutations of real serialized
+messages of each topic's type (random bytes, truncations, flipped bytes, length fields of
+2^31-1 and 2^32-1, a zeroed encapsulation header, trailing garbage), each checked undecodable
+here, and messages with NaN or infinite doubles. Every node survives, counts each sample under
+its reason, keeps its log short and free of the middleware's per-sample errors, and the fleet's
+record equals the offline simulator's: nothing of the flood was taken for data.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import threading
+
+from diagnostic_msgs.msg import DiagnosticArray
+from formation_control.core import scenario
+from formation_control.protocol import names
+from formation_control.ros import interface as itf
+from formation_control.ros.bag import FleetRecorder
+from formation_control.sim import simulator
+from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
+from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
+from rclpy.qos import qos_profile_parameter_events
+from rclpy.serialization import deserialize_message, serialize_message
+from rosgraph_msgs.msg import Clock
+from rosutil import CONFIG, node_args
+from runs import assert_equal_runs, offline_run
+from std_msgs.msg import Empty, String
+
+RIGID = CONFIG / 'rigid_parallel.yaml'
+OVERRIDES = ('num_vehicles:=3', 'flow_source:=estimated', 'duration:=2.0')
+"""Estimating rigid bodies: the vehicles hear water_velocity, the plant formation states."""
+NODE_PARAMS = ('use_sim_time:=true',)
+LOG_BOUND = 25
+"""Lines each node may log over the whole run: its start-up and end, and the dropped samples'
+warnings (throttled to one per 2 s per kind of line)."""
+MIDDLEWARE_ERRORS = ('Fast CDR exception', 'error state is being overwritten',
+                     'sequence size exceeds remaining buffer')
+X = np.array([1.0, 2.0, 0.3, 0.2, 1.0, 0.0])
+BAD_PARAMETERS = [Parameter(name='kappa', value=ParameterValue(type=99)),
+                  Parameter(name='', value=ParameterValue(type=99)),
+                  Parameter(name='kappa', value=ParameterValue(type=4, string_value='x')),
+                  Parameter(name='cut_links', value=ParameterValue(type=9,
+                                                                   string_array_value=['a'])),
+                  Parameter(name='kappa', value=ParameterValue(type=3, double_value=math.nan)),
+                  Parameter(name='x' * 10_000, value=ParameterValue(type=2, integer_value=1))]
+"""Requests rclpy reads but refuses, and a parameter type that does not exist (99), which
+killed every node before :func:`parameters.guard_services`."""
+
+
+def _undecodable(template, msg_type, rng):
+    """Return mutations of the serialized ``template`` that do not deserialize as ``msg_type``."""
+    data = serialize_message(template)
+    n = len(data)
+    out = [rng.bytes(int(m)) for m in rng.integers(1, 2 * n, 6)]
+    out += [b'\x00\x01\x00\x00' + rng.bytes(int(m)) for m in rng.integers(1, n, 6)]
+    out += [data[:m] for m in sorted({1, 3, 4, 5, 8, n // 2, n - 1}) if 0 < m < n]
+    for i in rng.integers(0, n, 12):
+        out.append(data[:i] + bytes([data[i] ^ 0xff]) + data[i + 1:])
+    for length in (b'\xff\xff\xff\x7f', b'\xff\xff\xff\xff'):
+        out += [data[:i] + length + data[i + 4:] for i in range(4, n - 3, 4)]
+    out.append(b'\x00\x00\x00\x00' + data[4:])
+    out += [data[:m] + rng.bytes(16) for m in (n // 3, n - 2) if m > 0]
+    kept = []
+    for sample in out:
+        if sample and sample not in kept and not _decodes(sample, msg_type):
+            kept.append(sample)
+    return kept
+
+
+def _decodes(data, msg_type):
+    try:
+        deserialize_message(data, msg_type)
+    except Exception:
+        return False
+    return True
+
+
+def _odom(k, value):
+    return itf.odom_msg(k, 20_000_000, np.array([value, 2.0, 0.3, 0.2, 1.0, 0.0]), 0j)
+
+
+def _water(k, value):
+    return itf.water_velocity_msg(k, 20_000_000, np.full(6, value))
+
+
+def _plan(sc):
+    """Return the flooder's topics and, per node, the samples it is sent by reason."""
+    from formation_control_msgs.msg import FormationState, VehicleCommand
+    rng = np.random.default_rng(32)
+    n, graph = sc.num_vehicles, sc.comm_graph
+    state_qos = {'reliability': 'RELIABLE', 'durability': 'TRANSIENT_LOCAL', 'depth': 1000}
+    topics, heard = [], {'plant': [], 'formation_monitor': [], 'formation_bag_recorder': []}
+    for k in range(1, n + 1):
+        heard[f'vehicle_{k}'] = []
+
+    def add(topic, msg_type, template, readers, nan=(), qos=state_qos):
+        samples = _undecodable(template, msg_type, rng)
+        bad = [serialize_message(m) for m in nan]
+        topics.append({'topic': topic, 'type': msg_type.__module__.split('.')[0] + '/msg/'
+                       + msg_type.__name__, 'matches': len(readers), **qos,
+                       'samples': [s.hex() for s in samples + bad]})
+        for name in readers:
+            heard[name].append((topic, len(samples), qos is not state_qos))
+
+    for k in range(1, n + 1):
+        vehicle = f'vehicle_{k}'
+        add(names.topic(k, 'odom'), Odometry, _odom(k, 1.0), [vehicle, 'formation_monitor'],
+            [_odom(k, v) for v in (math.nan, math.inf, -math.inf)])
+        add(names.topic(k, 'water_velocity'), TwistStamped, _water(k, 0.2), [vehicle],
+            [_water(k, v) for v in (math.nan, math.inf)])
+        add(names.topic(k, 'cmd'), VehicleCommand, itf.cmd_msg(k, 0, (1.0, 0.1), 'rigid'),
+            ['plant', 'formation_monitor'])
+        listeners = [f'vehicle_{j}' for j in range(1, n + 1) if k in graph.neighbours(j)]
+        add(names.topic(k, 'formation_state'), FormationState, itf.state_msg(
+            k, 0, X, (complex(1.0, 2.0), 0.3, 0.2, 1.0), graph.neighbours(k),
+            [True] * len(graph.neighbours(k))), listeners + ['plant', 'formation_monitor'])
+    latched = {**state_qos}
+    add('/' + names.SCENARIO_TOPIC, String, itf.scenario_msg(sc),
+        [f'vehicle_{k}' for k in range(1, n + 1)] + ['formation_monitor'], qos=latched)
+    add('/' + names.START_TOPIC, Empty, Empty(), ['plant'], qos=latched)
+    events = qos_profile_parameter_events
+    add('/parameter_events', ParameterEvent, ParameterEvent(
+        node='/vehicle_1', changed_parameters=[Parameter(name='kappa')]), ['formation_monitor'],
+        qos={'reliability': events.reliability.name, 'durability': events.durability.name,
+             'depth': 1000})
+    add('/clock', Clock, Clock(), ['plant', 'formation_monitor', 'formation_bag_recorder'] + [
+        f'vehicle_{k}' for k in range(1, n + 1)], qos={
+            'reliability': 'BEST_EFFORT', 'durability': 'VOLATILE', 'depth': 1})
+    return topics, heard
+
+
+def _ask_malformed(nodes, everyone):
+    """Send every node's parameter services malformed requests; return their futures."""
+    futures = []
+    for node in everyone:
+        for srv, name, request in (
+                (SetParameters, 'set_parameters', SetParameters.Request(
+                    parameters=BAD_PARAMETERS)),
+                (SetParametersAtomically, 'set_parameters_atomically',
+                 SetParametersAtomically.Request(parameters=BAD_PARAMETERS)),
+                (GetParameters, 'get_parameters', GetParameters.Request(
+                    names=['', 'x' * 10_000]))):
+            client = nodes.node.create_client(srv, f'/{node.get_name()}/{name}')
+            assert nodes.spin_until(client.service_is_ready)
+            futures.append(client.call_async(request))
+            if srv is SetParameters:
+                futures += [client.call_async(SetParameters.Request(parameters=[p]))
+                            for p in BAD_PARAMETERS]
+    return futures
+
+
+def _refused(response):
+    if isinstance(response, GetParameters.Response):
+        return True
+    results = getattr(response, 'results', None) or [response.result]
+    return not any(r.successful for r in results)
+
+
+def _status(box, name):
+    for msg in reversed(box):
+        for s in msg.status:
+            if s.name == name:
+                return {v.key: v.value for v in s.values}
+    return None
+
+
+class Flooder:
+    """The flooder process; its output lines are read as they come."""
+
+    def __init__(self, plan_path, env):
+        self.proc = subprocess.Popen(
+            [sys.executable, str(CONFIG.parent / 'test' / 'flooder.py'), str(plan_path)],
+            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.lines = []
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.lines.append(line.strip())
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self.reader.join(timeout=5)
+        self.proc.stdout.close()
+
+
+def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes, tmp_path,
+                                                                          capfd):
+    sc = scenario.load(RIGID, list(OVERRIDES))
+    topics, heard = _plan(sc)
+    plan = tmp_path / 'plan.json'
+    plan.write_text(json.dumps(topics))
+    capfd.readouterr()                  # the checks of the samples here print, the nodes not
+    record = tmp_path / 'run.npz'
+    params = OVERRIDES + NODE_PARAMS
+    plant = nodes.plant(RIGID, *params, 'wait_for_start:=true', f'record_path:={record}')
+    vehicles = [nodes.vehicle(k, RIGID, *params) for k in range(1, sc.num_vehicles + 1)]
+    monitor = nodes.monitor(*NODE_PARAMS)
+    recorder = nodes.add(FleetRecorder(str(tmp_path / 'bag'), sc.num_vehicles,
+                                       context=nodes.context,
+                                       cli_args=node_args(None, *NODE_PARAMS)))
+    diags = nodes.collect(DiagnosticArray, names.DIAGNOSTICS_TOPIC, itf.STREAM_QOS)
+    start = nodes.node.create_publisher(Empty, '/' + names.START_TOPIC, itf.LATCHED_QOS)
+    domain = dict(os.environ, ROS_DOMAIN_ID=str(nodes.context.get_domain_id()))
+    flooder = Flooder(plan, domain)
+    try:
+        assert nodes.spin_until(lambda: 'matched' in flooder.lines or flooder.proc.poll()
+                                is not None, timeout=60), flooder.lines
+        assert 'matched' in flooder.lines, flooder.lines
+        start.publish(Empty())
+        asked = _ask_malformed(nodes, [plant, *vehicles, monitor, recorder])
+        assert nodes.spin_until(lambda: plant.done and flooder.proc.poll() is not None,
+                                timeout=120), flooder.lines
+        sent = json.loads(flooder.lines[-1])
+        everyone = [plant, *vehicles, monitor, recorder]
+        expected = {}
+        for node in everyone:
+            expected[node.get_name()] = [0, 0, 0]
+            for topic, m, shallow in heard[node.get_name()]:
+                counts = expected[node.get_name()]
+                counts[2 if shallow else 0] += sum(i < m for i in sent[topic])
+                counts[1] += sum(i >= m for i in sent[topic])
+
+        def counted():
+            return all(node.reject.counts['malformed'] >= sum(expected[node.get_name()][::2])
+                       for node in everyone)
+        nodes.spin_until(counted, timeout=10)
+        assert nodes.spin_until(lambda: all(f.done() for f in asked))
+        assert all(_refused(f.result()) for f in asked)
+    finally:
+        flooder.close()
+    for node in everyone:
+        malformed, non_finite, shallow = expected[node.get_name()]
+        counts = dict(node.reject.counts)
+        assert malformed <= counts.pop('malformed') <= malformed + shallow, node.get_name()
+        assert counts.pop('non_finite', 0) == non_finite, node.get_name()
+        counts.pop('stale', None)       # a step asked again (the loaded machine) is answered twice
+        assert not any(counts.values()), (node.get_name(), counts)
+    assert_equal_runs(simulator.load_run(record), offline_run(RIGID, OVERRIDES))
+    published = [(name, 'malformed', node.reject.counts['malformed'])
+                 for node, name in [(plant, 'formation_control/plant')] + [
+                     (v, f'formation_control/vehicle_{v.k}/links') for v in vehicles]]
+    published.append(('formation_control/formation', 'rejected_messages', monitor.reject.total))
+    for name, key, count in published:
+        assert nodes.spin_until(lambda: (_status(diags, name) or {}).get(key) == str(count),
+                                timeout=5), _status(diags, name)
+    for node in everyone:
+        lines = [m.msg for m in nodes.rosout if m.name == node.get_name()]
+        assert len(lines) <= LOG_BOUND, lines
+    err = capfd.readouterr().err
+    assert not [e for e in MIDDLEWARE_ERRORS if e in err], err[-2000:]
+    assert len(err.splitlines()) <= LOG_BOUND * len(everyone), err[-2000:]
