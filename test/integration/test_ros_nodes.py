@@ -86,8 +86,8 @@ def test_a_node_waits_for_the_participant_lock_before_joining(ros):
     with one_participant_at_a_time():
         plant = ros.procs.start('plant', *_args(PARTICLE, 'num_vehicles:=1',
                                                 'exit_when_done:=false'))
-        assert ros.probe.spin_until(lambda: _waits_for_a_lock(plant.pid)
-                                    or plant.poll() is not None)
+        assert ros.probe.spin_until(lambda: _waits_for_a_lock(plant.pid)     # its imports
+                                    or plant.poll() is not None, timeout=60)  # under load
         assert plant.poll() is None
         assert not ros.probe.spin_until(lambda: odom, timeout=0.5)
         assert 'plant' not in ros.probe.node.get_node_names()
