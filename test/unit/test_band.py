@@ -44,6 +44,7 @@ def test_the_band_test_is_on_only_with_the_world_or_when_asked():
     assert scenario.practical(scenario.load(CONFIG / 'rigid_circular.yaml', convergence='band'))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('gust, seed', [(0.004, 1), (0.004, 2), (0.02, 3), (0.08, 4), (0.3, 5)])
 def test_converged_yes_exactly_when_every_error_stays_in_its_band_over_the_window(gust, seed):
     sc = scenario.load(CONFIG / 'rigid_circular.yaml', duration=40.0, seed=seed,
@@ -65,6 +66,7 @@ def test_converged_yes_exactly_when_every_error_stays_in_its_band_over_the_windo
         assert out['convergence_time'] is None
 
 
+@pytest.mark.slow
 def test_the_census_has_both_verdicts():
     """The cases above are not all one way: small gusts stay in the band, large ones do not."""
     verdicts = set()
@@ -88,6 +90,7 @@ def test_a_last_sample_in_the_band_is_not_enough():
     assert metrics.verdict(exact, t, flags)            # the exact test reads the last sample
 
 
+@pytest.mark.slow
 def test_the_thesis_test_is_unchanged_with_the_world_off():
     run = simulator.simulate(scenario.load(CONFIG / 'rigid_circular.yaml', duration=40.0))
     out = simulator.summary(run)
@@ -107,6 +110,7 @@ def test_the_monitor_latch_waits_the_window_in_band_mode():
     assert plain.update(True, 0.0) and plain.since == 0.0
 
 
+@pytest.mark.slow
 def test_the_sweep_gives_the_summary_verdict_and_steady_state_errors():
     params = scenario.read_params(CONFIG / 'rigid_circular.yaml')
     params.update(duration=30.0, gust_intensity=0.05, gust_time=3.0, settle_window=8.0)

@@ -92,6 +92,7 @@ def test_the_steady_speed_under_drag_and_thrust_mismatch_is_the_derived_root(see
     np.testing.assert_allclose(X[ROW_U], predicted, rtol=0, atol=2e-3)
 
 
+@pytest.mark.slow
 def test_past_the_derived_limit_the_speed_runs_away():
     sc = _rigid(duration=30.0)
     c = sc.m0 * sc.K_f                                     # f_T = 1: d = h - h_true
