@@ -36,8 +36,7 @@ import tempfile
 import time
 
 from formation_control.core import scenario
-from formation_control.core.control import Controller
-from formation_control.sim import metrics, simulator
+from formation_control.sim import simulator
 import numpy as np
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
@@ -70,17 +69,6 @@ def lockstep(n, duration, overrides=()):
           f"{out['real_time_factor']:.2f}")
 
 
-def circle_figures(run, last):
-    ctrl = Controller(run.sc)
-    keep = run.t >= run.t[-1] - last
-    snaps = [metrics.snapshot(ctrl, X, U, t) for X, U, t in
-             zip(run.X[keep], run.U[keep], run.t[keep])]
-    radius = 1.0 / abs(run.sc.omega0)
-    return (max(s.spread for s in snaps),
-            max(abs(s.radius - radius) for s in snaps) / radius,
-            float(np.max(abs(run.channels['altitude'][keep] - run.sc.altitude))))
-
-
 def course_error(run, last):
     keep = run.t >= run.t[-1] - last
     X = run.X[keep]
@@ -98,7 +86,7 @@ def steady(seeds, turbulences, last=100.0):
         for seed in seeds:
             extra = [f'seed:={seed}', f'turbulence:={turbulence}', f'turbulence_seed:={seed}']
             run = simulator.simulate(scenario.load(CONFIG / 'aircraft_circular.yaml', extra))
-            spread, radius, altitude = circle_figures(run, last)
+            spread, radius, altitude = simulator.aircraft_circle_errors(run, last)
             print(f'| circle of 5 | {turbulence} | {seed} | {spread:.1f} | {radius:.2%} | '
                   f'{altitude:.1f} | |', flush=True)
             run = simulator.simulate(scenario.load(CONFIG / 'aircraft_parallel.yaml', extra))

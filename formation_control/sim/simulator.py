@@ -527,6 +527,23 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
     return rec.run()
 
 
+def aircraft_circle_errors(run: Run, last: float) -> tuple[float, float, float]:
+    """
+    Return an aircraft circle's worst errors over the last ``last`` seconds of ``run``.
+
+    The centre spread (m), the radius error as a share of the radius ``1 / |omega0|`` and the
+    altitude error (m) against ``altitude`` (docs/aircraft.md, "Steady states").
+    """
+    ctrl = Controller(run.sc)
+    keep = run.t >= run.t[-1] - last
+    snaps = [metrics.snapshot(ctrl, X, U, t) for X, U, t in
+             zip(run.X[keep], run.U[keep], run.t[keep])]
+    radius = 1.0 / abs(run.sc.omega0)
+    return (max(float(s.spread) for s in snaps),
+            max(abs(float(s.radius) - radius) for s in snaps) / radius,
+            float(np.max(abs(run.channels['altitude'][keep] - run.sc.altitude))))
+
+
 def summary(run: Run) -> dict[str, Any]:
     """
     Return the convergence figures of a run.

@@ -169,18 +169,6 @@ def test_a_run_records_altitude_bank_and_demand(tmp_path, monkeypatch):
         np.testing.assert_array_equal(back.channels[name], run.channels[name])
 
 
-def steady(run, last=100.0):
-    """Return the worst centre spread, radius error share and altitude error over the end."""
-    ctrl = Controller(run.sc)
-    keep = run.t >= run.t[-1] - last
-    snaps = [metrics.snapshot(ctrl, X, U, t) for X, U, t in
-             zip(run.X[keep], run.U[keep], run.t[keep])]
-    radius = 1.0 / abs(run.sc.omega0)
-    return (max(s.spread for s in snaps),
-            max(abs(s.radius - radius) for s in snaps) / radius,
-            np.max(abs(run.channels['altitude'][keep] - run.sc.altitude)))
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize('seed', [4, 5])
 def test_five_aircraft_in_a_steady_wind_share_the_commanded_circle(seed):
@@ -189,7 +177,8 @@ def test_five_aircraft_in_a_steady_wind_share_the_commanded_circle(seed):
 
     Over the last 100 s of 300; the bounds leave a factor of about 4 for other seeds.
     """
-    spread, radius_error, altitude = steady(simulator.simulate(circle(seed=seed)))
+    spread, radius_error, altitude = simulator.aircraft_circle_errors(
+        simulator.simulate(circle(seed=seed)), 100.0)
     assert spread < 30.0
     assert radius_error < 0.02
     assert altitude < 15.0
