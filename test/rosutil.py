@@ -249,5 +249,43 @@ def domains(count=1):
             yield ids
         except OSError as err:
             error = err
+        finally:
+            strays = reap(ids)
     if error is not None:
         raise error
+    assert not strays, f'processes outlived their test on its domains {ids}: {strays}'
+
+
+STRAY_DEADLINE = 15.0
+"""Seconds a test's processes have to end by themselves after its teardown (GRACE + 5 s)."""
+
+
+def _on_domains(ids):
+    """Return {pid: command line} of the other processes whose ROS_DOMAIN_ID is in ``ids``."""
+    wanted = {f'ROS_DOMAIN_ID={i}'.encode() for i in ids}
+    found = {}
+    for proc in Path('/proc').iterdir():
+        if not proc.name.isdigit() or int(proc.name) == os.getpid():
+            continue
+        try:
+            if wanted & set((proc / 'environ').read_bytes().split(b'\0')):
+                found[int(proc.name)] = (proc / 'cmdline').read_bytes().replace(b'\0', b' ')
+        except OSError:
+            pass
+    return found
+
+
+def reap(ids, deadline=STRAY_DEADLINE):
+    """
+    Wait for every process on the test's domains ``ids`` to end; kill those left; return them.
+
+    The domains are the test's own (domain_coordinator holds them), so a process there is one
+    it started, or a child of one: left running, it would talk into the next test of that domain.
+    """
+    end = time.monotonic() + deadline
+    while (left := _on_domains(ids)) and time.monotonic() < end:
+        time.sleep(0.2)
+    for pid in left:
+        with contextlib.suppress(OSError):
+            os.kill(pid, 9)
+    return {pid: cmd.decode(errors='replace')[-200:] for pid, cmd in left.items()}

@@ -26,12 +26,16 @@ calls :func:`die_with_parent` first thing:
   forks, such as ``sudo``, stands between them), every :data:`WATCH_PERIOD` s; when either is
   gone,
   the thread sends SIGCONT to the fleet's group (a member frozen by a ``stop`` fault handles
-  no SIGTERM until continued), SIGTERM to its own process, and ends the process with exit
-  code :data:`ORPHAN_EXIT` if it is still alive :data:`GRACE` s later.
+  no SIGTERM until continued), SIGTERM to its own process, and asks the kernel to end the
+  process :data:`GRACE` s later if it still lives (:func:`end_within`: SIGALRM, whose default
+  action needs nothing of the process, not even Python's lock of the interpreter; a shutdown
+  hung in the middleware cannot keep it alive). The node's own stop arms the same deadline once
+  its starter is gone.
 
 A process started without :data:`PARENT_ENV` (``ros2 run`` from a shell) is not tied.
 """
 import ctypes
+import math
 import os
 import signal
 import sys
@@ -48,8 +52,6 @@ WATCH_PERIOD = 0.25
 """Seconds between two looks at the parent."""
 GRACE = 10.0
 """Seconds an orphaned process has to stop by itself after its SIGTERM."""
-ORPHAN_EXIT = 143
-"""Exit code of a process ended after its grace (128 + SIGTERM)."""
 
 
 def tied_env(env, group=False):
@@ -104,13 +106,11 @@ class Tie:
         return os.getppid() != self.parent or not _alive(self.starter)
 
     def release(self):
-        """Continue the fleet's group, then stop this process: SIGTERM, after GRACE an exit."""
+        """Continue the fleet's group, then stop this process: SIGTERM, after GRACE its end."""
         if self.group:
             os.killpg(os.getpgrp(), signal.SIGCONT)
+        end_within(GRACE)
         os.kill(os.getpid(), signal.SIGTERM)
-        end = threading.Timer(GRACE, os._exit, (ORPHAN_EXIT,))
-        end.daemon = True
-        end.start()
 
     def watch(self):
         """Look every WATCH_PERIOD s; once the starter is gone, :meth:`release`."""
@@ -119,12 +119,22 @@ class Tie:
         self.release()
 
 
+def end_within(seconds):
+    """
+    Have the kernel end this process in ``seconds`` (whole, at least 1), whatever it does then.
+
+    SIGALRM with its default action, which Python leaves in place: no handler runs, so neither
+    a thread holding the interpreter's lock nor a wait in the middleware delays it.
+    """
+    signal.alarm(max(1, math.ceil(seconds)))
+
+
 def die_with_parent(environ=None):
-    """Tie this process to its starter, if :data:`PARENT_ENV` names one; return whether so."""
+    """Tie this process to its starter, if :data:`PARENT_ENV` names one; return the Tie."""
     environ = os.environ if environ is None else environ
     if not environ.get(PARENT_ENV, '').isdigit():
-        return False
+        return None
     tie = Tie(int(environ[PARENT_ENV]), environ.get(GROUP_ENV) == '1')
     parent_death_signal()
     threading.Thread(target=tie.watch, daemon=True, name='die_with_parent').start()
-    return True
+    return tie

@@ -22,7 +22,7 @@ import sys
 import tempfile
 
 from formation_control.core.errors import ScenarioError, UsageError
-from formation_control.ops.lifetime import die_with_parent
+from formation_control.ops.lifetime import die_with_parent, end_within, GRACE
 from formation_control.ops.security import check_environment
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
@@ -90,7 +90,7 @@ def run(make_node, args=None):
     (:func:`~formation_control.ops.lifetime.die_with_parent`).
     """
     stop = _StopFlag()
-    die_with_parent()
+    tie = die_with_parent()
     unsafe = check_environment(os.environ)
     if unsafe:
         print(f'error: {unsafe}', file=sys.stderr)
@@ -122,6 +122,8 @@ def run(make_node, args=None):
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if tie is not None and tie.orphaned():
+            end_within(GRACE)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()

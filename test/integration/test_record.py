@@ -73,6 +73,20 @@ def _gone(pids, groups=(), deadline=ORPHAN_DEADLINE):
         time.sleep(0.1)
 
 
+def _described(pids):
+    """Return what each of ``pids`` is: its state, command line and its threads' kernel waits."""
+    out = {}
+    for pid in pids:
+        proc = Path(f'/proc/{pid}')
+        try:
+            cmd = (proc / 'cmdline').read_bytes().replace(b'\0', b' ').decode()[-160:]
+            waits = sorted({(t / 'wchan').read_text() for t in (proc / 'task').iterdir()})
+        except OSError:
+            continue
+        out[pid] = (_stat(pid), cmd, waits)
+    return out
+
+
 def _cli(ros, *args, timeout=120):
     return subprocess.run([str(BIN / 'formation-control'), *map(str, args)], env=ros.env,
                           capture_output=True, text=True, timeout=timeout)
@@ -126,7 +140,8 @@ def test_swarm_killed_leaves_no_process_and_a_bag_repair_makes_readable(ros, tmp
     assert any(_stat(p)[0] == 'T' for p in fleet)       # vehicle 2 frozen
     swarm.kill()
     swarm.wait()
-    assert _gone(fleet, groups) == []
+    left = _gone(fleet, groups)
+    assert left == [], _described(left)
 
     refused = _cli(ros, 'report', bag)
     assert refused.returncode == 2 and 'formation-control repair' in refused.stderr
@@ -175,7 +190,8 @@ def test_a_launch_killed_leaves_no_process_and_its_bag_repairs(ros, tmp_path):
     assert len(fleet) == 8, (fleet, output(launch)[-2000:])   # and the recorder
     launch.kill()
     launch.wait()
-    assert _gone(fleet) == []
+    left = _gone(fleet)
+    assert left == [], _described(left)
     repaired = _cli(ros, 'repair', bag)
     assert repaired.returncode == 0, repaired.stderr
     _assert_readable(bag, _kept(repaired.stdout))

@@ -20,6 +20,7 @@ The real Jazzy command line: the ``ros2`` of the venv (``make setup`` installs i
 installs it (the session's workspace). Each ``ros2`` call costs 1-2 s of start-up, so the
 checks against one running fleet run in parallel batches.
 """
+import contextlib
 import os
 from pathlib import Path
 import shutil
@@ -54,6 +55,17 @@ def _default_sigint():
     signal.signal(signal.SIGINT, signal.SIG_DFL)          # a launcher that ignored it
 
 
+def _interrupt(proc, sig=signal.SIGINT):
+    """
+    Send ``sig`` to ``proc``'s process group, as a terminal's Ctrl-C does.
+
+    ``ros2 run`` forwards no signal: it leaves its node to the terminal's signal to the group,
+    so a SIGINT to ``ros2 run`` alone would leave the node running in the domain.
+    """
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(proc.pid, sig)
+
+
 class Cli:
     """``ros2`` commands in a private domain, on the colcon-installed package."""
 
@@ -69,7 +81,8 @@ class Cli:
     def start(self, *args, log=None):
         proc = subprocess.Popen([ROS2, *map(str, args)], env=self.env, text=True,
                                 stdout=log or subprocess.PIPE, stderr=subprocess.STDOUT,
-                                stdin=subprocess.DEVNULL, preexec_fn=_default_sigint)
+                                stdin=subprocess.DEVNULL, preexec_fn=_default_sigint,
+                                process_group=0)
         self.procs.append(proc)
         return proc
 
@@ -90,7 +103,7 @@ class Cli:
         for stop_after, proc in started:
             if stop_after is not None:
                 time.sleep(max(0.0, t0 + stop_after - time.monotonic()))
-                proc.send_signal(signal.SIGINT)
+                _interrupt(proc)
             text, _ = proc.communicate(timeout=timeout)
             out.append((proc.returncode, text))
         return out
@@ -98,12 +111,12 @@ class Cli:
     def stop_all(self):
         for proc in self.procs:
             if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
+                _interrupt(proc)
         for proc in self.procs:
             try:
                 proc.wait(timeout=15)
             except subprocess.TimeoutExpired:
-                proc.kill()
+                _interrupt(proc, signal.SIGKILL)
                 proc.wait()
 
 

@@ -30,7 +30,13 @@ if sys.argv[1] == 'watch_only':
     lifetime.parent_death_signal = lambda sig=None: False
 if sys.argv[1] == 'signal_only':
     lifetime.Tie.watch = lambda self: None
+lifetime.GRACE = 1.0
 signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+if sys.argv[1] == 'deaf':
+    signal.signal(signal.SIGTERM, lambda *_: None)
+if sys.argv[1] == 'hangs_holding_the_lock':
+    lifetime.Tie.watch = lambda self: None
+    signal.signal(signal.SIGTERM, lambda *_: (lifetime.end_within(1), sum(range(10 ** 15))))
 signal.signal(signal.SIGHUP, lambda *_: sys.exit(0))
 assert lifetime.die_with_parent()
 print('ready', flush=True)
@@ -112,7 +118,20 @@ def test_a_frozen_member_of_the_fleet_group_is_continued_and_stops(started):
     assert _gone_within([running, frozen], 10 * lifetime.WATCH_PERIOD + 2.0)
 
 
+def test_an_orphan_deaf_to_its_sigterm_ends_after_its_grace(started):
+    starter, pids = started('deaf')
+    starter.kill()
+    assert _gone_within(pids, 10 * lifetime.WATCH_PERIOD + 1.0 + 2.0)
+
+
+def test_a_stop_hung_holding_the_interpreter_lock_still_ends_on_time(started):
+    """The node's own stop arms the deadline before a shutdown that may hang in DDS."""
+    starter, pids = started('hangs_holding_the_lock')
+    starter.kill()
+    assert _gone_within(pids, 1.0 + 2.0)
+
+
 def test_an_untied_process_is_left_alone():
-    assert lifetime.die_with_parent({}) is False
+    assert lifetime.die_with_parent({}) is None
     env = lifetime.tied_env({'A': '1', lifetime.GROUP_ENV: '1'})
     assert env == {'A': '1', lifetime.PARENT_ENV: str(os.getpid())}
