@@ -29,7 +29,8 @@ import time
 
 from formation_control.ops import lifetime, security
 from formation_control.protocol import faults, names
-from formation_control.protocol.fleet_plan import FleetPlan, ros_arguments, write_params
+from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, ros_arguments,
+                                                   SWARM_LABELS, write_params)
 from formation_control.sim import simulator
 
 CLOCK_EVENTS = 8
@@ -128,6 +129,9 @@ class Swarm:
         self.members = [p.vehicles for p in processes]
         self.names = [p.name for p in processes]
         base = os.environ if env is None else env
+        if place is None:
+            check_discovery(len(processes) + 1, sc.num_vehicles, plan.per_process,
+                            SWARM_LABELS[0], base)
         self.envs = {name: env if secure is None else security.member_env(secure, name, base)
                      for name in self.names}
         self.process_of = {k: i for i, group in enumerate(self.members) for k in group}

@@ -126,6 +126,49 @@ def auto_per_process(num_vehicles: int, cores: int, one_each: bool = False) -> i
     return max(1, math.ceil(num_vehicles / (PROCESSES_PER_CORE * max(1, cores))))
 
 
+LOCALHOST_PARTICIPANTS = 32
+"""With ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` rmw_fastrtps announces each participant by
+unicast to the first 32 participant ports of the host (its ``maxInitialPeersRange``), so two
+participants of a higher index never meet: at most this many discover each other on a host."""
+
+
+def check_discovery(participants: int, num_vehicles: int, per_process: int, label: str,
+                    environ: Mapping[str, str]) -> None:
+    """
+    Refuse a fleet of more DDS participants on this host than localhost discovery reaches.
+
+    Parameters
+    ----------
+    participants : int
+        The fleet's participants on this host: its processes, the starter's own node too.
+    num_vehicles, per_process : int
+        The fleet, and its vehicle nodes per process.
+    label : str
+        How the caller spells the vehicles per process, for the error.
+    environ : mapping
+        The fleet's environment: the limit holds for rmw_fastrtps with
+        ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and no ``ROS_DISCOVERY_SERVER``.
+
+    Raises
+    ------
+    ScenarioError
+        Over :data:`LOCALHOST_PARTICIPANTS`: the error names the grouping that fits.
+
+    """
+    if (environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE', '').upper() != 'LOCALHOST'
+            or environ.get('ROS_DISCOVERY_SERVER')
+            or environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp') != 'rmw_fastrtps_cpp'
+            or participants <= LOCALHOST_PARTICIPANTS):
+        return
+    others = participants - math.ceil(num_vehicles / per_process)
+    fits = math.ceil(num_vehicles / max(1, LOCALHOST_PARTICIPANTS - others))
+    raise ScenarioError(
+        f'{label} {per_process} makes {participants} DDS participants on this host, but with '
+        f'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST rmw_fastrtps discovers at most '
+        f'{LOCALHOST_PARTICIPANTS} (the rest would never match each other): use {label} '
+        f'{fits} or more (or auto), or a discovery server (ROS_DISCOVERY_SERVER)')
+
+
 def cores() -> int:
     """Return the number of cores this process may run on."""
     return len(os.sched_getaffinity(0))

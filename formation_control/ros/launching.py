@@ -28,7 +28,8 @@ import tempfile
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
 from formation_control.ops import lifetime, security
-from formation_control.protocol.fleet_plan import FleetPlan, LAUNCH_LABELS, write_params
+from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, LAUNCH_LABELS,
+                                                   write_params)
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -117,6 +118,8 @@ def _fleet(context):
         processes.append(plan.monitor())
     if record:
         processes.append(plan.recorder(record, _true(a['monitor'])))
+    check_discovery(len(processes) + 1, sc.num_vehicles, plan.per_process, LAUNCH_LABELS[0],
+                    os.environ)
     return [_process_node(p, a, plan, files) for p in processes]
 
 

@@ -277,6 +277,19 @@ def test_a_process_fault_with_several_vehicles_per_process_is_refused_before_any
     assert 'started' not in result.stdout + result.stderr
 
 
+def test_a_fleet_beyond_localhost_discovery_is_refused_before_any_start(ros):
+    """40 vehicle processes, the plant, the monitor and the swarm: 43 participants, over 32."""
+    result = ros.procs.run('formation-control', 'swarm', 'particle_circular',
+                           '-p', 'num_vehicles:=40', '--vehicles-per-process', '1')
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines()[-1] == (
+        'error: --vehicles-per-process 1 makes 43 DDS participants on this host, but with '
+        'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST rmw_fastrtps discovers at most 32 (the rest '
+        'would never match each other): use --vehicles-per-process 2 or more (or auto), or a '
+        'discovery server (ROS_DISCOVERY_SERVER)')
+    assert 'started' not in result.stdout + result.stderr
+
+
 def test_the_default_swarm_groups_vehicle_nodes_by_the_cores(ros, tmp_path):
     from formation_control.protocol.fleet_plan import auto_per_process, cores
     overrides = ['num_vehicles:=9', 'duration:=1.0']

@@ -104,3 +104,24 @@ def test_parameters_as_ros_arguments():
                           'mode': 'lockstep'}) == [
         '-p', 'use_sim_time:=false', '-p', 'vehicle_ids:=[1, 2]', '-p', 'real_time_factor:=2.0',
         '-p', 'mode:=lockstep']
+
+
+LOCALHOST = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
+
+
+def test_more_participants_than_localhost_discovery_reaches_are_refused_with_the_grouping():
+    fleet_plan.check_discovery(32, 30, 1, '--vehicles-per-process', LOCALHOST)
+    with pytest.raises(ScenarioError) as refused:     # 32 vehicles, plant, monitor, swarm
+        fleet_plan.check_discovery(35, 32, 1, '--vehicles-per-process', LOCALHOST)
+    message = str(refused.value)
+    assert message.startswith('--vehicles-per-process 1 makes 35 DDS participants')
+    assert 'at most 32' in message and 'use --vehicles-per-process 2 or more' in message
+    groups = -(-32 // 2)                                # two each fit: 16 + 3 participants
+    fleet_plan.check_discovery(groups + 3, 32, 2, '--vehicles-per-process', LOCALHOST)
+
+
+@pytest.mark.parametrize('environ', [{}, {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'},
+                                     {**LOCALHOST, 'ROS_DISCOVERY_SERVER': '127.0.0.1:11811'},
+                                     {**LOCALHOST, 'RMW_IMPLEMENTATION': 'rmw_cyclonedds_cpp'}])
+def test_the_limit_is_localhost_discovery_of_rmw_fastrtps_only(environ):
+    fleet_plan.check_discovery(65, 64, 1, '--vehicles-per-process', environ)
