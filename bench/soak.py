@@ -26,13 +26,18 @@ whole fleet holds the convergence test until the next fault, from the fault's st
 process's memory (RSS) and CPU over time (growth after warm-up), no process left after the
 end, the bag complete (closed, every fault on ``/formation/faults``).
 
-``startup``: ``--repeat`` lockstep starts of ``particle_circular`` with N vehicles, one process
-each and no monitor (N + 1 processes), until every vehicle has sent its first command (it has
-the plant's odometry, the plant its command: up and matched), and how many starts failed.
+``startup``: ``--repeat`` lockstep starts of ``particle_circular`` with N vehicles,
+``--per-process`` vehicle nodes per process (default 1: N + 1 processes) and no monitor, until
+every vehicle has sent its first command (it has the plant's odometry, the plant its command:
+up and matched), and how many starts failed. Localhost discovery reaches 32 participants
+(``fleet_plan.LOCALHOST_PARTICIPANTS``), which the swarm refuses to exceed; with
+``--discovery-server`` the fleet finds itself through a Fast DDS discovery server on this host
+instead, so one process per vehicle goes past 32.
 
     .venv/bin/python bench/soak.py soak --duration 1800             # the full soak: 30 min
     .venv/bin/python bench/soak.py soak --duration 240              # a short one
-    .venv/bin/python bench/soak.py startup --sizes 8 16 32 64 --repeat 3
+    .venv/bin/python bench/soak.py startup --sizes 8 16 --repeat 3
+    .venv/bin/python bench/soak.py startup --sizes 32 64 --repeat 3 --discovery-server
 
 Runs use ROS_DOMAIN_ID ``--domain`` (default: $ROS_DOMAIN_ID, else 89; keep it at most 101:
 above, the DDS ports of a domain fall in Linux's ephemeral port range, 32768-60999) and
@@ -215,39 +220,65 @@ def soak(args):
 STARTED = 'first command'
 
 
-def _start_once(n, domain, timeout):
+DISCOVERY_PORT = 11888
+
+
+def _discovery_server(env):
+    """Start a Fast DDS discovery server on this host; return it and the fleet's environment."""
+    venv = BIN.parent
+    libs = [venv / 'lib', *sorted(venv.glob('lib/python3*/site-packages/ros_fastrtps.libs'))]
+    server = subprocess.Popen([str(BIN / 'fast-discovery-server'), '-i', '0', '-l', '127.0.0.1',
+                               '-p', str(DISCOVERY_PORT)],
+                              env={**env, 'LD_LIBRARY_PATH': os.pathsep.join(map(str, libs))},
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return server, {**env, 'ROS_DISCOVERY_SERVER': f'127.0.0.1:{DISCOVERY_PORT}'}
+
+
+def _start_once(n, args):
     """Return seconds until every vehicle commanded, or the reason the start failed."""
     work = Path(tempfile.mkdtemp(prefix='soak_start_'))
-    env = _env(domain)
+    env, server = _env(args.domain), None
+    if args.discovery_server:
+        server, env = _discovery_server(env)
     start = time.time()
-    proc = subprocess.run([str(BIN / 'formation-control'), 'swarm', 'particle_circular', '-p',
-                           f'num_vehicles:={n}', '--duration', '1', '--no-monitor',
-                           '--vehicles-per-process', '1', '--timeout', str(timeout),
-                           '--summary', str(work / 's.json')],
-                          env=env, capture_output=True, text=True, timeout=timeout + 60)
+    try:
+        proc = subprocess.run(
+            [str(BIN / 'formation-control'), 'swarm', 'particle_circular', '-p',
+             f'num_vehicles:={n}', '--duration', '1', '--no-monitor', '--vehicles-per-process',
+             str(args.per_process), '--timeout', str(args.timeout),
+             '--summary', str(work / 's.json')],
+            env=env, capture_output=True, text=True, timeout=args.timeout + 60)
+    finally:
+        if server is not None:
+            server.terminate()
+            server.wait()
     if proc.returncode != 0:
         return (proc.stderr.strip().splitlines() or ['exit %d' % proc.returncode])[-1]
     logs = Path(json.loads((work / 's.json').read_text())['logs'])
     firsts = []
     for log in logs.glob('vehicle*.log'):
+        seen = set()
         for line in log.read_text().splitlines():
-            if STARTED in line:
+            node = line.split('[')[3].split(']')[0] if line.count('[') >= 4 else ''
+            if STARTED in line and node not in seen:
+                seen.add(node)
                 firsts.append(float(line.split('[')[2].split(']')[0]))
-                break
     if len(firsts) != n:
         return f'{len(firsts)} of {n} vehicles commanded'
     return max(firsts) - start
 
 
 def startup(args):
-    print(f'# startup: lockstep particle_circular, one process per vehicle, no monitor, '
-          f'{os.cpu_count()} cores, {args.repeat} starts each')
+    found = 'a discovery server' if args.discovery_server else 'localhost discovery'
+    print(f'# startup: lockstep particle_circular, {args.per_process} vehicle(s) per process, '
+          f'no monitor, {found}, {os.cpu_count()} cores, {args.repeat} starts each')
     for n in args.sizes:
-        got = [_start_once(n, args.domain, args.timeout) for _ in range(args.repeat)]
+        got = [_start_once(n, args) for _ in range(args.repeat)]
         times = [g for g in got if isinstance(g, float)]
         failures = [g for g in got if not isinstance(g, float)]
         median = f'{statistics.median(times):.1f} s' if times else '-'
-        print(f'N={n} ({n + 1} processes): up and matched in {median} (runs: '
+        processes = -(-n // args.per_process) + 1
+        print(f'N={n} ({processes} processes): up and matched in {median} (runs: '
               f'{", ".join(f"{t:.1f}" for t in times)}); failed {len(failures)} of '
               f'{len(got)}{": " + "; ".join(failures) if failures else ""}', flush=True)
 
@@ -265,6 +296,9 @@ def main():
     parser.add_argument('--sizes', type=int, nargs='+', default=[8, 16, 32, 64])
     parser.add_argument('--repeat', type=int, default=3)
     parser.add_argument('--timeout', type=float, default=600.0, help='seconds per start')
+    parser.add_argument('--per-process', type=int, default=1, help='vehicle nodes per process')
+    parser.add_argument('--discovery-server', action='store_true',
+                        help='discover through a Fast DDS discovery server on this host')
     parser.add_argument('--domain', type=int, default=int(os.environ.get('ROS_DOMAIN_ID', 89)))
     args = parser.parse_args()
     {'soak': soak, 'startup': startup}[args.what](args)
