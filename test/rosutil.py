@@ -14,6 +14,7 @@
 
 """Test harness for ROS 2 nodes: a private domain, processes, in-process nodes, probes."""
 import contextlib
+import itertools
 import math
 import os
 from pathlib import Path
@@ -236,54 +237,72 @@ def ros_environment(domain_id):
 @contextlib.contextmanager
 def domains(count=1):
     """
-    Reserve ``count`` ROS_DOMAIN_IDs for the block.
+    Reserve ``count`` ROS_DOMAIN_IDs for the block; at its end, no process it started runs on.
 
-    domain_coordinator's own context swallows an OSError (TimeoutError, FileNotFoundError ...)
-    raised in its block; it is carried past.
+    Every process started in the block inherits :data:`MARK_ENV`; at the end :func:`reap` waits
+    for them, kills those left and the block fails naming them. domain_coordinator's own
+    context swallows an OSError (TimeoutError, FileNotFoundError ...) raised in its block; it
+    is carried past.
     """
     from domain_coordinator import domain_id
     error = None
     with contextlib.ExitStack() as stack:
         ids = [stack.enter_context(domain_id()) for _ in range(count)]
+        mark = f'{os.getpid()}-{next(_MARKS)}-{"-".join(map(str, ids))}'
+        outer = os.environ.get(MARK_ENV)
+        os.environ[MARK_ENV] = mark
         try:
             yield ids
         except OSError as err:
             error = err
         finally:
-            strays = reap(ids)
+            _restore(MARK_ENV, outer)
+            strays = reap(mark)
     if error is not None:
         raise error
     assert not strays, f'processes outlived their test on its domains {ids}: {strays}'
+
+
+MARK_ENV = 'FORMATION_CONTROL_TEST_DOMAINS'
+"""Set while a test holds its domains: every process it starts inherits it, and only those."""
+_MARKS = itertools.count()
+
+
+def _restore(name, value):
+    if value is None:
+        os.environ.pop(name, None)
+    else:
+        os.environ[name] = value
 
 
 STRAY_DEADLINE = 15.0
 """Seconds a test's processes have to end by themselves after its teardown (GRACE + 5 s)."""
 
 
-def _on_domains(ids):
-    """Return {pid: command line} of the other processes whose ROS_DOMAIN_ID is in ``ids``."""
-    wanted = {f'ROS_DOMAIN_ID={i}'.encode() for i in ids}
+def _marked(mark):
+    """Return {pid: command line} of the other processes whose environment holds ``mark``."""
+    wanted = f'{MARK_ENV}={mark}'.encode()
     found = {}
     for proc in Path('/proc').iterdir():
         if not proc.name.isdigit() or int(proc.name) == os.getpid():
             continue
         try:
-            if wanted & set((proc / 'environ').read_bytes().split(b'\0')):
+            if wanted in (proc / 'environ').read_bytes().split(b'\0'):
                 found[int(proc.name)] = (proc / 'cmdline').read_bytes().replace(b'\0', b' ')
         except OSError:
             pass
     return found
 
 
-def reap(ids, deadline=STRAY_DEADLINE):
+def reap(mark, deadline=STRAY_DEADLINE):
     """
-    Wait for every process on the test's domains ``ids`` to end; kill those left; return them.
+    Wait for every process a test started (``mark``) to end; kill those left; return them.
 
-    The domains are the test's own (domain_coordinator holds them), so a process there is one
-    it started, or a child of one: left running, it would talk into the next test of that domain.
+    A process the test started, or a child of one, left running in the test's domain would
+    talk into the next test given that domain.
     """
     end = time.monotonic() + deadline
-    while (left := _on_domains(ids)) and time.monotonic() < end:
+    while (left := _marked(mark)) and time.monotonic() < end:
         time.sleep(0.2)
     for pid in left:
         with contextlib.suppress(OSError):
