@@ -34,7 +34,7 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 INTEGRATION = Path(__file__).resolve().parent / 'integration'
 
 
-SERIAL = ('test_secure.py', 'test_flood.py')
+SERIAL = ('test_secure.py', 'test_signed.py', 'test_flood.py')
 """Files run alone, after the two workers (``make test``): a TLS fleet over Fast DDS 2.14's TCP
 transport missed its 180 s launch deadline twice in five runs beside another worker's tests,
 never alone; the flood of malformed samples, which once coincided with 8 failures of the other
