@@ -28,12 +28,12 @@ as sent on it, ``signature`` ECDSA P-256 / SHA-256 over every byte before it (r 
 each, big endian), by the signer's member key. The receivers of the control loop (vehicles,
 plant) take only the envelopes, and only from :func:`signer_for` of the topic: ``vehicle_k``
 for ``vehicle_k/formation_state`` and ``vehicle_k/cmd``, ``plant`` for ``vehicle_k/odom`` and
-``/clock``. A signer's sequence starts at its wall clock (ns) and counts up, so it grows across
-restarts; a receiver keeps the last of each (signer, topic) and drops any not above it
-(:class:`ReplayWindow`). A dropped envelope is a
-:class:`~formation_control.protocol.intake.Rejection` of one of :data:`KINDS` (or
-``malformed``); the payload of an accepted one goes through the topic's intake as the plain
-bytes would.
+``/clock``. A signer's sequence is its wall clock (ns) when it seals, kept strictly increasing,
+so it grows across restarts; a receiver keeps the last of each (signer, topic) and drops any
+not above it, or older than :data:`WINDOW` on its own wall clock (:class:`ReplayWindow`). A
+dropped envelope is a :class:`~formation_control.protocol.intake.Rejection` of one of
+:data:`KINDS` (or ``malformed``); the payload of an accepted one goes through the topic's
+intake as the plain bytes would.
 
 Revocation is an X.509 CRL signed by the fleet's CA (``crl.pem``, :func:`revoke`): a member
 whose certificate's serial is on it is refused at start-up (:func:`check_member`) and its
@@ -60,6 +60,9 @@ SIGNATURE = 64
 UNSIGNED, BAD_SIGNATURE, WRONG_SIGNER = 'unsigned', 'bad_signature', 'wrong_signer'
 WRONG_TOPIC, UNKNOWN_SIGNER, REPLAY, REVOKED = ('wrong_topic', 'unknown_signer', 'replay',
                                                 'revoked')
+WINDOW = 60 * 10**9
+"""How old (ns, on the receiver's wall clock) a sequence may be: the hosts' clocks must agree
+within it; a receiver that starts afresh takes no envelope sealed before it."""
 KINDS = (UNSIGNED, BAD_SIGNATURE, WRONG_SIGNER, WRONG_TOPIC, UNKNOWN_SIGNER, REPLAY, REVOKED)
 """The reasons an envelope is dropped, besides ``malformed`` (envelope bytes that do not parse)."""
 ARRAY_HEADER = struct.Struct('<4sIII')
@@ -144,14 +147,20 @@ def parse(data: bytes, topic: str) -> Envelope | Rejection:
 
 
 class ReplayWindow:
-    """The last sequence accepted of each (signer, topic): an envelope must exceed it."""
+    """
+    The last sequence accepted of each (signer, topic): an envelope must exceed it.
 
-    def __init__(self) -> None:
+    It must also be within ``window`` ns before ``clock()`` (the wall clock, ns).
+    """
+
+    def __init__(self, window: int = WINDOW, clock: Callable[[], int] = time.time_ns) -> None:
         self.last: dict[tuple[str, str], int] = {}
+        self.window, self.clock = window, clock
 
     def fresh(self, signer: str, topic: str, sequence: int) -> bool:
-        """Return whether ``sequence`` is above the last accepted of (signer, topic)."""
-        return sequence > self.last.get((signer, topic), -1)
+        """Return whether ``sequence`` is above the last of (signer, topic), and recent."""
+        return (sequence > self.last.get((signer, topic), -1)
+                and sequence > self.clock() - self.window)
 
     def accept(self, signer: str, topic: str, sequence: int) -> None:
         """Record ``sequence`` as the last accepted of (signer, topic)."""
@@ -162,17 +171,18 @@ class Signer:
     """
     Seals the messages member ``name`` publishes: ``sign(bytes) -> 64-byte signature``.
 
-    ``clock`` (ns) seeds the sequence, which then counts each envelope.
+    The sequence of an envelope is ``clock()`` (the wall clock, ns), or one above the last if
+    that is not more.
     """
 
     def __init__(self, name: str, sign: Callable[[bytes], bytes],
                  clock: Callable[[], int] = time.time_ns) -> None:
-        self.name, self.sign = name, sign
-        self.sequence = clock()
+        self.name, self.sign, self.clock = name, sign, clock
+        self.sequence = 0
 
     def seal(self, topic: str, payload: bytes) -> bytes:
         """Return the CDR bytes of the envelope of ``payload`` (sent on ``topic``)."""
-        self.sequence += 1
+        self.sequence = max(self.sequence + 1, self.clock())
         signed = signed_bytes(self.name, topic, self.sequence, payload)
         return array_message(signed + self.sign(signed))
 
@@ -188,13 +198,16 @@ class Verifier:
         certificates.
     revoked : callable
         () -> the names of the revoked members (read at each envelope: reloadable).
+    window : ReplayWindow, optional
+        The sequences accepted so far (default: a new one).
 
     """
 
     def __init__(self, verify: Mapping[str, Callable[[bytes, bytes], bool]],
-                 revoked: Callable[[], frozenset[str]]) -> None:
+                 revoked: Callable[[], frozenset[str]],
+                 window: ReplayWindow | None = None) -> None:
         self.verify, self.revoked = verify, revoked
-        self.window = ReplayWindow()
+        self.window = ReplayWindow() if window is None else window
 
     def unseal(self, topic: str, data: bytes) -> bytes | Rejection:
         """Return the payload of envelope bytes received for ``topic``, or their rejection."""
@@ -215,8 +228,8 @@ class Verifier:
         if not check(got.signature, got.signed):
             return Rejection(BAD_SIGNATURE, f'{what} whose signature does not verify')
         if not self.window.fresh(got.signer, topic, got.sequence):
-            return Rejection(REPLAY, f'{what} of sequence {got.sequence}, not after '
-                                     f'{self.window.last[got.signer, topic]}')
+            return Rejection(REPLAY, f'{what} of sequence {got.sequence}: not after the last '
+                                     f'accepted, or over {self.window.window * 1e-9:g} s old')
         self.window.accept(got.signer, topic, got.sequence)
         return got.payload
 

@@ -100,6 +100,27 @@ def test_a_replayed_or_older_envelope_is_dropped(fleet):
     assert kind(plant.verifier.unseal(STATE, first)) == signing.REPLAY
 
 
+def test_an_envelope_older_than_the_window_is_dropped_by_a_fresh_receiver(fleet):
+    vehicle = member(fleet, 'vehicle_3')
+    now = [10**18]
+    old = signing.Signer('vehicle_3', vehicle.signer.sign, clock=lambda: now[0]).seal(STATE, b'o')
+    now[0] += signing.WINDOW
+    fresh = signing.Verifier(member(fleet, 'plant').verifier.verify, frozenset,
+                             signing.ReplayWindow(clock=lambda: now[0]))
+    assert kind(fresh.unseal(STATE, old)) == signing.REPLAY
+    now[0] -= 1
+    assert fresh.unseal(STATE, old) == b'o'
+
+
+def test_a_signer_whose_clock_steps_back_keeps_its_sequence_increasing(fleet):
+    now = [10**18]
+    signer = signing.Signer('vehicle_3', member(fleet, 'vehicle_3').signer.sign,
+                            clock=lambda: now[0])
+    first = signing.parse(signer.seal(STATE, b'a'), STATE).sequence
+    now[0] -= 10**9
+    assert signing.parse(signer.seal(STATE, b'b'), STATE).sequence == first + 1
+
+
 def test_a_restarted_signer_continues_above_its_last_sequence(fleet):
     plant = member(fleet, 'plant')
     before = member(fleet, 'vehicle_3').signer.seal(STATE, b'a')
