@@ -247,18 +247,24 @@ def _load_certs(home: Path) -> dict[str, Any]:
     """Return {member: certificate} of ``fleet_certs.pem``, each checked against ``ca.pem``."""
     from cryptography import x509
     from cryptography.exceptions import InvalidSignature
-    from cryptography.x509.oid import NameOID
     ca = x509.load_pem_x509_certificate((home / 'ca.pem').read_bytes())
     out = {}
     for cert in x509.load_pem_x509_certificates((home / CERTS).read_bytes()):
-        name = cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value
+        name = common_name(cert)
         try:
             cert.verify_directly_issued_by(ca)
         except (InvalidSignature, TypeError, ValueError) as err:
             raise SecurityError(f'{home / CERTS}: the certificate of {name} is not signed by '
                                 f'the fleet CA ({home / "ca.pem"}): {err}') from None
-        out[str(name)] = cert
+        out[name] = cert
     return out
+
+
+def common_name(cert: Any) -> str:
+    """Return the common name (CN) of a certificate: a member's name."""
+    from cryptography.x509.oid import NameOID
+    value = cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value
+    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def _verifier(public_key: Any) -> Callable[[bytes, bytes], bool]:
@@ -360,10 +366,8 @@ class Member:
 def load_member(home: Path) -> Member:
     """Return the signing side of the member whose directory is ``home``."""
     from cryptography import x509
-    from cryptography.x509.oid import NameOID
     certs = _load_certs(home)
-    own = x509.load_pem_x509_certificate((home / 'cert.pem').read_bytes())
-    name = str(own.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value)
+    name = common_name(x509.load_pem_x509_certificate((home / 'cert.pem').read_bytes()))
     revocations = Revocations(home, certs)
     verifier = Verifier({m: _verifier(c.public_key()) for m, c in certs.items()}, revocations)
     return Member(name, home, Signer(name, sign_with(load_key(home / 'key.pem'))), verifier,
