@@ -177,6 +177,9 @@ bench-scripts: setup
 	$(PY) bench/fleet.py latency --sizes 16
 	if [ "$$(id -u)" = 0 ]; then $(PY) bench/secure_fleet.py; \
 	else echo 'bench/secure_fleet.py skipped: it needs root (ip netns)'; fi
+	$(PY) bench/signing.py micro
+	if [ "$$(id -u)" = 0 ]; then $(PY) bench/signing.py fleet; \
+	else echo 'bench/signing.py fleet skipped: it needs root (ip netns)'; fi
 	$(PY) bench/fleet.py latency --sizes 16 --graphs ring --per-process 4 --duration 10
 	$(PY) bench/fleet.py startup --sizes 16
 	$(PY) bench/sweep.py

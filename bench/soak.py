@@ -44,6 +44,7 @@ above, the DDS ports of a domain fall in Linux's ephemeral port range, 32768-609
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; bench/ is not in CI's suite.
 """
 import argparse
+import itertools
 import json
 import os
 from pathlib import Path
@@ -220,18 +221,20 @@ def soak(args):
 STARTED = 'first command'
 
 
-DISCOVERY_PORT = 11888
+DISCOVERY_PORTS = itertools.count(11888)
+"""A port of its own for each start's discovery server."""
 
 
 def _discovery_server(env):
     """Start a Fast DDS discovery server on this host; return it and the fleet's environment."""
+    port = next(DISCOVERY_PORTS)
     venv = BIN.parent
     libs = [venv / 'lib', *sorted(venv.glob('lib/python3*/site-packages/ros_fastrtps.libs'))]
     server = subprocess.Popen([str(BIN / 'fast-discovery-server'), '-i', '0', '-l', '127.0.0.1',
-                               '-p', str(DISCOVERY_PORT)],
+                               '-p', str(port)],
                               env={**env, 'LD_LIBRARY_PATH': os.pathsep.join(map(str, libs))},
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return server, {**env, 'ROS_DISCOVERY_SERVER': f'127.0.0.1:{DISCOVERY_PORT}'}
+    return server, {**env, 'ROS_DISCOVERY_SERVER': f'127.0.0.1:{port}'}
 
 
 def _start_once(n, args):

@@ -312,15 +312,32 @@ def cmd_doctor(args):
 
 
 def cmd_secure(args):
+    if args.target[0] == 'revoke':
+        return _revoke(args.target[1:])
+    if len(args.target) != 1 or args.vehicles is None:
+        raise UsageError('secure: give DIR --vehicles N (make a fleet), or revoke MEMBER DIR')
+    directory = args.target[0]
     fleet = security.roster(args.vehicles, security.parse_hosts(args.host), args.base_port)
-    homes = security.write_fleet(args.directory, fleet, args.organisation, args.days,
-                                 args.root)
+    homes = security.write_fleet(directory, fleet, args.organisation, args.days,
+                                 args.root, signing=not args.no_signing)
     for member, home in zip(fleet, homes):
         at = member.address + (' (connects only)' if member.port is None else f':{member.port}')
         print(f'{member.name:<12} {at:<27} {home}')
-    print(f'CA: {Path(args.directory).resolve() / "ca"} (keep ca.key off the fleet). Copy each '
+    print(f'CA: {Path(directory).resolve() / "ca"} (keep ca.key off the fleet). Copy each '
           f'member directory to its host; there, `. MEMBER/env.sh` before `ros2 run`, or '
-          f'`formation-control swarm ... --secure {args.directory}` on one host.')
+          f'`formation-control swarm ... --secure {directory}` on one host.')
+    return 0
+
+
+def _revoke(words):
+    from formation_control.ops import signing
+    if len(words) != 2:
+        raise UsageError('secure revoke: give MEMBER DIR (the member, the fleet directory)')
+    name, directory = words
+    revoked = signing.revoke(Path(directory), name)
+    print(f'revoked: {", ".join(revoked)}; the list is {Path(directory).resolve() / "ca"}/'
+          f"{security.CRL} and each member directory's {security.CRL} (copy them out: a "
+          f'running member reloads it within a second)')
     return 0
 
 
@@ -413,8 +430,12 @@ def build_parser():
     sec = sub.add_parser('secure', help='make a fleet only its members can join: a CA, a key '
                                         'and certificate per member, Fast DDS TLS profiles '
                                         '(docs/security.md)')
-    sec.add_argument('directory', help='write the fleet here (kept: its CA and member keys)')
-    sec.add_argument('--vehicles', type=int, required=True, metavar='N',
+    sec.add_argument('target', nargs='+', metavar='DIR | revoke MEMBER DIR',
+                     help='DIR: write the fleet here (kept: its CA and member keys); revoke '
+                          "MEMBER DIR: add MEMBER's certificate to the fleet's revocation list "
+                          '(signed by its CA), which every member checks at start-up and '
+                          'reloads when it changes')
+    sec.add_argument('--vehicles', type=int, metavar='N',
                      help='members vehicle_1..vehicle_N (plus plant, monitor, swarm, operator)')
     sec.add_argument('--host', action='append', default=[], metavar='NAME=ADDRESS',
                      help='the IPv4 address member NAME is reached at (repeatable; default '
@@ -427,6 +448,9 @@ def build_parser():
     sec.add_argument('--days', type=int, default=365, help='certificate validity (days)')
     sec.add_argument('--organisation', default='formation_control fleet',
                      help="the certificates' organisation (O=)")
+    sec.add_argument('--no-signing', action='store_true',
+                     help='members do not sign their control topics (any member may then pose '
+                          'as another; docs/security.md): for comparison')
     sec.set_defaults(func=cmd_secure)
     tune = sub.add_parser('set', help='set run-time parameters (gains) on every vehicle of a '
                                       'running fleet')

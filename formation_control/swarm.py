@@ -27,7 +27,7 @@ import sys
 import tempfile
 import time
 
-from formation_control.ops import lifetime, security
+from formation_control.ops import lifetime, security, signing
 from formation_control.protocol import faults, names
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, ros_arguments,
                                                    SWARM_LABELS, write_params)
@@ -134,6 +134,9 @@ class Swarm:
                             SWARM_LABELS[0], base)
         self.envs = {name: env if secure is None else security.member_env(secure, name, base)
                      for name in self.names}
+        refused = [signing.check_member(e) for e in self.envs.values()] if secure else []
+        if any(refused):
+            raise security.SecurityError(next(filter(None, refused)))
         self.process_of = {k: i for i, group in enumerate(self.members) for k in group}
         self.procs, self.state, self.cause = [], [], {}
         self.group = 0

@@ -44,6 +44,9 @@ BASE_PORT = 7900
 DAYS = 365
 ROSTER = 'fleet.yaml'
 PROFILE, OPENSSL_CONF, ENV = 'fastdds.xml', 'openssl.cnf', 'env.sh'
+CERTS, CRL = 'fleet_certs.pem', 'crl.pem'
+"""Every member's certificate (a signing fleet's roster, :mod:`formation_control.ops.signing`)
+and the CA's revocation list, in each member's directory."""
 MARKER = 'formation_control secure fleet'
 VERIFY_REQUIRED = 'VerifyMode = Peer,Request,Require'
 NAME = re.compile(r'(plant|monitor|swarm|operator|vehicle_[1-9]\d*)$')
@@ -318,12 +321,27 @@ def _write_cert(path, cert):
     Path(path).write_bytes(cert.public_bytes(serialization.Encoding.PEM))
 
 
-def _load_ca(ca_dir):
+def load_ca(ca_dir):
+    """Return the fleet CA's (certificate, key) in ``ca_dir``."""
     from cryptography import x509
     from cryptography.hazmat.primitives import serialization
     cert = x509.load_pem_x509_certificate((ca_dir / 'ca.pem').read_bytes())
     key = serialization.load_pem_private_key((ca_dir / 'ca.key').read_bytes(), None)
     return cert, key
+
+
+def _write_roster_certs(directory, fleet, signing):
+    """Write (or, not ``signing``, remove) each member's ``fleet_certs.pem``, copy ``crl.pem``."""
+    bundle = b''.join((directory / m.name / 'cert.pem').read_bytes() for m in fleet)
+    crl = directory / 'ca' / CRL
+    for member in fleet:
+        home = directory / member.name
+        if not signing:
+            (home / CERTS).unlink(missing_ok=True)
+            continue
+        (home / CERTS).write_bytes(bundle)
+        if crl.is_file():
+            (home / CRL).write_bytes(crl.read_bytes())
 
 
 def make_ca(ca_dir, organisation, days=DAYS):
@@ -338,7 +356,8 @@ def make_ca(ca_dir, organisation, days=DAYS):
     return cert, key
 
 
-def write_fleet(directory, fleet, organisation='formation_control fleet', days=DAYS, root=None):
+def write_fleet(directory, fleet, organisation='formation_control fleet', days=DAYS, root=None,
+                signing=True):
     """
     Write the fleet's CA (kept if ``directory`` has one) and every member's files.
 
@@ -346,8 +365,11 @@ def write_fleet(directory, fleet, organisation='formation_control fleet', days=D
     the member's ``key.pem`` and ``cert.pem`` (kept if present, so that a member added later
     keeps the others' keys), ``ca.pem``, ``fastdds.xml``, ``openssl.cnf`` and ``env.sh``;
     ``directory/fleet.yaml`` the roster. The profiles and ``env.sh`` name their files under
-    ``root``, the path of ``directory`` on the hosts (default: its own). Returns the member
-    directories.
+    ``root``, the path of ``directory`` on the hosts (default: its own). ``signing``: each
+    member's directory also gets the roster's certificates (``fleet_certs.pem``) and the CA's
+    revocation list if any (``crl.pem``), and the members sign their control topics
+    (:mod:`formation_control.ops.signing`); else ``fleet_certs.pem`` is removed. Returns the
+    member directories.
     """
     if not isinstance(days, int) or days < 1:
         raise SecurityError(f'--days {days!r} is invalid: an integer >= 1')
@@ -355,7 +377,7 @@ def write_fleet(directory, fleet, organisation='formation_control fleet', days=D
     root = Path(root).absolute() if root else directory.absolute()
     ca_dir = directory / 'ca'
     if (ca_dir / 'ca.key').exists():
-        ca_cert, ca_key = _load_ca(ca_dir)
+        ca_cert, ca_key = load_ca(ca_dir)
     else:
         ca_cert, ca_key = make_ca(ca_dir, organisation, days)
     homes = []
@@ -375,6 +397,7 @@ def write_fleet(directory, fleet, organisation='formation_control fleet', days=D
         (home / OPENSSL_CONF).write_text(openssl_conf())
         (home / ENV).write_text(env_script(root, member.name))
         homes.append(home.absolute())
+    _write_roster_certs(directory, fleet, signing)
     (directory / ROSTER).write_text(yaml.safe_dump(
         {'members': [{'name': m.name, 'address': m.address, 'port': m.port} for m in fleet]},
         sort_keys=False))

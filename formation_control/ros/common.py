@@ -99,12 +99,14 @@ class Decoder:
         return got
 
 
-def subscribe(node, msg_type, topic, rule, reject, take):
+def subscribe(node, msg_type, topic, rule, reject, take, signed=None):
     """
     Subscribe ``node`` to the bytes of a state ``topic``: each through ``rule``, then ``take``.
 
     ``rule`` is an :class:`~formation_control.protocol.intake.Intake`; ``take`` is called with
     the value of the bytes it does not reject (counted by ``reject``, a :class:`Rejections`).
+    With ``signed`` (a :class:`~formation_control.ros.signed.Signed`), the bytes are the
+    payloads of the topic's verified envelopes instead.
     """
     decode = Decoder(rule, msg_type, reject)
 
@@ -112,17 +114,24 @@ def subscribe(node, msg_type, topic, rule, reject, take):
         got = decode(data)
         if got is not None:
             take(got)
-    return node.create_subscription(msg_type, topic, on_bytes, raw=True,
-                                    **itf.state_qos_kwargs())
+    return raw_subscription(node, msg_type, topic, on_bytes, signed, **itf.state_qos_kwargs())
 
 
-def subscribe_messages(node, msg_type, topic, take, reject, **qos):
+def raw_subscription(node, msg_type, topic, on_bytes, signed=None, **qos):
+    """Subscribe ``on_bytes`` to the raw bytes of ``topic``, or (``signed``) to its envelopes'."""
+    if signed is None:
+        return node.create_subscription(msg_type, topic, on_bytes, raw=True, **qos)
+    return signed.subscription(topic, on_bytes, **qos)
+
+
+def subscribe_messages(node, msg_type, topic, take, reject, signed=None, **qos):
     """
     Subscribe ``node`` to the raw bytes of ``topic``, each deserialized, then ``take``-n.
 
     Bytes that do not deserialize are dropped and counted by ``reject`` (a
     :class:`Rejections`, kind ``malformed``) instead of the middleware's log of each; ``qos``
-    are the keyword arguments of the QoS (``qos_profile=...``).
+    are the keyword arguments of the QoS (``qos_profile=...``); ``signed``: as
+    :func:`subscribe`.
     """
     decode = Decoder(intake.message(f'{msg_type.__name__} on {topic}'), msg_type, reject)
 
@@ -130,24 +139,25 @@ def subscribe_messages(node, msg_type, topic, take, reject, **qos):
         got = decode(data)
         if got is not None:
             take(got)
-    return node.create_subscription(msg_type, topic, on_bytes, raw=True, **qos)
+    return raw_subscription(node, msg_type, topic, on_bytes, signed, **qos)
 
 
-def clock_bytes(node, reject):
+def clock_bytes(node, reject, signed=None):
     """
     Take ``/clock`` (``use_sim_time``) as bytes too: undecodable ones counted, not logged each.
 
     rclpy's time source subscribes to ``/clock`` with its message type: the middleware logs a
     "Fast CDR exception" and rcutils an "error state is being overwritten" block for every
     undecodable sample. Its subscription is replaced by one of the same QoS through
-    :func:`subscribe_messages` (kind ``malformed``) feeding the time source alike.
+    :func:`subscribe_messages` (kind ``malformed``) feeding the time source alike; with
+    ``signed``, from the clock's verified envelopes.
     """
     source = node._time_source
     if source._clock_sub is None:
         return
     node.destroy_subscription(source._clock_sub)
     source._clock_sub = subscribe_messages(
-        node, ClockMsg, '/clock', source.clock_callback, reject,
+        node, ClockMsg, '/clock', source.clock_callback, reject, signed,
         qos_profile=QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
 
 

@@ -59,7 +59,7 @@ from formation_control.protocol.names import START_TOPIC
 from formation_control.protocol.node_parameters import check_frames, PLANT
 from formation_control.protocol.onboard import needs_second_sensor
 from formation_control.protocol.plant import Plant
-from formation_control.ros import common, interface as itf, parameters
+from formation_control.ros import common, interface as itf, parameters, signed
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -95,7 +95,8 @@ class PlantNode(Node):
         self.plant = Plant(sc, self.mode == 'lockstep', timeout['command_timeout'], self.now)
         self.fleet = self.plant.fleet
         self.reject = common.Rejections(self.get_logger(), REJECTS)
-        common.clock_bytes(self, self.reject)
+        self.signed = signed.of_node(self, self.reject, 'plant')
+        common.clock_bytes(self, self.reject, self.signed)
         self.missing = self.fleet_timer = None
         self.done = self.ended = False
         self.exit_code = 0
@@ -124,7 +125,7 @@ class PlantNode(Node):
 
     def _create_topics(self):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
-        self.odom_pubs = self._per_vehicle(Odometry, 'odom', **qos())
+        self.odom_pubs = self._per_vehicle(Odometry, 'odom', signed=self.signed, **qos())
         self.odom_wires = [itf.odom_wire(k, self.frames, covariances(sc)) for k in ids]
         if sc.plant_backend == 'jsbsim':
             self.cmd_subs = [self._subscribe(TwistStamped, k, 'cmd_vel', intake.autopilot_demand(
@@ -150,18 +151,21 @@ class PlantNode(Node):
         if second == 'water':
             self.water_pubs = self._per_vehicle(TwistStamped, 'water_velocity', **qos())
         if self.mode == 'lockstep':
-            self.clock_pub = self.create_publisher(Clock, names.CLOCK_TOPIC, itf.LATCHED_QOS)
+            self.clock_pub = (self.create_publisher if self.signed is None else
+                              self.signed.publisher)(Clock, names.CLOCK_TOPIC,
+                                                     qos_profile=itf.LATCHED_QOS)
         self.scenario_pub = self.create_publisher(String, names.SCENARIO_TOPIC, itf.LATCHED_QOS)
         self.scenario_pub.publish(itf.scenario_msg(sc))
         self.diag_pub = common.diagnostics_publisher(self)
 
-    def _per_vehicle(self, msg_type, name, **qos):
-        return [self.create_publisher(msg_type, names.topic(k, name), **qos)
+    def _per_vehicle(self, msg_type, name, signed=None, **qos):
+        publisher = self.create_publisher if signed is None else signed.publisher
+        return [publisher(msg_type, names.topic(k, name), **qos)
                 for k in range(1, self.sc.num_vehicles + 1)]
 
     def _subscribe(self, msg_type, k, name, rule, take):
         return common.subscribe(self, msg_type, names.topic(k, name), rule, self.reject,
-                                lambda got: take(k, got))
+                                lambda got: take(k, got), self.signed)
 
     def _start(self, _msg=None):
         if self.plant.started or self.fleet_timer is not None:

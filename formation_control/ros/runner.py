@@ -24,6 +24,7 @@ import tempfile
 from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.ops.lifetime import die_with_parent, end_within, GRACE
 from formation_control.ops.security import check_environment
+from formation_control.ops.signing import check_member
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
@@ -85,13 +86,14 @@ def run(make_node, args=None):
     The nodes share one events executor until one is done, SIGINT or SIGTERM arrives or the
     context shuts down (exit code 0, or the ``exit_code`` of a node that is done); a bad
     scenario, or an environment that would open a TLS fleet to anyone
-    (:func:`~formation_control.ops.security.check_environment`), exits 2 with the reason. A
+    (:func:`~formation_control.ops.security.check_environment`) or a member a signing fleet
+    refuses (:func:`~formation_control.ops.signing.check_member`), exits 2 with the reason. A
     process started by a swarm or a launch stops when its starter dies
     (:func:`~formation_control.ops.lifetime.die_with_parent`).
     """
     stop = _StopFlag()
     tie = die_with_parent()
-    unsafe = check_environment(os.environ)
+    unsafe = check_environment(os.environ) or check_member(os.environ)
     if unsafe:
         print(f'error: {unsafe}', file=sys.stderr)
         return 2

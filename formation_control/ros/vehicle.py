@@ -38,7 +38,7 @@ from formation_control.protocol import intake, links, lockstep, messages, names
 from formation_control.protocol.node_parameters import (check_frames, check_vehicle, FRAMES,
                                                         plant_differences, VEHICLE)
 from formation_control.protocol.vehicle import Vehicle
-from formation_control.ros import common, interface as itf, parameters
+from formation_control.ros import common, interface as itf, parameters, signed
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -76,7 +76,8 @@ class VehicleNode(Node):
         self.born = self.now()
         self.me = Vehicle(sc, k, self.mode == 'lockstep', link, self.now, self.frames)
         self.reject = common.Rejections(self.get_logger(), REJECTS)
-        common.clock_bytes(self, self.reject)
+        self.signed = signed.of_node(self, self.reject, f'vehicle_{k}')
+        common.clock_bytes(self, self.reject, self.signed)
         self.latency = common.Latencies(LATENCIES)
         self._create_topics(sc)
         self.add_on_set_parameters_callback(parameters.validator(self, lambda params: links.check(
@@ -99,19 +100,18 @@ class VehicleNode(Node):
 
     def _create_topics(self, sc):
         k, qos, frames = self.k, itf.state_qos_kwargs, self.frames
-        self.state_pub = self.create_publisher(FormationState,
-                                               names.topic(k, 'formation_state'), **qos())
-        self.cmd_pub = self.create_publisher(VehicleCommand, names.topic(k, 'cmd'), **qos())
+        publisher = self.create_publisher if self.signed is None else self.signed.publisher
+        self.state_pub = publisher(FormationState, names.topic(k, 'formation_state'), **qos())
+        self.cmd_pub = publisher(VehicleCommand, names.topic(k, 'cmd'), **qos())
         self.cmd_wire = itf.cmd_wire(k, sc.model, frames)
         self.cmd_vel_pub = self.last_cmd_vel = None
         if sc.plant_backend == 'jsbsim':
-            self.cmd_vel_pub = self.create_publisher(TwistStamped, names.topic(k, 'cmd_vel'),
-                                                     **qos())
+            self.cmd_vel_pub = publisher(TwistStamped, names.topic(k, 'cmd_vel'), **qos())
             self.cmd_vel_wire = itf.cmd_vel_wire(k, frames)
         self.odometry = common.Decoder(intake.odometry(itf.odom_wire(
             k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
-        self.create_subscription(Odometry, names.topic(k, 'odom'), self._on_odom, raw=True,
-                                 **qos())
+        common.raw_subscription(self, Odometry, names.topic(k, 'odom'), self._on_odom,
+                                self.signed, **qos())
         subscribe = common.subscribe_messages
         if sc.flow_source == 'known':
             subscribe(self, Vector3Stamped, names.topic(k, 'flow'), lambda msg: self._measured(
@@ -128,7 +128,8 @@ class VehicleNode(Node):
         for j in sc.comm_graph.neighbours(k):
             common.subscribe(self, FormationState, names.topic(j, 'formation_state'),
                              intake.formation_state(messages.StateWire.of(sc, j, frames), frames),
-                             self.reject, lambda state, j=j: self._heard(self.me.heard(j, state)))
+                             self.reject, lambda state, j=j: self._heard(self.me.heard(j, state)),
+                             self.signed)
         self.diag_pub = common.diagnostics_publisher(self)
 
     def _apply_parameters(self, params):

@@ -182,10 +182,13 @@ def test_members_pass_a_mutual_tls_handshake_and_a_stranger_fails_it(tmp_path):
 
 def test_writing_again_keeps_the_ca_and_the_keys_and_adds_members(tmp_path):
     security.write_fleet(tmp_path, security.roster(2))
-    before = {p: p.read_bytes() for p in tmp_path.glob('*/*.pem')}
+    before = {p: p.read_bytes() for p in tmp_path.glob('*/*.pem') if p.name != security.CERTS}
     security.write_fleet(tmp_path, security.roster(3, {'vehicle_3': '10.1.1.3'}))
     assert all(p.read_bytes() == data for p, data in before.items())
     assert (tmp_path / 'vehicle_3/key.pem').exists()
+    roster = (tmp_path / 'plant' / security.CERTS).read_bytes()    # the roster has grown
+    assert all((tmp_path / m / 'cert.pem').read_bytes() in roster
+               for m in security.members(3))
     assert peers((tmp_path / 'vehicle_3/fastdds.xml').read_text()) == []
     assert peers((tmp_path / 'plant/fastdds.xml').read_text())[-1] == (
         '10.1.1.3', security.BASE_PORT + 5)
