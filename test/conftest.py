@@ -37,8 +37,8 @@ INTEGRATION = Path(__file__).resolve().parent / 'integration'
 SERIAL = ('test_secure.py', 'test_signed.py')
 """Files run alone, after the two workers (``make test``): a TLS fleet over Fast DDS 2.14's TCP
 transport (plain or signed) missed its 180 s launch deadline twice in five runs beside another
-worker's tests, never alone. (Eight failures of fleets on the other worker, once blamed on the flood of
-malformed samples, were a vehicle left running by ``ros2 run`` in a reused domain: see
+worker's tests, never alone. (Eight failures of fleets on the other worker, once blamed on the
+flood of malformed samples, were a vehicle left running by ``ros2 run`` in a reused domain: see
 ``rosutil.reap``.)"""
 
 
