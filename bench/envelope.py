@@ -21,15 +21,16 @@ The robustness envelope: sensor noise x model mismatch x gust intensity x seeds,
 Each study is ``formation-control sweep`` of a shipped scenario over ``mismatch`` x
 ``gust_intensity`` (the band test, ``convergence: band``, at every grid point, the world-free
 corner included), once per sensor level of :data:`LEVELS` (none: the vehicles measure their
-state; good, moderate and poor: GNSS at 5 Hz, compass, gyro, Doppler and DVL noise, with the
+state; moderate and poor: GNSS at 5 Hz, compass, gyro, Doppler and DVL noise, with the
 onboard position filter, and an estimating vehicle's flow gain chosen from the noise),
 ``--seeds`` runs per point from seed 1000 on (not the seeds of the tests). It prints each
 study's table (fraction converged with its Wilson interval, the steady-state errors' median /
 p95 over the runs) and writes docs/envelope.md (the tables, and where each law stops holding
 its bands) and docs/envelope.png (the fraction converged per grid point, a row of panels per
-sensor level), again after each study. One integration step per control period
-(``dt_integration: 0.02``; the surge drag 2 h u0 / m0 = 10 1/s is resolved, 0.2 against RK4's
-2.785) keeps it to minutes of one core per study. ``--noise`` runs the sensor study instead:
+sensor level), again after each study; a study already merged in ``--out`` for the same plan
+is read back, not run again. One integration step per control period (``dt_integration:
+0.02``; the surge drag 2 h u0 / m0 = 10 1/s is resolved, 0.2 against RK4's 2.785) keeps it to
+minutes of one core per study. ``--noise`` runs the sensor study instead:
 GNSS noise x the position filter on rigid_circular (docs/envelope_noise.md).
 """
 import argparse
@@ -55,62 +56,81 @@ STUDIES = (
     ('particle_circular_flow', 'known', 75.0),
     ('particle_circular_flow', 'estimated', 75.0),
 )
-GRID = [f'mismatch:={list(MISMATCH)}', f'gust_intensity:={list(GUST)}', 'gust_time:=5.0',
-        'convergence:=band', 'settle_window:=10.0', 'dt_integration:=0.02']
+GRID = ['gust_time:=5.0', 'convergence:=band', 'settle_window:=10.0', 'dt_integration:=0.02']
+NOISY = {'mismatch': (0.0, 0.02), 'gust_intensity': (0.0, 0.01)}
 LEVELS = (
-    ('none', {}),
-    ('good', {'gnss_sigma': 0.1, 'gnss_rate': 5.0, 'heading_sigma': 0.005,
-              'yaw_rate_sigma': 0.005, 'velocity_sigma': 0.01, 'water_sigma': 0.01,
-              'position_filter': 'kalman'}),
+    ('none', {}, {'mismatch': MISMATCH, 'gust_intensity': GUST}),
     ('moderate', {'gnss_sigma': 0.5, 'gnss_rate': 5.0, 'heading_sigma': 0.01,
                   'yaw_rate_sigma': 0.01, 'velocity_sigma': 0.03, 'water_sigma': 0.03,
-                  'position_filter': 'kalman'}),
+                  'position_filter': 'kalman'}, NOISY),
     ('poor', {'gnss_sigma': 1.0, 'gnss_rate': 5.0, 'heading_sigma': 0.02,
               'yaw_rate_sigma': 0.02, 'velocity_sigma': 0.05, 'water_sigma': 0.05,
-              'position_filter': 'kalman'}),
+              'position_filter': 'kalman'}, NOISY),
 )
-"""The sensor levels: the parameters each sets (sigma per axis; m, rad, rad/s, m/s)."""
+"""The sensor levels: the parameters each sets (sigma per axis; m, rad, rad/s, m/s), its grid."""
 
 
 def study(name, source, duration, level, seeds, out, workers):
     """Run one study at one sensor level; return its table rows and the merged data."""
     base = scenario.read_params(scenario.find(name))
     base['duration'] = duration
-    sensors = dict(LEVELS)[level]
+    sensors, axes = next(entry[1:] for entry in LEVELS if entry[0] == level)
     if sensors and source == 'estimated':
         sensors = dict(sensors, flow_gain_from_noise=True)
-    grid = GRID + [f'flow_source:={source}']
+    grid = [f'{key}:={list(values)}' for key, values in axes.items()]
+    grid += GRID + [f'flow_source:={source}']
     grid += [f'{key}:={json.dumps(value)}' for key, value in sensors.items()]
     the_plan = sweep.plan(base, grid, range(1000, 1000 + seeds), workers=workers)
     path = Path(out) / f'{name}_{source}_{level}.npz'
-    failures = sweep.execute(the_plan, path, workers)
-    if failures:
-        raise SystemExit(f'{name} {source} {level}: {failures}')
-    data = sweep.merge(the_plan, path)
+    data = merged(the_plan, path)
+    if data is None:
+        failures = sweep.execute(the_plan, path, workers)
+        if failures:
+            raise SystemExit(f'{name} {source} {level}: {failures}')
+        data = sweep.merge(the_plan, path)
     rows = sweep.table(data)
     for r, g in zip(rows, range(len(rows))):
         r['diverged'] = int(np.count_nonzero(data['diverged'][data['grid_point'] == g]))
     return rows
 
 
-def fractions(rows):
+def merged(the_plan, path):
+    """Return the merged sweep at ``path`` if it is of this very plan, else None."""
+    if not path.exists():
+        return None
+    data = dict(np.load(path))
+    same = json.loads(str(data['params'])) == json.loads(json.dumps(the_plan.points)) and \
+        sorted(set(data['seed'].tolist())) == list(the_plan.seeds)
+    return data if same else None
+
+
+def axes_of(level):
+    """Return the mismatch and gust values of a sensor level's grid."""
+    axes = next(entry[2] for entry in LEVELS if entry[0] == level)
+    return axes['mismatch'], axes['gust_intensity']
+
+
+def fractions(rows, level):
     """Return the fraction converged as a (mismatch, gust) array."""
-    return np.array([r['fraction'] for r in rows]).reshape(len(MISMATCH), len(GUST))
+    mismatch, gust = axes_of(level)
+    return np.array([r['fraction'] for r in rows]).reshape(len(mismatch), len(gust))
 
 
-def stops(rows, half=0.5):
+def stops(rows, level, half=0.5):
     """Return where a law stops: the least gust (no mismatch), mismatch (no gust) below half."""
-    grid = fractions(rows)
-    gust = next((f'{g:g}' for g, f in zip(GUST, grid[0]) if f < half), f'> {GUST[-1]:g}')
-    spread = next((f'{m:g}' for m, f in zip(MISMATCH, grid[:, 0]) if f < half),
-                  f'> {MISMATCH[-1]:g}')
+    grid, (mismatch, gusts) = fractions(rows, level), axes_of(level)
+    gust = next((f'{g:g}' for g, f in zip(gusts, grid[0]) if f < half), f'> {gusts[-1]:g}')
+    spread = next((f'{m:g}' for m, f in zip(mismatch, grid[:, 0]) if f < half),
+                  f'> {mismatch[-1]:g}')
     return gust, spread, grid[0, 0]
 
 
 def markdown(results, seeds, wall):
     """Return docs/envelope.md."""
-    levels = ', '.join(f"{name}: {', '.join(f'{k} {v}' for k, v in params.items()) or 'exact'}"
-                       for name, params in LEVELS)
+    levels = '; '.join(
+        f"{name}: {', '.join(f'{k} {v}' for k, v in params.items()) or 'exact'} (mismatch "
+        f"{list(axes['mismatch'])} x gust {list(axes['gust_intensity'])})"
+        for name, params, axes in LEVELS)
     lines = ['# The robustness envelope (generated by bench/envelope.py)', '',
              f'{seeds} runs per grid point (seeds 1000-{999 + seeds}), sensor level x model '
              f'mismatch spread x gust intensity (gust_time 5 s), the band test over the last '
@@ -125,7 +145,7 @@ def markdown(results, seeds, wall):
              '| law | flow | sensors | stops at gust | stops at mismatch | converged, no gust '
              'or mismatch |', '|---|---|---|---|---|---|']
     for (name, source, _, level), rows in results:
-        gust, spread, clean = stops(rows)
+        gust, spread, clean = stops(rows, level)
         lines.append(f'| {name} | {source} | {level} | {gust} | {spread} | {clean:.2f} |')
     lines.append('')
     for (name, source, duration, level), rows in results:
@@ -144,22 +164,25 @@ def figure(results, path):
     """Draw the fraction converged over mismatch x gust: a row per sensor level, law by law."""
     studies = list(dict.fromkeys(key[:3] for key, _ in results))
     levels = list(dict.fromkeys(key[3] for key, _ in results))
-    fig, axes = plt.subplots(len(levels), len(studies), sharex=True, sharey=True,
+    fig, axes = plt.subplots(len(levels), len(studies),
                              figsize=(2.2 * len(studies) + 0.6, 2.3 * len(levels) + 0.5),
                              squeeze=False)
     for (name, source, duration, level), rows in results:
         ax = axes[levels.index(level), studies.index((name, source, duration))]
-        grid = fractions(rows)
-        ax.imshow(grid.T, origin='lower', vmin=0, vmax=1, cmap='RdYlGn')
-        for i in range(len(MISMATCH)):
-            for j in range(len(GUST)):
+        grid, (mismatch, gust) = fractions(rows, level), axes_of(level)
+        ax.imshow(grid.T, origin='lower', vmin=0, vmax=1, cmap='RdYlGn',
+                  extent=(-0.5, len(mismatch) - 0.5, -0.5, len(gust) - 0.5))
+        for i in range(len(mismatch)):
+            for j in range(len(gust)):
                 ax.text(i, j, f'{grid[i, j]:.1f}', ha='center', va='center', fontsize=8)
         ax.set_title(f'{name}\n{source}, sensors {level}', fontsize=6)
+        ax.set_xticks(range(len(mismatch)), [f'{m:g}' for m in mismatch], fontsize=6)
+        ax.set_yticks(range(len(gust)), [f'{g:g}' for g in gust], fontsize=6)
+        ax.set_xlim(-0.5, len(MISMATCH) - 0.5)
+        ax.set_ylim(-0.5, len(GUST) - 0.5)
     for ax in axes[-1]:
-        ax.set_xticks(range(len(MISMATCH)), [f'{m:g}' for m in MISMATCH])
         ax.set_xlabel('mismatch')
     for ax in axes[:, 0]:
-        ax.set_yticks(range(len(GUST)), [f'{g:g}' for g in GUST])
         ax.set_ylabel('gust sigma (m/s)')
     fig.suptitle('fraction converged (band test)', fontsize=9)
     fig.tight_layout()
@@ -210,7 +233,7 @@ def main():
         noise_study(args.seeds, args.out, args.workers)
         return
     start, results = time.time(), []
-    for level, _ in LEVELS:
+    for level, _, _ in LEVELS:
         for name, source, duration in STUDIES:
             rows = study(name, source, duration, level, args.seeds, args.out, args.workers)
             print(f'\n{name}, flow {source}, sensors {level}:\n{sweep.format_table(rows)}',

@@ -252,8 +252,7 @@ def bandwidth(sc: Scenario) -> float:
     Return the filter's bandwidth lambda_f (1/s): flow_gain, or the one chosen from the noise.
 
     With ``flow_gain_from_noise``: :func:`best_gain` for the raw feed, or with
-    ``position_filter: kalman`` (the filtered ground velocity)
-    :func:`navigation.best_flow_gain`.
+    ``position_filter: kalman`` (the filter's velocities) :func:`navigation.best_flow_gain`.
     """
     if not sc.flow_gain_from_noise:
         return sc.flow_gain

@@ -48,9 +48,9 @@ from functools import lru_cache
 import math
 from typing import TYPE_CHECKING
 
-from formation_control.core.estimation import relative_velocity
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import integrate, Plant, RIGID_MODELS, ROW_X, ROW_Y
+from formation_control.core.models import (ground_velocity, integrate, Plant, RIGID_MODELS, ROW_X,
+                                           ROW_Y)
 from formation_control.core.sensors import fix_every
 import numpy as np
 
@@ -159,10 +159,9 @@ def flow_error(sc: Scenario, gain: float | None = None,
     The state (f, y_g, y_w, fhat) is linear in white noise: its steady covariance P solves the
     discrete Lyapunov equation ``P = A P A^T + B B^T``, and the error is ``fhat - f``. ``gain``
     (lambda_f, 1/s) and ``gains`` (k_g, k_w) default to the scenario's
-    (:func:`estimation.bandwidth`, :func:`velocity_gains`); ``gains = (1, 1)`` is the raw feed.
+    (:func:`filtered_bandwidth`, :func:`velocity_gains`); ``gains = (1, 1)`` is the raw feed.
     """
-    from formation_control.core.estimation import bandwidth
-    return _flow_error(sc.dt_control, bandwidth(sc) if gain is None else float(gain),
+    return _flow_error(sc.dt_control, filtered_bandwidth(sc) if gain is None else float(gain),
                        velocity_gains(sc) if gains is None else gains,
                        sc.gust_intensity if sigma is None else sigma, sc.gust_time,
                        sc.velocity_sigma, water_noise(sc))
@@ -177,9 +176,8 @@ def flow_lag(sc: Scenario, gain: float | None = None) -> float:
     flow ramp of rate r is followed ``r * flow_lag`` behind (the through-water channel sees no
     flow).
     """
-    from formation_control.core.estimation import bandwidth
     dt, k = sc.dt_control, velocity_gains(sc)[0]
-    a = math.exp(-(bandwidth(sc) if gain is None else gain) * dt)
+    a = math.exp(-(filtered_bandwidth(sc) if gain is None else gain) * dt)
     return dt * (1.0 - k) / k + dt * a / (1.0 - a)
 
 
@@ -279,7 +277,7 @@ class PositionFilter:
             self.g, self.w = z.copy(), zw.copy()
         else:
             self.ahead = self._ahead(self.X, U_held)
-            turn = relative_velocity(self.ahead) - relative_velocity(self.X)
+            turn = ground_velocity(self.ahead, 0.0) - ground_velocity(self.X, 0.0)
             self.g = self.g + turn + self.k_g * (z - self.g - turn)
             self.w = self.w + turn + self.k_w * (zw - self.w - turn)
         return self.g.copy(), self.w.copy()
@@ -322,9 +320,9 @@ def flow_input(navigator: PositionFilter | None, seen: RealArray, v_ground: Comp
     Return the ground and through-water velocities an estimating vehicle's estimator takes.
 
     The filter's (:meth:`PositionFilter.velocities`) when the vehicle has one, else the measured
-    ones: ``v_ground`` and :func:`estimation.relative_velocity` of its measured state ``seen``.
+    ones: ``v_ground`` and the through-water velocity of its measured state ``seen``.
     """
-    v_rel = relative_velocity(seen)
+    v_rel = ground_velocity(seen, 0.0)
     if navigator is None:
         return np.asarray(v_ground, complex), v_rel
     return navigator.velocities(v_ground, v_rel, U_held)
@@ -345,3 +343,8 @@ def predicted_gain(sc: Scenario) -> float:
     T = fix_every(sc) * sc.dt_control
     passed = sc.gnss_sigma * math.sqrt(T * formation_rate(sc) / math.pi)
     return passed / filtered_error(sc)
+
+
+def filtered_bandwidth(sc: Scenario) -> float:
+    """Return the flow filter's bandwidth (1/s) here: :func:`best_flow_gain` or flow_gain."""
+    return best_flow_gain(sc) if sc.flow_gain_from_noise else sc.flow_gain
