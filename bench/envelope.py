@@ -21,7 +21,7 @@ The robustness envelope: sensor noise x model mismatch x gust intensity x seeds,
 Each study is ``formation-control sweep`` of a shipped scenario over ``mismatch`` x
 ``gust_intensity`` (the band test, ``convergence: band``, at every grid point, the world-free
 corner included), once per sensor level of :data:`LEVELS` (none: the vehicles measure their
-state; moderate and poor: GNSS at 5 Hz, compass, gyro, Doppler and DVL noise, with the
+state; good, moderate and poor: GNSS at 5 Hz, compass, gyro, Doppler and DVL noise, with the
 onboard position filter, and an estimating vehicle's flow gain chosen from the noise),
 ``--seeds`` runs per point from seed 1000 on (not the seeds of the tests). It prints each
 study's table (fraction converged with its Wilson interval, the steady-state errors' median /
@@ -56,29 +56,31 @@ STUDIES = (
     ('particle_circular_flow', 'known', 75.0),
     ('particle_circular_flow', 'estimated', 75.0),
 )
-GRID = ['gust_time:=5.0', 'convergence:=band', 'settle_window:=10.0', 'dt_integration:=0.02']
-NOISY = {'mismatch': (0.0, 0.02), 'gust_intensity': (0.0, 0.01)}
+GRID = [f'mismatch:={list(MISMATCH)}', f'gust_intensity:={list(GUST)}', 'gust_time:=5.0',
+        'convergence:=band', 'settle_window:=10.0', 'dt_integration:=0.02']
 LEVELS = (
-    ('none', {}, {'mismatch': MISMATCH, 'gust_intensity': GUST}),
+    ('none', {}),
+    ('good', {'gnss_sigma': 0.1, 'gnss_rate': 5.0, 'heading_sigma': 0.005,
+              'yaw_rate_sigma': 0.005, 'velocity_sigma': 0.01, 'water_sigma': 0.01,
+              'position_filter': 'kalman'}),
     ('moderate', {'gnss_sigma': 0.5, 'gnss_rate': 5.0, 'heading_sigma': 0.01,
                   'yaw_rate_sigma': 0.01, 'velocity_sigma': 0.03, 'water_sigma': 0.03,
-                  'position_filter': 'kalman'}, NOISY),
+                  'position_filter': 'kalman'}),
     ('poor', {'gnss_sigma': 1.0, 'gnss_rate': 5.0, 'heading_sigma': 0.02,
               'yaw_rate_sigma': 0.02, 'velocity_sigma': 0.05, 'water_sigma': 0.05,
-              'position_filter': 'kalman'}, NOISY),
+              'position_filter': 'kalman'}),
 )
-"""The sensor levels: the parameters each sets (sigma per axis; m, rad, rad/s, m/s), its grid."""
+"""The sensor levels: the parameters each sets (sigma per axis; m, rad, rad/s, m/s)."""
 
 
 def study(name, source, duration, level, seeds, out, workers):
     """Run one study at one sensor level; return its table rows and the merged data."""
     base = scenario.read_params(scenario.find(name))
     base['duration'] = duration
-    sensors, axes = next(entry[1:] for entry in LEVELS if entry[0] == level)
+    sensors = dict(LEVELS)[level]
     if sensors and source == 'estimated':
         sensors = dict(sensors, flow_gain_from_noise=True)
-    grid = [f'{key}:={list(values)}' for key, values in axes.items()]
-    grid += GRID + [f'flow_source:={source}']
+    grid = GRID + [f'flow_source:={source}']
     grid += [f'{key}:={json.dumps(value)}' for key, value in sensors.items()]
     the_plan = sweep.plan(base, grid, range(1000, 1000 + seeds), workers=workers)
     path = Path(out) / f'{name}_{source}_{level}.npz'
@@ -104,33 +106,24 @@ def merged(the_plan, path):
     return data if same else None
 
 
-def axes_of(level):
-    """Return the mismatch and gust values of a sensor level's grid."""
-    axes = next(entry[2] for entry in LEVELS if entry[0] == level)
-    return axes['mismatch'], axes['gust_intensity']
-
-
-def fractions(rows, level):
+def fractions(rows):
     """Return the fraction converged as a (mismatch, gust) array."""
-    mismatch, gust = axes_of(level)
-    return np.array([r['fraction'] for r in rows]).reshape(len(mismatch), len(gust))
+    return np.array([r['fraction'] for r in rows]).reshape(len(MISMATCH), len(GUST))
 
 
-def stops(rows, level, half=0.5):
+def stops(rows, half=0.5):
     """Return where a law stops: the least gust (no mismatch), mismatch (no gust) below half."""
-    grid, (mismatch, gusts) = fractions(rows, level), axes_of(level)
-    gust = next((f'{g:g}' for g, f in zip(gusts, grid[0]) if f < half), f'> {gusts[-1]:g}')
-    spread = next((f'{m:g}' for m, f in zip(mismatch, grid[:, 0]) if f < half),
-                  f'> {mismatch[-1]:g}')
+    grid = fractions(rows)
+    gust = next((f'{g:g}' for g, f in zip(GUST, grid[0]) if f < half), f'> {GUST[-1]:g}')
+    spread = next((f'{m:g}' for m, f in zip(MISMATCH, grid[:, 0]) if f < half),
+                  f'> {MISMATCH[-1]:g}')
     return gust, spread, grid[0, 0]
 
 
 def markdown(results, seeds, wall):
     """Return docs/envelope.md."""
-    levels = '; '.join(
-        f"{name}: {', '.join(f'{k} {v}' for k, v in params.items()) or 'exact'} (mismatch "
-        f"{list(axes['mismatch'])} x gust {list(axes['gust_intensity'])})"
-        for name, params, axes in LEVELS)
+    levels = '; '.join(f"{name}: {', '.join(f'{k} {v}' for k, v in params.items()) or 'exact'}"
+                       for name, params in LEVELS)
     lines = ['# The robustness envelope (generated by bench/envelope.py)', '',
              f'{seeds} runs per grid point (seeds 1000-{999 + seeds}), sensor level x model '
              f'mismatch spread x gust intensity (gust_time 5 s), the band test over the last '
@@ -145,7 +138,7 @@ def markdown(results, seeds, wall):
              '| law | flow | sensors | stops at gust | stops at mismatch | converged, no gust '
              'or mismatch |', '|---|---|---|---|---|---|']
     for (name, source, _, level), rows in results:
-        gust, spread, clean = stops(rows, level)
+        gust, spread, clean = stops(rows)
         lines.append(f'| {name} | {source} | {level} | {gust} | {spread} | {clean:.2f} |')
     lines.append('')
     for (name, source, duration, level), rows in results:
@@ -169,17 +162,14 @@ def figure(results, path):
                              squeeze=False)
     for (name, source, duration, level), rows in results:
         ax = axes[levels.index(level), studies.index((name, source, duration))]
-        grid, (mismatch, gust) = fractions(rows, level), axes_of(level)
-        ax.imshow(grid.T, origin='lower', vmin=0, vmax=1, cmap='RdYlGn',
-                  extent=(-0.5, len(mismatch) - 0.5, -0.5, len(gust) - 0.5))
-        for i in range(len(mismatch)):
-            for j in range(len(gust)):
+        grid = fractions(rows)
+        ax.imshow(grid.T, origin='lower', vmin=0, vmax=1, cmap='RdYlGn')
+        for i in range(len(MISMATCH)):
+            for j in range(len(GUST)):
                 ax.text(i, j, f'{grid[i, j]:.1f}', ha='center', va='center', fontsize=8)
         ax.set_title(f'{name}\n{source}, sensors {level}', fontsize=6)
-        ax.set_xticks(range(len(mismatch)), [f'{m:g}' for m in mismatch], fontsize=6)
-        ax.set_yticks(range(len(gust)), [f'{g:g}' for g in gust], fontsize=6)
-        ax.set_xlim(-0.5, len(MISMATCH) - 0.5)
-        ax.set_ylim(-0.5, len(GUST) - 0.5)
+        ax.set_xticks(range(len(MISMATCH)), [f'{m:g}' for m in MISMATCH], fontsize=6)
+        ax.set_yticks(range(len(GUST)), [f'{g:g}' for g in GUST], fontsize=6)
     for ax in axes[-1]:
         ax.set_xlabel('mismatch')
     for ax in axes[:, 0]:
@@ -233,7 +223,7 @@ def main():
         noise_study(args.seeds, args.out, args.workers)
         return
     start, results = time.time(), []
-    for level, _, _ in LEVELS:
+    for level, _ in LEVELS:
         for name, source, duration in STUDIES:
             rows = study(name, source, duration, level, args.seeds, args.out, args.workers)
             print(f'\n{name}, flow {source}, sensors {level}:\n{sweep.format_table(rows)}',

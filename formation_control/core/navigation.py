@@ -129,17 +129,33 @@ def water_noise(sc: Scenario) -> float:
 
 @lru_cache(maxsize=256)
 def _flow_error(dt: float, lam: float, gains: tuple[float, float], sigma: float, time: float,
-                doppler: float, water: float) -> float:
+                doppler: float, water: float, heading: float = 0.0, push: float = 0.0) -> float:
     """Return the rms flow-estimate error per axis of the sampled cascade (:func:`flow_error`)."""
     (kg, kw), ag, a = gains, math.exp(-dt / time), math.exp(-lam * dt)
-    c, b = sigma * math.sqrt(1.0 - ag * ag), 1.0 - a
-    A = np.array([[ag, 0.0, 0.0, 0.0], [kg * ag, 1.0 - kg, 0.0, 0.0], [0.0, 0.0, 1.0 - kw, 0.0],
-                  [b * kg * ag, b * (1.0 - kg), -b * (1.0 - kw), a]])
-    B = np.array([[c, 0.0, 0.0], [kg * c, kg * doppler, 0.0], [0.0, 0.0, kw * water],
-                  [b * kg * c, b * kg * doppler, -b * kw * water]])
-    P = np.linalg.solve(np.eye(16) - np.kron(A, A), (B @ B.T).ravel()).reshape(4, 4)
-    C = np.array([-1.0, 0.0, 0.0, 1.0])
+    c, b, half = sigma * math.sqrt(1.0 - ag * ag), 1.0 - a, water / math.sqrt(2.0)
+    A = np.array([[ag, 0.0, 0.0, 0.0, 0.0],
+                  [kg * ag, 1.0 - kg, 0.0, 0.0, -(1.0 - kg) * push],
+                  [0.0, 0.0, 1.0 - kw, 0.0, -(1.0 - kw) * push],
+                  [b * kg * ag, b * (1.0 - kg), -b * (1.0 - kw), a, (kg - kw) * b * push],
+                  [0.0, 0.0, 0.0, 0.0, 0.0]])
+    w = np.array([0.0, 0.0, kw, -b * kw, 0.0])
+    B = np.column_stack([[c, kg * c, 0.0, b * kg * c, 0.0],
+                         [0.0, kg * doppler, 0.0, b * kg * doppler, 0.0],
+                         w * half + np.array([0.0, 0.0, 0.0, 0.0, half]), w * half, w * heading])
+    P = np.linalg.solve(np.eye(25) - np.kron(A, A), (B @ B.T).ravel()).reshape(5, 5)
+    C = np.array([-1.0, 0.0, 0.0, 1.0, 0.0])
     return float(math.sqrt(max(C @ P @ C, 0.0)))
+
+
+def thrust_push(sc: Scenario) -> float:
+    """
+    Return the true speed change per unit of speed noise in a step that the model misses (s).
+
+    A rigid body thrusting from a measured speed off by n moves by ``2 h u0 / m0 n dt`` more
+    than its model, started from the measured speed, predicts (:func:`sensors.speed_under_noise`:
+    ``K_f + c``); 0 for particles, whose command moves model and vehicle alike.
+    """
+    return 2.0 * sc.h * sc.u0 / sc.m0 * sc.dt_control if sc.model in RIGID_MODELS else 0.0
 
 
 def flow_error(sc: Scenario, gain: float | None = None,
@@ -148,23 +164,30 @@ def flow_error(sc: Scenario, gain: float | None = None,
     Return the steady rms error (m/s per axis) of the flow estimate fed by the filter.
 
     Per map axis and step n, with the flow ``f`` a Gauss-Markov process (``sigma``, by default
-    ``gust_intensity``; time ``gust_time``), the Doppler noise ``n_v`` (``velocity_sigma``) and
-    the through-water noise ``n_w`` (:func:`water_noise`), the channels' errors against the true
-    velocities (the model's increment cancels in both):
+    ``gust_intensity``; time ``gust_time``), the Doppler noise ``n_v`` (``velocity_sigma``), the
+    through-water noise ``n_w`` (:func:`water_noise`: the DVL's along and across the body, half
+    of each per map axis, and the heading's) and the true speed change the model misses,
+    ``e_n = p q_n-1`` (:func:`thrust_push` p, q the along-body part of the last step's DVL
+    noise), the channels' errors against the true velocities:
 
-    - ground, ``y_g = ghat - v_rel``: ``y_g,n = (1 - k_g) y_g,n-1 + k_g (f_n + n_v,n)``;
-    - through the water, ``y_w = what - v_rel``: ``y_w,n = (1 - k_w) y_w,n-1 + k_w n_w,n``;
+    - ground, ``y_g = ghat - v_rel``: ``y_g,n = (1 - k_g)(y_g,n-1 - e_n) + k_g (f_n + n_v,n)``;
+    - through the water, ``y_w = what - v_rel``: ``y_w,n = (1 - k_w)(y_w,n-1 - e_n) + k_w n_w,n``;
     - the flow filter ``fhat_n = a fhat_n-1 + (1 - a)(y_g,n - y_w,n)``, ``a = e^{-lambda_f dt}``.
 
-    The state (f, y_g, y_w, fhat) is linear in white noise: its steady covariance P solves the
-    discrete Lyapunov equation ``P = A P A^T + B B^T``, and the error is ``fhat - f``. ``gain``
-    (lambda_f, 1/s) and ``gains`` (k_g, k_w) default to the scenario's
-    (:func:`filtered_bandwidth`, :func:`velocity_gains`); ``gains = (1, 1)`` is the raw feed.
+    The state (f, y_g, y_w, fhat, q) is linear in white noise: its steady covariance P solves
+    the discrete Lyapunov equation ``P = A P A^T + B B^T``, and the error is ``fhat - f``.
+    ``gain`` (lambda_f, 1/s) and ``gains`` (k_g, k_w) default to the scenario's
+    (:func:`filtered_bandwidth`, :func:`velocity_gains`); ``gains = (1, 1)`` is the raw feed
+    (e then cancels: the raw difference ``v_ground - v_rel`` holds no model).
     """
+    rigid = sc.model in RIGID_MODELS
+    speed = sc.u0 if rigid else 1.0
     return _flow_error(sc.dt_control, filtered_bandwidth(sc) if gain is None else float(gain),
                        velocity_gains(sc) if gains is None else gains,
                        sc.gust_intensity if sigma is None else sigma, sc.gust_time,
-                       sc.velocity_sigma, water_noise(sc))
+                       sc.velocity_sigma, sc.water_sigma if rigid else 0.0,
+                       speed * sc.heading_sigma / math.sqrt(2.0),
+                       0.0 if gains == (1.0, 1.0) else thrust_push(sc))
 
 
 def flow_lag(sc: Scenario, gain: float | None = None) -> float:
@@ -202,8 +225,8 @@ def best_flow_gain(sc: Scenario) -> float:
 
     The minimiser of :func:`flow_error` for the flow the vehicle's design assumes, a
     Gauss-Markov process of :func:`unknown_velocity` (the gust and ``filter_drift``) and time
-    ``gust_time``, with its own ground-velocity gain (a log grid over ``[0.01, 1 / dt]``
-    refined by golden section).
+    ``gust_time``, with its own channel gains and noise, the speed change its model misses left
+    out (a log grid over ``[0.01, 1 / dt]`` refined by golden section).
     """
     return _best(sc.dt_control, velocity_gains(sc), unknown_velocity(sc), sc.gust_time,
                  sc.velocity_sigma, water_noise(sc))
