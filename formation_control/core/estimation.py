@@ -115,7 +115,8 @@ class FlowEstimator:
         self.limit = CLAMP * (sc.u0 if sc.model in RIGID_MODELS else 1.0)
 
     def update(self, X: RealArray, v_ground: ComplexArray,
-               neighbours: ComplexArray | None = None) -> ComplexArray:
+               neighbours: ComplexArray | None = None,
+               v_rel: ComplexArray | None = None) -> ComplexArray:
         """
         Take one period's measurements; return the estimates (n,) complex.
 
@@ -127,10 +128,13 @@ class FlowEstimator:
             Their ground velocities (m/s, map frame), the odometry twist.
         neighbours : array_like of complex, shape (n,), optional
             The mean of each vehicle's neighbours' estimates, for the consensus term.
+        v_rel : array_like of complex, shape (n,), optional
+            Their velocities through the water (m/s, map frame); :func:`relative_velocity` of
+            X by default (the position filter gives its own, :func:`navigation.flow_input`).
 
         """
         sc, dt = self.sc, self.sc.dt_control
-        v_rel = relative_velocity(X)
+        v_rel = relative_velocity(X) if v_rel is None else np.asarray(v_rel, complex)
         if sc.flow_estimator == 'filter':
             m = np.asarray(v_ground) - v_rel
             self.fhat = m + (self.fhat - m) * np.exp(-bandwidth(sc) * dt)
@@ -244,5 +248,15 @@ def best_gain(sc: Scenario) -> float:
 
 
 def bandwidth(sc: Scenario) -> float:
-    """Return the filter's bandwidth lambda_f (1/s): :func:`best_gain` or flow_gain."""
-    return best_gain(sc) if sc.flow_gain_from_noise else sc.flow_gain
+    """
+    Return the filter's bandwidth lambda_f (1/s): flow_gain, or the one chosen from the noise.
+
+    With ``flow_gain_from_noise``: :func:`best_gain` for the raw feed, or with
+    ``position_filter: kalman`` (the filter's velocities) :func:`navigation.best_flow_gain`.
+    """
+    if not sc.flow_gain_from_noise:
+        return sc.flow_gain
+    if sc.position_filter == 'kalman':
+        from formation_control.core.navigation import best_flow_gain
+        return best_flow_gain(sc)
+    return best_gain(sc)

@@ -195,8 +195,9 @@ class Scenario:
     flow_gain: float = _param(1.0, '1/s', 'filter: estimator bandwidth lambda_f', runtime=True,
                               **_POSITIVE)
     flow_gain_from_noise: bool = _param(False, '', 'filter: take the bandwidth that minimises the '
-                                        'error in the gust with the sensor noise '
-                                        '(estimation.best_gain) instead of flow_gain')
+                                        'error in the gust with the sensor noise instead of '
+                                        'flow_gain (estimation.best_gain; with position_filter: '
+                                        'kalman, navigation.best_flow_gain)')
     flow_observer_l1: float = _param(2.0, '1/s', 'observer: position gain l1', runtime=True,
                                      **_POSITIVE)
     flow_observer_l2: float = _param(1.0, '1/s^2', 'observer: flow gain l2', runtime=True,
@@ -392,10 +393,12 @@ class Scenario:
     position_filter: str = _param('none', '', "a vehicle's position between and across fixes: "
                                   'none (its latest fix) or kalman (predicted by its own model '
                                   'and held command, corrected at each fix with the steady-state '
-                                  'gain of the noise; core/navigation.py)',
+                                  'gain of the noise; its filtered ground and through-water '
+                                  'velocities feed the flow estimator; core/navigation.py)',
                                   choices=('none', 'kalman'))
     filter_drift: float = _param(0.05, 'm/s', 'kalman: the velocity error the filter allows its '
-                                 'dead reckoning over a fix interval (gusts, mismatch)',
+                                 'dead reckoning over a fix interval (gusts, mismatch), and its '
+                                 'velocities over gust_time',
                                  **_POSITIVE)
     convergence: str = _param('auto', '', "the convergence test: exact (the thesis' tolerances "
                               'at the last sample), band (every steady-state error within its '

@@ -33,7 +33,7 @@ from formation_control.core.estimation import FlowEstimator
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
-from formation_control.core.navigation import PositionFilter
+from formation_control.core.navigation import flow_input, PositionFilter
 from formation_control.core.scenario import Scenario
 from formation_control.protocol.messages import state_from_odom_values, ViewRow
 import numpy as np
@@ -208,7 +208,9 @@ class Onboard:
         if self.estimator is None:
             self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow), (1,)))
         else:
-            self.flow = self.estimator.update(sampled, np.full(1, v_ground)).copy()
+            ground, v_rel = flow_input(self.navigator, sampled, np.full(1, v_ground),
+                                       self.U_held)
+            self.flow = self.estimator.update(sampled, ground, v_rel=v_rel).copy()
         if self.navigator is not None:
             sampled = self.navigator.update(sampled, self.U_held, self.flow)
         self.X = self.ctrl.predict(sampled, self.U_held, self.flow, delay)

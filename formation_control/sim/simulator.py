@@ -36,7 +36,7 @@ from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
                                            ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
-from formation_control.core.navigation import PositionFilter
+from formation_control.core.navigation import flow_input, PositionFilter
 from formation_control.core.scenario import initial_state, practical, resolve, Scenario
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.world import active, World
@@ -235,8 +235,9 @@ class Stepper:
         Return the flow (N,) complex each vehicle uses now: known, or its updated estimate.
 
         An estimating vehicle measures its ground velocity in the local flow and its own
-        velocity through it (:meth:`estimation.FlowEstimator.update`). A known uniform flow is
-        the complex number itself (the same for all, and cheapest).
+        velocity through it (:meth:`estimation.FlowEstimator.update`); with the position filter
+        its estimator takes the filter's velocities (:func:`navigation.flow_input`). A known
+        uniform flow is the complex number itself (the same for all, and cheapest).
         """
         field = self.ctrl.plant.flow
         if self.estimator is None and field.uniform:
@@ -248,8 +249,11 @@ class Stepper:
         near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
         if self.sensors is not None:
             seen = self.sample()
-            return est.update(seen.X, seen.v_ground, near).copy()
-        return est.update(self.X, ground_velocity(self.X, self.true_flow()), near).copy()
+            X, ground = seen.X, seen.v_ground
+        else:
+            X, ground = self.X, ground_velocity(self.X, self.true_flow())
+        ground, v_rel = flow_input(self.navigator, X, ground, self.U)
+        return est.update(X, ground, near, v_rel).copy()
 
     def hold(self, U: ArrayLike, demand: ArrayLike | None = None) -> RealArray:
         """
