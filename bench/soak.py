@@ -251,6 +251,8 @@ def _start_once(n, args):
              str(args.per_process), '--timeout', str(args.timeout),
              '--summary', str(work / 's.json')],
             env=env, capture_output=True, text=True, timeout=args.timeout + 60)
+    except subprocess.TimeoutExpired:
+        return f'the swarm had not ended {args.timeout + 60:.0f} s after its start'
     finally:
         if server is not None:
             server.terminate()
