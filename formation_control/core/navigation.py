@@ -132,7 +132,7 @@ class PositionFilter:
             rhat = z
         else:
             dt = self.sc.dt_control
-            ahead = integrate(self.X, U_held, dt, 1, self.still, plain=True)
+            ahead = integrate(self.X, U_held, dt, 1, self.still)
             prior = ahead[ROW_X] + 1j * ahead[ROW_Y] + dt * np.asarray(flow)
             rhat = np.where(z != self.z, prior + self.k * (z - prior), prior)
         self.z = z
