@@ -15,11 +15,11 @@
 """
 The world a real fleet meets (core/world.py): model mismatch, actuators, gusts.
 
-Off, the plant is the nominal model (unit factors: to rounding); the draws are per vehicle and seeded; the
-controllers keep the nominal values; the steady speed under drag and thrust mismatch and the
-actuator-lag limit derived in docs/errata.md hold in simulation over a census of seeds; the
-actuators lag and rate-limit as asked; the gust has the intensity and correlation asked; the
-PI law's anti-windup; bad input refused naming the parameter.
+Off, the plant is the nominal model (unit factors: to rounding); the draws are per vehicle and
+seeded; the controllers keep the nominal values; the steady speed under drag and thrust
+mismatch and the actuator-lag limit derived in docs/errata.md hold in simulation over a census
+of seeds; the actuators lag and rate-limit as asked; the gust has the intensity and
+correlation asked; the PI law's anti-windup; bad input refused naming the parameter.
 """
 from dataclasses import replace
 
