@@ -45,13 +45,7 @@ def error(gain, seed, gust):
                        seed=seed, world_seed=seed, duration=40.0, gust_intensity=gust,
                        gust_time=5.0, velocity_sigma=0.04, water_sigma=0.03, flow_gain=gain,
                        position_filter='kalman')
-    stepper, errors = simulator.Stepper(sc), []
-    for n in range(sc.periods):
-        stepper.command()
-        if n * sc.dt_control >= 10.0:
-            errors.append(np.asarray(stepper.flow_hat) - stepper.true_flow())
-        stepper.advance()
-    return float(np.sqrt(0.5 * np.mean(abs(np.array(errors)) ** 2))), sc
+    return simulator.rms_flow_error(sc, 10.0), sc
 
 
 def panel(ax, gust, seeds):

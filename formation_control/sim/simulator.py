@@ -535,6 +535,27 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
     return rec.run()
 
 
+def flow_estimate_errors(sc: Scenario, after: float) -> ComplexArray:
+    """
+    Return the errors of the vehicles' flow estimates, shape (T, N) complex (m/s), of a run.
+
+    Each control period from ``after`` (s) on: the estimate each vehicle commands with minus
+    the flow it moves in (:meth:`Stepper.true_flow`, the gust included).
+    """
+    stepper, errors = Stepper(sc), []
+    for n in range(sc.periods):
+        stepper.command()
+        if n * sc.dt_control >= after:
+            errors.append(np.asarray(stepper.flow_hat) - stepper.true_flow())
+        stepper.advance()
+    return np.array(errors)
+
+
+def rms_flow_error(sc: Scenario, after: float) -> float:
+    """Return the rms flow-estimate error per map axis (m/s) from ``after`` (s) on."""
+    return float(np.sqrt(0.5 * np.mean(abs(flow_estimate_errors(sc, after)) ** 2)))
+
+
 def aircraft_circle_errors(run: Run, last: float) -> tuple[float, float, float]:
     """
     Return an aircraft circle's worst errors over the last ``last`` seconds of ``run``.

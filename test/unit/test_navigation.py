@@ -94,13 +94,7 @@ def _flow_errors(seed, gain, **values):
     """Return the flow-estimate errors (T, N) complex over the last 30 s of 40, and sc."""
     sc = _parallel(seed=seed, world_seed=seed, duration=40.0, position_filter='kalman',
                    flow_gain=gain, **values)
-    stepper, errors = simulator.Stepper(sc), []
-    for n in range(sc.periods):
-        stepper.command()
-        if n * sc.dt_control >= 10.0:
-            errors.append(np.asarray(stepper.flow_hat) - stepper.true_flow())
-        stepper.advance()
-    return np.array(errors), sc
+    return simulator.flow_estimate_errors(sc, 10.0), sc
 
 
 @pytest.mark.slow

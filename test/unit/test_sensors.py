@@ -219,13 +219,7 @@ def _tracking(gain, seed, chosen=False):
                        world_seed=seed, duration=50.0, gust_intensity=0.05, gust_time=5.0,
                        velocity_sigma=0.04, water_sigma=0.03, flow_gain=gain,
                        flow_gain_from_noise=chosen)
-    stepper, errors = simulator.Stepper(sc), []
-    for n in range(sc.periods):
-        stepper.command()
-        if n * sc.dt_control >= 10.0:
-            errors.append(np.asarray(stepper.flow_hat) - stepper.true_flow())
-        stepper.advance()
-    return float(np.sqrt(0.5 * np.mean(abs(np.array(errors)) ** 2))), sc
+    return simulator.rms_flow_error(sc, 10.0), sc
 
 
 @pytest.mark.slow
