@@ -19,10 +19,8 @@ Across network namespaces as test_secure: the plant and monitor on host 0, the v
 hosts 1-3, the impostor (a process holding vehicle_2's key, with a TLS profile of its own)
 on host 4.
 """
-import json
 import os
 from pathlib import Path
-import signal
 import subprocess
 import sys
 import threading
@@ -32,7 +30,7 @@ from formation_control.swarm import Swarm, wait_plant
 import pytest
 from rosutil import domains
 from test_multihost import assert_equals_simulator, dropped_lines, EXACT, load, placer
-from test_secure import fleet_of, INTRUDER, made_hosts
+from test_secure import fleet_of, INTRUDER, made_hosts, report
 
 HERE = Path(__file__).resolve().parents[1]
 CLI = str(Path(sys.executable).parent / 'formation-control')
@@ -64,16 +62,6 @@ def start_impostor(hosts, tmp, fleet, env, model):
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     assert proc.stdout.readline().strip() == 'probing'
     return proc
-
-
-def report(proc):
-    proc.send_signal(signal.SIGINT)
-    try:
-        out, _ = proc.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, _ = proc.communicate()
-    return json.loads(out.strip().splitlines()[-1])
 
 
 def test_a_member_posing_as_another_is_ignored_and_counted(hosts, tmp_path):
