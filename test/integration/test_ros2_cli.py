@@ -261,10 +261,13 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         ['run', 'formation_control', 'vehicle', '--ros-args', '--params-file',
          CONFIG / 'rigid_parallel.yaml', '-p', 'vehicle_id:=9'],
         ['launch', 'formation_control', 'vehicle.launch.py', 'scenario:=rigid_parralel'],
+        ['launch', 'formation_control', 'fleet.launch.py', 'scenario:=particle_circular',
+         'num_vehicles:=40', 'vehicles_per_process:=1', 'namespace:=fleet_c'],
     )
     hz, = cli.many((8.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
     (_, nodes), odom, state, cmd, metric, info, kind, *dumps = out     # batch loads the CPUs
-    dumps, refusals, (run_rc, run_out), bad_launch = dumps[:3], dumps[3:7], dumps[7], dumps[8]
+    dumps, refusals, (run_rc, run_out), bad_launch, too_many = (
+        dumps[:3], dumps[3:7], dumps[7], dumps[8], dumps[9])
     fleet = {'/fleet_a/plant', '/fleet_a/formation_monitor',
              *(f'/fleet_a/vehicle_{k}' for k in range(1, 5))}
     for _ in range(3):                  # the daemon's graph may lag behind under a load
@@ -300,6 +303,8 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     assert 'kappa' in reasons[3]
     assert run_rc == 2 and "parameter 'vehicle_id' = 9 is invalid" in run_out, run_out
     assert bad_launch[0] != 0 and "scenario 'rigid_parralel' not found" in bad_launch[1]
+    assert too_many[0] != 0 and ('vehicles_per_process 1 makes 43 DDS participants on this '
+                                 'host' in too_many[1]), too_many[1]
     for rc, text in dumps:
         _check_dump(tmp_path, rc, text)
     _check_lockstep_fleet(launch_b, tmp_path, fleet_b)
