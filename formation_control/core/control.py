@@ -27,7 +27,7 @@ from typing import Any
 
 from formation_control.core import laws
 from formation_control.core.flowfields import Jet
-from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray, unit
+from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
@@ -56,12 +56,7 @@ def particle_speed_terms(theta: RealArray,
         = 1 - <e^{i gamma}, f> / s``, the factor of (5.1).
 
     """
-    return _speed_terms(unit(theta), flow)
-
-
-def _speed_terms(e: ComplexArray,
-                 flow: complex | ComplexArray) -> tuple[RealArray, RealArray, RealArray]:
-    """Return :func:`particle_speed_terms` from the headings' unit vectors ``e``."""
+    e = np.exp(1j * theta)
     vel = e + flow
     s2 = abs(vel) ** 2
     return np.sqrt(s2), np.angle(vel), (1.0 + inner(flow, e)) / s2
@@ -107,9 +102,9 @@ def particle_view(X: RealArray, flow: complex | ComplexArray,
 
     """
     f = flow if speed == 1.0 else flow / speed
-    e = unit(X[ROW_THETA])
-    s, gamma, g = _speed_terms(e, f)
+    s, gamma, g = particle_speed_terms(X[ROW_THETA], f)
     w = X[ROW_OMEGA]
+    e = np.exp(1j * X[ROW_THETA])
     s_dot = inner(f, 1j * e) * w / s
     if speed != 1.0:
         s, s_dot = speed * s, speed * s_dot
@@ -148,7 +143,7 @@ def body_rate_from_inertial(w: RealArray, theta: RealArray,
     g = particle_speed_terms(theta, flow)[2]
     if jet is None:
         return w / g
-    v = unit(theta) + flow
+    v = np.exp(1j * theta) + flow
     return (w - flow_course_rate(v, jet.rate(v))) / g
 
 
@@ -183,7 +178,7 @@ def body_accel_from_inertial(lam: RealArray, theta: RealArray,
         (5.4).
 
     """
-    e = unit(theta)
+    e = np.exp(1j * theta)
     v = e + flow
     s2 = abs(v) ** 2
     n = 1.0 + inner(flow, e)
@@ -222,8 +217,7 @@ def thrust(X: RealArray, u0: float, K_f: float, plant: Plant) -> RealArray:
 
     """
     u, v = X[ROW_U], X[ROW_V]
-    s = np.sqrt(u * u + v * v)
-    return plant.h * s * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
+    return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
 
 
 def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
@@ -260,8 +254,7 @@ def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
 
     """
     r = position(X)
-    e = unit(X[ROW_THETA])
-    vel = ground_velocity(X, flow, e)
+    vel = ground_velocity(X, flow)
     speed = abs(vel)
     if use_heading:
         return laws.View(r, X[ROW_THETA], X[ROW_OMEGA], speed, np.zeros_like(speed))
@@ -269,11 +262,11 @@ def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
         return laws.View(r, np.angle(vel), X[ROW_OMEGA], speed, np.zeros_like(speed))
     du, dv, _ = body_accel(X, U_applied, plant)
     rel = X[ROW_U] + 1j * X[ROW_V]
-    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * rel) * e      # r''
+    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * rel) * np.exp(1j * X[ROW_THETA])   # r''
     if jet is not None:
         acc = acc + jet.rate(vel)
-    along = np.conj(vel) * acc                               # <v, r''> + i <i v, r''>
-    return laws.View(r, np.angle(vel), along.imag / speed ** 2, speed, along.real / speed)
+    rate = inner(1j * vel, acc) / speed ** 2
+    return laws.View(r, np.angle(vel), rate, speed, inner(vel, acc) / speed)
 
 
 def drag_moment_accel(X: RealArray, plant: Plant) -> RealArray:
@@ -553,7 +546,7 @@ class Controller:
         if self.speed != 1.0:                          # the laws' units (aircraft)
             X = np.array(X, float)
             X[ROW_X:ROW_Y + 1] /= self.speed
-        X = integrate(X, U_held, lead, 1, self.still)
+        X = integrate(X, U_held, lead, 1, self.still, plain=True)
         if self.speed != 1.0:
             X[ROW_X:ROW_Y + 1] *= self.speed
         drift = lead * np.asarray(self.flow(flow))

@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The planar inner product and unit vectors on complex numbers, and the array types."""
+"""The planar inner product on complex numbers, and the array types of the annotations."""
 from __future__ import annotations
 
 from typing import Any, TypeAlias
@@ -46,26 +46,3 @@ def inner(a: ArrayLike, b: ArrayLike) -> RealArray:
 
     """
     return (np.conj(a) * b).real
-
-
-def unit(angle: ArrayLike) -> ComplexArray:
-    """
-    Return the unit vectors of the given angles.
-
-    Parameters
-    ----------
-    angle : array_like
-        Angles (rad).
-
-    Returns
-    -------
-    ndarray of complex, shape of ``angle``
-        ``e^{i angle} = cos(angle) + i sin(angle)``, written straight into the real and
-        imaginary parts (the same numbers as ``np.exp(1j * angle)`` here, for less work).
-
-    """
-    angle = np.asarray(angle, float)
-    out = np.empty(angle.shape, complex)
-    np.cos(angle, out=out.real)
-    np.sin(angle, out=out.imag)
-    return out[()]

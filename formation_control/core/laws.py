@@ -42,7 +42,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, TypeAlias
 
-from formation_control.core.geometry import ComplexArray, inner, IntArray, RealArray, unit
+from formation_control.core.geometry import ComplexArray, inner, IntArray, RealArray
 import numpy as np
 from numpy.typing import NDArray
 
@@ -86,7 +86,7 @@ class View:
     @property
     def e(self) -> ComplexArray:
         """(N,) complex unit vectors ``e_k = e^{i phase_k}``."""
-        return unit(self.phase)
+        return np.exp(1j * self.phase)
 
     def ahead(self, tau: RealArray | float) -> View:
         """
@@ -476,14 +476,11 @@ class Circular:
         else:
             pc = self.coupling.laplacian(c)[..., idx] / self.coupling.nu   # C_k / nu
             pc_dot = self.coupling.laplacian(c_dot)[..., idx] / self.coupling.nu
-        along = np.conj(ek) * pc                             # <e_k, P_k c> + i <i e_k, P_k c>
-        g = along.real
-        g_dot = wk * along.imag + inner(ek, pc_dot)
-        if self.informed is not None:
-            to_c0 = np.conj(ek) * (ck - self.c0)             # <e_k, c_k - c0> + i <i e_k, ...>
-            ck_dot_along = view.speed[..., idx] - wk / self.omega0        # <e_k, c_k'>
-            g = g + a0 * to_c0.real
-            g_dot = g_dot + a0 * (wk * to_c0.imag + ck_dot_along)
+        dc0 = ck - self.c0
+        g = inner(ek, pc) + a0 * inner(ek, dc0)
+        ck_dot_along = view.speed[..., idx] - wk / self.omega0            # <e_k, c_k'>
+        g_dot = (wk * inner(1j * ek, pc) + inner(ek, pc_dot)
+                 + a0 * (wk * inner(1j * ek, dc0) + ck_dot_along))
         phi = self.omega0 * (view.speed[..., idx] + self.K * g)
         phi_dot = self.omega0 * (view.speed_dot[..., idx] + self.K * g_dot)
         sigma = g / self.omega0

@@ -33,20 +33,18 @@ model                     ``U[0]``                               ``U[1]``
 vehicle's own place and time (uniform and steady in the thesis). Particles keep ``u = 1, v = 0``.
 
 :func:`deriv` is the right-hand side and :func:`rk4_step` one classical RK4 step on it;
-:func:`integrate` takes the same steps in place on cache-sized blocks of vehicles with work
-rows reused by every stage and step (``_rk4_block``), elementwise (a vehicle's numbers are the
-same whatever vehicles share its block), and agrees with the plain formulas to rounding
-(test_rigid.py); in a flow that is not uniform, where every stage needs its own positions, it
-takes :func:`rk4_step`.
+:func:`integrate` takes the same steps, for large fleets in place on cache-sized blocks of
+vehicles with work rows reused by every stage and step (``_rk4_block``), and agrees with
+the plain formulas to rounding (test_rigid.py); in a flow that is not uniform, where every
+stage needs its own positions, it takes :func:`rk4_step`.
 """
 from __future__ import annotations
 
-from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from formation_control.core.flowfields import Flowfield
-from formation_control.core.geometry import ComplexArray, RealArray, unit
+from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
 
 if TYPE_CHECKING:
@@ -62,14 +60,12 @@ MODELS = PARTICLE_MODELS + RIGID_MODELS
 MOVED_ROWS = dict(first_order=ROW_THETA + 1, second_order=ROW_OMEGA + 1,
                   **dict.fromkeys(RIGID_MODELS, 6))
 
+PLAIN_BELOW = 1000                               # fleets integrated with the plain formulas
 BLOCK = 16384                                    # vehicles integrated together (cache-sized)
-PLAIN_BLOCK = 4096                               # the same, in a flow that is not uniform
+PLAIN_BLOCK = 4096                               # the same, with the plain formulas
 TURN_MAX = 0.05                                  # largest theta increment turned by series (rad)
-# sin d = d + d d^2 (a0 + d^2 (a1 + ...)), cos d = 1 + d^2 (b0 + d^2 (b1 + ...)): the terms up
-# to the first below 1e-17 at |d| = TURN_MAX, as rows (a_k, b_k) of one Horner scheme (a3 = 0)
-_SIN = (-1 / 6, 1 / 120, -1 / 5040)
-_COS = (-1 / 2, 1 / 24, -1 / 720, 1 / 40320)
-_SIN_COS = np.array([[a, b] for a, b in zip(_SIN + (0.0,), _COS)])[:, :, None]
+_SIN = (-1 / 6, 1 / 120, -1 / 5040)              # sin d = d + d d^2 (a0 + d^2 (a1 + ...))
+_COS = (-1 / 2, 1 / 24, -1 / 720, 1 / 40320)     # cos d = 1 + d^2 (b0 + d^2 (b1 + ...))
 
 
 @dataclass(frozen=True)
@@ -144,8 +140,8 @@ def position(X: RealArray) -> ComplexArray:
     return X[ROW_X] + 1j * X[ROW_Y]
 
 
-def ground_velocity(X: RealArray, flow: complex | ComplexArray,
-                    e: ComplexArray | None = None) -> ComplexArray:
+def ground_velocity(X: RealArray,
+                    flow: complex | ComplexArray) -> ComplexArray:
     """
     Return the ground (inertial) velocity of each vehicle, (8.1).
 
@@ -156,8 +152,6 @@ def ground_velocity(X: RealArray, flow: complex | ComplexArray,
         shape, e.g. (6,) for one vehicle, (6, N) for a fleet, (6, T, N) for a run.
     flow : complex or array_like of complex, broadcast to ``X.shape[1:]``
         The flow ``f = fx + i fy`` at each vehicle (m/s, world frame).
-    e : ndarray of complex, optional
-        ``e^{i theta}`` of the headings, where the caller has it.
 
     Returns
     -------
@@ -166,7 +160,7 @@ def ground_velocity(X: RealArray, flow: complex | ComplexArray,
         ``e^{i theta} + f``, (1.4).
 
     """
-    return (X[ROW_U] + 1j * X[ROW_V]) * (unit(X[ROW_THETA]) if e is None else e) + flow
+    return (X[ROW_U] + 1j * X[ROW_V]) * np.exp(1j * X[ROW_THETA]) + flow
 
 
 def body_accel(X: RealArray, U: RealArray,
@@ -232,13 +226,12 @@ def _body_accel(du: RealArray, dv: RealArray, dw: RealArray,
 
 
 def _rates(K: RealArray, Z: RealArray, U: RealArray, plant: Plant,
-           c: RealArray, s: RealArray, t: RealArray, flow: bool = True) -> None:
+           c: RealArray, s: RealArray, t: RealArray) -> None:
     """
     Write dX/dt at the state Z into K, given c, s = cos, sin(theta); t: two scratch rows.
 
     Rows with no dynamics (u, v of particles; omega of first-order ones) are left as they are.
-    A uniform flow is added here unless ``flow`` is false (``_rk4_block`` adds it once per
-    step); :func:`deriv` adds one that is not uniform.
+    A uniform flow is added here; :func:`deriv` adds one that is not.
     """
     kx, ky, kth, kw, ku, kv = K
     if plant.model in PARTICLE_MODELS:
@@ -257,10 +250,10 @@ def _rates(K: RealArray, Z: RealArray, U: RealArray, plant: Plant,
         ky += np.multiply(v, c, out=t[0])
         np.copyto(kth, Z[ROW_OMEGA])
         _body_accel(ku, kv, kw, Z, U, plant, t)
-    f = plant.flow.value
-    if flow and plant.flow.uniform and f:
-        kx += f.real                                         # (1.4), (1.7), (8.1)
-        ky += f.imag
+    flow = plant.flow.value
+    if plant.flow.uniform and flow:
+        kx += flow.real                                      # (1.4), (1.7), (8.1)
+        ky += flow.imag
 
 
 def deriv(X: RealArray, U: RealArray, plant: Plant,
@@ -299,42 +292,50 @@ def deriv(X: RealArray, U: RealArray, plant: Plant,
     return dX
 
 
-def _turn_factors(out: RealArray, d: RealArray, t: RealArray) -> None:
+def _series(d2: RealArray, coefs: tuple[float, ...], power: int, dmax: float,
+            out: RealArray) -> RealArray:
     """
-    Write (sin d, cos d - 1) of the angles d into out (2, n); t: a scratch row.
+    Write ``out = d2 (a0 + d2 (a1 + ...))`` by Horner, in place, for a Taylor series in d.
 
-    Where ``|d| <= TURN_MAX`` by the Taylor series (truncation error below 1e-17, both by one
-    Horner scheme), a few multiply-adds instead of the much dearer np.sin and np.cos;
-    elsewhere (or with NaN) by those. Every vehicle takes the same terms: its numbers depend
-    on its own values only, never on the vehicles computed with it (a fleet alone equals the
-    same fleet in a batch, bit for bit).
+    The term ``a_k d^(power + 2k)`` is left out, with all after it, once below 1e-17 at
+    ``|d| = dmax``.
     """
-    near = np.maximum.reduce(d) <= TURN_MAX and np.minimum.reduce(d) >= -TURN_MAX  # not NaN
-    with nullcontext() if near else np.errstate(over='ignore', invalid='ignore'):
-        d2 = np.multiply(d, d, out=t)
-        np.multiply(d2, _SIN_COS[-1], out=out)
-        for coefs in _SIN_COS[-2::-1]:
-            out += coefs
-            out *= d2
-        out[0] *= d
-        out[0] += d
-    if not near:
-        far = ~(abs(d) <= TURN_MAX)
-        out[0, far], out[1, far] = np.sin(d[far]), np.cos(d[far]) - 1.0
+    keep = max(1, sum(abs(a) * dmax ** (power + 2 * k) > 1e-17 for k, a in enumerate(coefs)))
+    np.multiply(d2, coefs[keep - 1], out=out)
+    for a in reversed(coefs[:keep - 1]):
+        out += a
+        out *= d2
+    return out
 
 
-def _rotate(out: RealArray, cs: RealArray, factors: RealArray, q: RealArray) -> None:
+def _cos_sin(out: RealArray, cs: RealArray, theta: RealArray,
+             d: RealArray, t: RealArray) -> None:
     """
-    Write (cos, sin)(theta + d) into out, given cs = (cos, sin)(theta); q: two scratch rows.
+    Write (cos, sin)(theta + d) into out, given cs = (cos, sin)(theta); t: three scratch rows.
 
-    ``factors`` are (sin d, cos d - 1) (:func:`_turn_factors`); the angle-sum formulas.
+    For |d| <= TURN_MAX this turns cs by d with the angle-sum formulas and the Taylor series of
+    sin d and cos d - 1 (truncation error below 1e-17), a few multiply-adds instead of the
+    much dearer np.cos and np.sin; otherwise (or with NaN) it calls them.
     """
-    sin_d, cos_d1 = factors
-    np.multiply(cs, cos_d1, out=out)
-    np.multiply(cs[::-1], sin_d, out=q)
-    out[0] -= q[0]
-    out[1] += q[1]
-    out += cs                                       # (c cos d - s sin d, s cos d + c sin d)
+    dmax = np.maximum(d.max(), -d.min())
+    if not dmax <= TURN_MAX:
+        angle = theta + d
+        np.cos(angle, out=out[0])
+        np.sin(angle, out=out[1])
+        return
+    d2, sin_d, cos_d1 = t[0], t[1], t[2]
+    np.multiply(d, d, out=d2)
+    _series(d2, _SIN, 3, dmax, sin_d)
+    sin_d *= d
+    sin_d += d                                               # sin d
+    _series(d2, _COS, 2, dmax, cos_d1)                       # cos d - 1
+    (c, s), (oc, os_) = cs, out
+    np.multiply(c, cos_d1, out=oc)
+    oc -= np.multiply(s, sin_d, out=d2)
+    oc += c                                                  # c cos d - s sin d
+    np.multiply(s, cos_d1, out=os_)
+    os_ += np.multiply(c, sin_d, out=d2)
+    os_ += s                                                 # s cos d + c sin d
 
 
 def _rk4_block(X: RealArray, U: RealArray, dt: float, steps: int,
@@ -344,82 +345,34 @@ def _rk4_block(X: RealArray, U: RealArray, dt: float, steps: int,
 
     Only the rows the model moves are integrated (x, y, theta for first order; up to omega
     for second order; all for rigid bodies): the others have zero derivative. cos and sin of
-    theta are computed once, then turned by each stage's increment of theta (:func:`_rotate`).
-    When omega' = a is held (every model but ``rigid_cop``; a = 0 for first order), theta is
-    quadratic in time and RK4 exact on it: the stage angles of a step are theta, theta + d,
-    theta + d + delta and theta + 2 (d + delta), with ``d = dt omega / 2`` and
-    ``delta = a dt^2 / 4``, the last one the next step's theta; one series (d) per step and
-    one per call (delta), not three per step. The uniform flow, the same in every stage, is
-    added to x and y once per step.
+    theta are computed once, then turned by each stage's increment of theta (:func:`_cos_sin`).
+    When omega' is held (every model but ``rigid_cop``), theta is quadratic in time and RK4
+    exact on it, so k4's stage theta is also the next step's: three turns per step, not four.
     """
     n, m = X.shape[1], MOVED_ROWS[plant.model]
     held = plant.model != 'rigid_cop'
     K, Z = np.zeros((6, n)), np.empty((6, n))              # a stage's k, its state (omega, u, v)
     acc, t = np.empty((m, n)), np.empty((6, n))            # k1/2 + k2 + k3 + k4/2; scratch
-    cs, one, two = np.empty((2, n)), np.empty((2, n)), np.empty((2, n))   # cos, sin of stages
-    turn, accel_turn = np.empty((2, n)), np.empty((2, n))  # (sin, cos - 1) of d and delta
+    cs, stage_cs = np.empty((2, n)), np.empty((2, n))      # cos, sin of theta; of a stage's
     np.cos(X[ROW_THETA], out=cs[0])
     np.sin(X[ROW_THETA], out=cs[1])
-    d, q = np.empty(n), t[4:6]
+    d = np.empty(n)
     fed = slice(ROW_OMEGA, m)                              # stage rows that k depends on
-    flow = 3.0 * plant.flow.value                          # its weight in acc: 1/2 + 1 + 1 + 1/2
-    accel = held and plant.model != 'first_order'
-    for step in range(steps):
-        _rates(K, X, U, plant, cs[0], cs[1], t, flow=False)             # k1
+    for _ in range(steps):
+        _rates(K, X, U, plant, cs[0], cs[1], t)            # k1
         np.multiply(0.5, K[:m], out=acc)
-        if accel and step == 0:
-            np.multiply(0.25 * dt * dt, K[ROW_OMEGA], out=d)
-            _turn_factors(accel_turn, d, t[0])
         for stage, h in ((2, 0.5 * dt), (3, 0.5 * dt), (4, dt)):
-            stage_cs = _stage_angles(stage, h, K, cs, one, two, turn, accel_turn if accel
-                                     else None, held, d, t)
+            np.multiply(h, K[ROW_THETA], out=d)            # stage theta - theta
+            _cos_sin(stage_cs, cs, X[ROW_THETA], d, t)
             np.multiply(h, K[fed], out=Z[fed])
             Z[fed] += X[fed]                               # X + h k
-            _rates(K, Z, U, plant, stage_cs[0], stage_cs[1], t, flow=False)
+            _rates(K, Z, U, plant, stage_cs[0], stage_cs[1], t)
             acc += np.multiply(0.5, K[:m], out=t[:m]) if stage == 4 else K[:m]
-        if flow:
-            acc[ROW_X] += flow.real
-            acc[ROW_Y] += flow.imag
         acc *= dt / 3.0                # = (dt/6)(k1 + 2 k2 + 2 k3 + k4), to the last bit
         if not held:
-            _turn_factors(turn, acc[ROW_THETA], t[0])
-            _rotate(one, cs, turn, q)
-            cs[:] = one
+            _cos_sin(stage_cs, cs, X[ROW_THETA], acc[ROW_THETA], t)
+        cs, stage_cs = stage_cs, cs
         X[:m] += acc
-
-
-def _stage_angles(stage: int, h: float, K: RealArray, cs: RealArray, one: RealArray,
-                  two: RealArray, turn: RealArray, accel_turn: RealArray | None, held: bool,
-                  d: RealArray, t: RealArray) -> RealArray:
-    """
-    Return (cos, sin) of a stage's theta for ``_rk4_block`` (rows of one, two or cs).
-
-    Held omega': stage 2 turns cs by d (its factors kept in ``turn``), stage 3 that by delta
-    (``accel_turn``; None: delta = 0), stage 4 that by delta and d, into cs: the next step's.
-    Otherwise each stage turns cs by ``h k_theta`` of the stage before.
-    """
-    q = t[4:6]
-    if not held:
-        np.multiply(h, K[ROW_THETA], out=d)
-        _turn_factors(turn, d, t[0])
-        _rotate(one, cs, turn, q)
-        return one
-    if stage == 2:
-        np.multiply(h, K[ROW_THETA], out=d)
-        _turn_factors(turn, d, t[0])
-        _rotate(one, cs, turn, q)
-        return one
-    if accel_turn is None:
-        if stage == 3:
-            return one
-        _rotate(cs, one, turn, q)
-        return cs
-    if stage == 3:
-        _rotate(two, one, accel_turn, q)
-        return two
-    _rotate(one, two, accel_turn, q)
-    _rotate(cs, one, turn, q)
-    return cs
 
 
 def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
@@ -454,7 +407,7 @@ def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
 
 
 def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
-              t: float = 0.0) -> RealArray:
+              t: float = 0.0, plain: bool | None = None) -> RealArray:
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 
@@ -472,6 +425,9 @@ def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
         The model and its physical parameters.
     t : float, optional
         Time at the start of the period (s), where the flow varies in time.
+    plain : bool or None, optional
+        Take :func:`rk4_step` (True) or the blocked path (False); None: by the number of
+        vehicles, as below. A flow that is not uniform always takes :func:`rk4_step`.
 
     Returns
     -------
@@ -482,17 +438,17 @@ def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
 
     Notes
     -----
-    In a uniform flow ``_rk4_block`` takes the steps, in place on blocks of BLOCK vehicles so
-    that each block's work rows stay in cache. Its numbers are elementwise: a vehicle's
-    result does not depend on the vehicles integrated with it, so a fleet alone, any block of
-    it, one vehicle's node and a batch of fleets give the same bits. A flow that is not
-    uniform, where every stage needs its own positions, takes :func:`rk4_step`, on blocks of
-    PLAIN_BLOCK vehicles past that.
+    Fleets of fewer than PLAIN_BELOW vehicles, where the cost is per numpy call, take
+    :func:`rk4_step`. Larger ones take ``_rk4_block`` (the same numbers to rounding,
+    several times faster) on blocks of BLOCK vehicles, which are independent over the period,
+    so that each block's work rows stay in cache. With ``plain``, more than PLAIN_BLOCK
+    vehicles take :func:`rk4_step` on blocks of PLAIN_BLOCK, for the same reason (each
+    vehicle's numbers are those of :func:`rk4_step` on the whole fleet, bit for bit).
 
     """
     shape = np.shape(X)
     n = int(np.prod(shape[1:]))
-    plain = not plant.flow.uniform
+    plain = (n < PLAIN_BELOW if plain is None else plain) or not plant.flow.uniform
     if plain and n <= PLAIN_BLOCK:
         for step in range(steps):
             X = rk4_step(X, U, dt, plant, t + step * dt)
@@ -502,7 +458,7 @@ def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
     for start in range(0, n, PLAIN_BLOCK if plain else BLOCK):
         cols = slice(start, start + (PLAIN_BLOCK if plain else BLOCK))
         if plain:
-            X[:, cols] = integrate(X[:, cols], U[:, cols], dt, steps, plant, t)
+            X[:, cols] = integrate(X[:, cols], U[:, cols], dt, steps, plant, t, plain=True)
         else:
             _rk4_block(X[:, cols], U[:, cols], dt, steps, plant)
     return X.reshape(shape)

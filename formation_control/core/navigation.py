@@ -280,8 +280,8 @@ class PositionFilter:
         self.ahead: RealArray | None = None
 
     def _ahead(self, X: RealArray, U_held: RealArray) -> RealArray:
-        """Return the last estimate X carried over one period by the model (RK4)."""
-        return integrate(X, U_held, self.sc.dt_control, 1, self.still)
+        """Return the last estimate X carried over one period by the model (plain RK4)."""
+        return integrate(X, U_held, self.sc.dt_control, 1, self.still, plain=True)
 
     def velocities(self, v_ground: ComplexArray, v_rel: ComplexArray,
                    U_held: RealArray) -> tuple[ComplexArray, ComplexArray]:

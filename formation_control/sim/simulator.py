@@ -41,12 +41,8 @@ from formation_control.core.scenario import initial_state, practical, resolve, S
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.world import active, World
 from formation_control.sim import metrics
-from formation_control.sim.allocator import keep_freed_memory
 import numpy as np
 from numpy.typing import ArrayLike
-
-LARGE_FLEET = 10_000
-"""From this many vehicles (all fleets of a batch) freed memory is kept (:mod:`allocator`)."""
 
 
 @dataclass
@@ -177,8 +173,6 @@ class Stepper:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
-        if self.X.size >= 6 * LARGE_FLEET:
-            keep_freed_memory()
         self.U = np.zeros((2,) + self.X.shape[1:])
         self.aircraft: aircraft.Fleet | None = None
         if sc.plant_backend == 'jsbsim':
@@ -304,9 +298,10 @@ class Stepper:
         Integrate one control period with the held inputs; return the new state (6, N).
 
         ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
-        (the real-time plant advances one step per tick). A batch of fleets (6, B, N) is
-        integrated as B N vehicles: :func:`models.integrate` is elementwise, so each fleet
-        equals the run alone, bit for bit.
+        (the real-time plant advances one step per tick). A batch of fleets (6, B, N) takes
+        the plain RK4 formulas, vehicle by vehicle: the blocked path of :func:`models.integrate`
+        chooses its series per block, so a run's result would depend on the fleets that share
+        its batch; this way it equals the run alone, bit for bit.
         """
         sc, steps = self.sc, steps or self.sc.substeps
         if self.aircraft is not None:
@@ -318,7 +313,8 @@ class Stepper:
                 self.X = self.world.step(self.X, self.U, self.t)
                 self.steps += 1
             return self.X
-        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t)
+        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
+                           plain=True if self.X.ndim > 2 else None)
         self.steps += steps
         return self.X
 

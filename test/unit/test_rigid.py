@@ -204,15 +204,17 @@ def _assert_close_per_row(new, ref, rtol=1e-12):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize('plain_below', [0, 10**9], ids=['blocks', 'plain'])
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
 @pytest.mark.parametrize('model', models.MODELS)
-def test_integrator_agrees_with_plain_rk4(model, flow, monkeypatch):
+def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch):
     """
-    ``integrate`` agrees with the plain RK4 formulas to 1e-12 of each row's size.
+    Both paths of ``integrate`` agree with the plain RK4 formulas to 1e-12 of each row's size.
 
     Several blocks (the last one partial), the series turns (2 ms steps), the np.cos fallback
     (0.1 s steps), negative steps and a long run; the inputs are left untouched.
     """
+    monkeypatch.setattr(models, 'PLAIN_BELOW', plain_below)
     monkeypatch.setattr(models, 'BLOCK', 16)
     plant = models.Plant.of(Scenario(model=model, flow=(flow.real, flow.imag), l1=0.2))
     X, U = _random_fleet(model, 40, np.random.default_rng(7))

