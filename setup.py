@@ -55,6 +55,7 @@ cluster_requires = ['dask[distributed]']   # formation-control sweep --scheduler
 test_requires = [
     'pytest',
     'pytest-xdist',                      # make test: two workers (-n), one file each
+    'pytest-timeout',                    # a hung test fails, naming itself (setup.cfg: timeout)
     'websockets',                        # test/integration/test_live.py: a Foxglove client
     'protobuf',                          # test/integration/test_live.py: foxglove.SceneUpdate
     'ros-jazzy-domain-coordinator',      # domain_coordinator (test/rosutil.py)

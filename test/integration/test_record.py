@@ -110,6 +110,15 @@ def _wait_for_fleet_time(ros, seconds, timeout=120):
         lambda: clock and clock[-1].clock.sec >= seconds, timeout=timeout), 'no fleet time'
 
 
+def _flushed_twice(path, timeout=30):
+    """Wait until ``path`` has grown twice (two chunks flushed); return whether it did."""
+    sizes, end = [path.stat().st_size], time.monotonic() + timeout
+    while len(set(sizes)) < 3 and time.monotonic() < end:
+        time.sleep(0.05)
+        sizes.append(path.stat().st_size)
+    return len(set(sizes)) >= 3
+
+
 def _assert_readable(bag, kept_total):
     """Read the whole bag with the package's report and play, and an indexed MCAP reader."""
     run = bagfile.read_run(bag)
@@ -199,12 +208,15 @@ def test_a_launch_killed_leaves_no_process_and_its_bag_repairs(ros, tmp_path):
 
 def test_recorder_killed_alone_leaves_a_bag_repair_makes_readable(ros, tmp_path):
     bag = tmp_path / 'B'
-    swarm = _swarm(ros, '--duration', '60')
     recorder = ros.procs.start('recorder', '--ros-args', '-p', f'bag:={bag}',
                                '-p', 'num_vehicles:=5', '-p', 'use_sim_time:=true')
+    names = ros.probe.node.get_node_names
+    assert ros.probe.spin_until(lambda: 'formation_bag_recorder' in names(), timeout=60), \
+        output(recorder)
+    swarm = _swarm(ros, '--duration', '60')
     _wait_for_fleet_time(ros, 4)
     mcap_file = bag / 'B.mcap'
-    assert mcap_file.stat().st_size > 0
+    assert _flushed_twice(mcap_file), output(recorder)     # what came before 4 s is written
     recorder.kill()
     recorder.wait()
     assert swarm.poll() is None                         # the fleet carries on without it
