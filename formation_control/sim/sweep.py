@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import itertools
 import json
 import math
+import multiprocessing
 from os import PathLike
 from pathlib import Path
 import shutil
@@ -395,7 +396,7 @@ class _Local:
         """
         pending, died = list(jobs), list[Job]()
         running: dict[Future[Rows], Job] = {}
-        with ProcessPoolExecutor(workers) as pool:
+        with ProcessPoolExecutor(workers, mp_context=_workers_context()) as pool:
             while pending or running:
                 while pending and len(running) < workers and not died:
                     key, args = pending.pop(0)
@@ -414,6 +415,17 @@ class _Local:
                     else:
                         done(key, rows)
         return died, pending
+
+
+def _workers_context() -> multiprocessing.context.BaseContext:
+    """
+    Return the start method of the local workers: new interpreters, not forks of the caller.
+
+    A pool forked from a process with threads (a ROS node, a Dask client, a test runner) can
+    deadlock in a child on a lock another thread held at the fork; a spawned worker starts
+    clean, with the caller's environment of the moment.
+    """
+    return multiprocessing.get_context('spawn')
 
 
 class _Dask:
