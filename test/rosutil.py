@@ -35,6 +35,10 @@ BIN = Path(sys.executable).parent
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 
 
+STOP_GRACE = (12.0, 5.0)
+"""A test's SIGINT deadlines: longer than a swarm's own (5 + 3 s) to stop its fleet."""
+
+
 class Processes:
     """Processes a test starts; all of them are stopped (INT, INT, KILL) at teardown."""
 
@@ -58,13 +62,13 @@ class Processes:
         try:
             out, err = proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
-            stop([proc], grace=(12.0, 5.0))
+            stop([proc], grace=STOP_GRACE)
             proc.communicate()
             raise
         return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
     def stop_all(self):
-        codes = stop(self.procs)
+        codes = stop(self.procs, grace=STOP_GRACE)
         for proc in self.procs:
             proc.log.close()
         return codes

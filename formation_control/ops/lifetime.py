@@ -29,8 +29,9 @@ calls :func:`die_with_parent` first thing:
   no SIGTERM until continued), SIGTERM to its own process, and asks the kernel to end the
   process :data:`GRACE` s later if it still lives (:func:`end_within`: SIGALRM, whose default
   action needs nothing of the process, not even Python's lock of the interpreter; a shutdown
-  hung in the middleware cannot keep it alive). The node's own stop arms the same deadline once
-  its starter is gone.
+  hung in the middleware cannot keep it alive). The node's own stop arms the same deadline: a
+  tied process that has left its loop ends within :data:`GRACE` s, even if its starter is
+  killed while the shutdown hangs (the watch thread may then never run again).
 
 A process started without :data:`PARENT_ENV` (``ros2 run`` from a shell) is not tied.
 """

@@ -20,8 +20,9 @@ rule is tested without DDS; the ``plant`` node converts messages and calls them.
 
 Lockstep: the plant publishes step n and waits for the command of every vehicle stamped with
 step n, except the vehicles that are gone (heard, then silent for ``command_timeout``) or
-stopped. A vehicle that has not answered is asked again (:meth:`CommandGate.nudge`) with a
-back-off, and a second answer to a step asked again is counted apart from a stale command.
+stopped. While one has not answered, every vehicle waited for is asked again
+(:meth:`CommandGate.nudge`) with a back-off, and a second answer to a step asked again is counted
+apart from a stale command.
 Real time: the plant integrates the steps the wall clock has reached (:class:`Pacer`) and
 samples vehicle k's odometry at integration step (k - 1) mod substeps of each period
 (:func:`sample_slots`).
@@ -143,15 +144,17 @@ class CommandGate:
         The first time once the step has lasted :data:`NUDGE_AFTER` times the previous one (at
         least a second), then after twice that wait, and so on: a slow start-up of a large fleet
         is not flooded, and a sample that DDS matched but never handed over cannot stall it.
+        Every vehicle waited for is asked, not only those missing: one that lost a neighbour's
+        state waits for it, and only the neighbour, answering again, sends it again.
         """
         now = self.clock()
         wait = max(1.0, NUDGE_AFTER * self.last_length) * 2.0 ** self.step_nudges
-        if now - self.nudged <= wait:
+        if now - self.nudged <= wait or not self.missing(stopped).any():
             return None
         self.nudged = now
         self.nudges += 1
         self.step_nudges += 1
-        return self.missing(stopped)
+        return self.waited(stopped)
 
     def waiting_for(self) -> float:
         """Wall seconds the step under way has lasted (0 before the first step)."""

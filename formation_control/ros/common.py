@@ -114,7 +114,8 @@ def subscribe(node, msg_type, topic, rule, reject, take, signed=None):
         got = decode(data)
         if got is not None:
             take(got)
-    return raw_subscription(node, msg_type, topic, on_bytes, signed, **itf.state_qos_kwargs())
+    return raw_subscription(node, msg_type, topic, on_bytes, signed,
+                            **itf.state_qos_kwargs(reader=True))
 
 
 def raw_subscription(node, msg_type, topic, on_bytes, signed=None, **qos):

@@ -101,20 +101,34 @@ OVERRIDABLE = QoSOverridingOptions([QoSPolicyKind.RELIABILITY, QoSPolicyKind.HIS
 subscription.<policy>`` parameters (lossy radio links: docs/deployment.md)."""
 
 
-def state_qos_kwargs():
-    """
-    Keyword arguments of a state publisher or subscription.
+READER_DEPTH = 100
+"""History of a state subscription: a burst (a flood of bad samples, a node that paused) of up
+to this many samples is taken, not overwritten before the node reads it; late joiners still get
+the publishers' :data:`STATE_QOS` depth."""
 
-    A fresh :data:`STATE_QOS` (rclpy writes the overrides into the profile it is given) that
-    the ``qos_overrides`` parameters may change.
+
+def state_qos_kwargs(reader=False):
     """
-    return {'qos_profile': copy.copy(STATE_QOS), 'qos_overriding_options': OVERRIDABLE}
+    Keyword arguments of a state publisher or (``reader``) subscription.
+
+    A fresh :data:`STATE_QOS` (rclpy writes the overrides into the profile it is given), of
+    depth :data:`READER_DEPTH` for a reader, that the ``qos_overrides`` parameters may change.
+    """
+    profile = copy.copy(STATE_QOS)
+    if reader:
+        profile.depth = READER_DEPTH
+    return {'qos_profile': profile, 'qos_overriding_options': OVERRIDABLE}
 
 
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """The flow: published when it changes, kept for late joiners."""
+LATCHED_READER_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=READER_DEPTH,
+                                reliability=ReliabilityPolicy.RELIABLE,
+                                durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""A subscription to a latched topic (the flow, the scenario, the start): a burst of other
+samples after the one that counts does not overwrite it before the node reads it."""
 
 
 FAULTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,

@@ -84,7 +84,7 @@ class MonitorNode(Node):
                                          'foreign_id', 'wrong_kind', 'interface_version'))
         common.clock_bytes(self, self.reject)
         common.subscribe_messages(self, String, names.SCENARIO_TOPIC, self._on_scenario,
-                                  self.reject, qos_profile=itf.LATCHED_QOS)
+                                  self.reject, qos_profile=itf.LATCHED_READER_QOS)
         common.subscribe_messages(self, ParameterEvent, '/parameter_events',
                                   self._on_parameter_event, self.reject,
                                   qos_profile=qos_profile_parameter_events)

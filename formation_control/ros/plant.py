@@ -113,7 +113,7 @@ class PlantNode(Node):
                                                     clock=self.wall)
         if self.p['wait_for_start']:
             common.subscribe_messages(self, Empty, START_TOPIC, self._start, self.reject,
-                                      qos_profile=itf.LATCHED_QOS)
+                                      qos_profile=itf.LATCHED_READER_QOS)
         else:
             self._start()
 

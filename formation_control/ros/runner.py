@@ -124,7 +124,7 @@ def run(make_node, args=None):
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if tie is not None and tie.orphaned():
+        if tie is not None:
             end_within(GRACE)
         for node in nodes:
             node.destroy_node()

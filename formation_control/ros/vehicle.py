@@ -111,20 +111,20 @@ class VehicleNode(Node):
         self.odometry = common.Decoder(intake.odometry(itf.odom_wire(
             k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
         common.raw_subscription(self, Odometry, names.topic(k, 'odom'), self._on_odom,
-                                self.signed, **qos())
+                                self.signed, **qos(reader=True))
         subscribe = common.subscribe_messages
         if sc.flow_source == 'known':
             subscribe(self, Vector3Stamped, names.topic(k, 'flow'), lambda msg: self._measured(
                 self.me.flow_heard(messages.stamp_ns(msg.header.stamp), complex(
                     msg.vector.x, msg.vector.y), msg.header.frame_id)), self.reject,
-                qos_profile=itf.LATCHED_QOS)
+                qos_profile=itf.LATCHED_READER_QOS)
         if self.me.second == 'water':
             subscribe(self, TwistStamped, names.topic(k, 'water_velocity'), lambda msg: (
                 self._measured(self.me.water_heard(messages.stamp_ns(msg.header.stamp), (
                     msg.twist.linear.x, msg.twist.linear.y), msg.header.frame_id))),
-                self.reject, **qos())
+                self.reject, **qos(reader=True))
         subscribe(self, String, names.SCENARIO_TOPIC, self._on_scenario, self.reject,
-                  qos_profile=itf.LATCHED_QOS)
+                  qos_profile=itf.LATCHED_READER_QOS)
         for j in sc.comm_graph.neighbours(k):
             common.subscribe(self, FormationState, names.topic(j, 'formation_state'),
                              intake.formation_state(messages.StateWire.of(sc, j, frames), frames),

@@ -237,7 +237,9 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
         start.publish(Empty())
         asked = _ask_malformed(nodes, [plant, *vehicles, monitor, recorder])
         assert nodes.spin_until(lambda: plant.done and flooder.proc.poll() is not None,
-                                timeout=120), flooder.lines
+                                timeout=120), (flooder.lines, flooder.proc.poll(), plant.done,
+                                               plant.fleet.n, plant.plant.stalled(0.0),
+                                               plant.plant.gate.nudges, len(diags))
         sent = json.loads(flooder.lines[-1])
         everyone = [plant, *vehicles, monitor, recorder]
         expected = {}

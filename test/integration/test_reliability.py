@@ -38,6 +38,7 @@ import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rosgraph_msgs.msg import Clock
 from rosutil import CONFIG, output
+from runs import assert_equal_runs, offline_run
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
 RIGID = CONFIG / 'rigid_parallel.yaml'
@@ -541,6 +542,32 @@ def test_plant_asks_again_a_vehicle_that_has_not_answered(nodes):
     cmd.publish(itf.cmd_msg(1, 0, np.zeros(2), 'second_order'))
     assert nodes.spin_until(
         lambda: any(messages.stamp_ns(m.header.stamp) == 20_000_000 for m in odom))
+
+
+def test_a_neighbour_state_lost_is_sent_again_and_the_fleet_equals_its_offline_run(nodes,
+                                                                                   tmp_path):
+    """
+    Vehicle 1 loses vehicle 2's first state (a reader's history overrun by a flood).
+
+    It has its odometry and waits for that state; vehicle 2 has answered. The plant asks both
+    again, vehicle 2's answer carries its state again, and the run goes on unchanged.
+    """
+    overrides = ('num_vehicles:=2', 'duration:=0.2')
+    record = tmp_path / 'run.npz'
+    plant = nodes.plant(PARTICLE, *overrides, f'record_path:={record}')
+    first = nodes.vehicle(1, PARTICLE, *overrides)
+    heard, lost = first.me.heard, []
+
+    def losing(j, state):
+        if j == 2 and not lost:
+            lost.append(state.stamp)
+            return False
+        return heard(j, state)
+    first.me.heard = losing
+    nodes.vehicle(2, PARTICLE, *overrides)
+    assert nodes.spin_until(lambda: plant.done, timeout=60)
+    assert lost == [0] and plant.plant.gate.nudges >= 1
+    assert_equal_runs(simulator.load_run(record), offline_run(PARTICLE, list(overrides)))
 
 
 def test_vehicle_answers_a_repeated_step_with_the_same_state_and_command(nodes):

@@ -108,8 +108,25 @@ def test_a_vehicle_that_has_not_answered_is_asked_again_with_back_off(clock):
         again = gate.nudge(none)
         if again is not None:
             asked.append((round(clock.t - 100.0, 1), again.tolist()))
-    assert asked == [(1.1, [False, True]), (3.2, [False, True]), (7.3, [False, True])]
+    assert asked == [(1.1, [True, True]), (3.2, [True, True]), (7.3, [True, True])]
     assert gate.nudges == 3
+
+
+def test_asking_again_skips_the_stopped_and_the_gone(clock):
+    """The others are all asked: one may wait for a neighbour's lost state, not its odometry."""
+    gate = lockstep.CommandGate(3, command_timeout=3.0, clock=clock)
+    gate.begin(0)
+    for i in range(3):
+        gate.command(i, 0)
+    clock.t += 0.1
+    gate.begin(20)
+    gate.command(1, 20)
+    clock.t += 1.1
+    assert gate.nudge(np.array([False, False, True])).tolist() == [True, True, False]
+    clock.t += 3.0                                         # 1 and 3 silent past their timeout
+    assert gate.gone().tolist() == [True, False, True]
+    assert gate.nudge(np.zeros(3, bool)) is None           # none waited for is missing
+    assert gate.nudges == 1
 
 
 def test_the_wait_before_asking_again_scales_with_the_last_step(clock):
