@@ -59,8 +59,9 @@ class FleetPlant:
         The latest command of each vehicle, held from the next period boundary (or step).
     stopped : (N,) bool
         Vehicles stopped by a non-finite state.
-    estimates : dict of int to (N,) complex
-        The flow estimates the vehicles sent for each recorded step (NaN: not heard).
+    estimates : (T, N) complex or None
+        The flow estimates the vehicles sent for each recorded step (NaN: not heard), once one
+        is heard.
     demand : (2, N) float
         Aircraft: the autopilot demand each vehicle sent (airspeed, turn rate); NaN: that of
         its ``pending`` command.
@@ -76,7 +77,7 @@ class FleetPlant:
         self.n = 0
         self.pending = np.zeros((2, sc.num_vehicles))
         self.stopped = np.zeros(sc.num_vehicles, bool)
-        self.estimates: dict[int, ComplexArray] = {}
+        self.estimates: ComplexArray | None = None
         self.demand = np.full((2, sc.num_vehicles), np.nan)
         self.told_rate = self.stepper.X[ROW_OMEGA].copy()
 
@@ -205,8 +206,10 @@ class FleetPlant:
     def estimate(self, i: int, n: int, value: complex) -> None:
         """Keep the flow a vehicle estimates at step n (complex m/s); ``i`` is its index."""
         if self.recorder.keeps(n):
-            blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
-            self.estimates.setdefault(n, blank)[i] = value
+            if self.estimates is None:
+                self.estimates = np.full((self.recorder.size, self.sc.num_vehicles),
+                                         complex(np.nan, np.nan))
+            self.estimates[self.recorder.index(n), i] = value
 
     def run(self, meta: dict[str, Any]) -> Run:
         """
@@ -216,8 +219,6 @@ class FleetPlant:
         """
         run = self.recorder.run()
         run.meta = meta
-        if self.estimates:
-            blank = np.full(self.sc.num_vehicles, complex(np.nan, np.nan))
-            run.flow_hat = np.array([self.estimates.get(int(round(t / self.sc.dt_control)),
-                                                        blank) for t in run.t])
+        if self.estimates is not None:
+            run.flow_hat = self.estimates[:self.recorder.count]
         return run

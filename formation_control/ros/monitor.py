@@ -165,6 +165,8 @@ class MonitorNode(Node):
 
     def _on_odom(self, k, got):
         ns, values = got
+        if not np.all(np.isfinite(values)):
+            return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
         flow = complex(self.watch.flow(values[0], values[1]))
         x = messages.state_from_odom_values(values, flow, self.sc.model)
         if not np.all(np.isfinite(x)):

@@ -264,7 +264,7 @@ class PlantNode(Node):
 
     def _save(self, meta):
         """Write the record to ``record_path`` atomically: a kill leaves the last one whole."""
-        if not self.fleet.recorder.t:
+        if not self.fleet.recorder.count:
             return
         path = Path(self.p['record_path'])
         part = path.with_name(path.name + '.part')

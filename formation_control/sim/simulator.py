@@ -324,41 +324,70 @@ class Recorder:
     Keep the state and held inputs every ``record_dt``, and at the last step.
 
     The simulator and the plant node record with it; step n is at ``n dt_control``, and a run
-    has ``sc.periods`` steps after step 0.
+    has ``sc.periods`` steps after step 0. The arrays of the whole run are reserved at the first
+    sample and filled in place: a long run's memory does not grow as it records (the plant of a
+    30-minute fleet), and a record too large for memory fails at its start.
+
+    Attributes
+    ----------
+    size : int
+        Number of samples of the whole run.
+    count : int
+        Samples recorded so far.
+
     """
 
     def __init__(self, sc: Scenario) -> None:
         self.sc = sc
         self.steps = sc.periods
-        self.t: list[float] = []
-        self.X: list[RealArray] = []
-        self.U: list[RealArray] = []
-        self.flow_hat: list[ComplexArray] = []
-        self.channels: dict[str, list[RealArray]] = {}
+        self.size = self.index(self.steps) + 1
+        self.count = 0
+        self._t = np.minimum(np.arange(self.size) * sc.record_every, self.steps) * sc.dt_control
+        self._arrays: dict[str, RealArray] = {}
+        self._channels: dict[str, RealArray] = {}
 
     def keeps(self, n: int) -> bool:
         """Return whether step n is a recorded step."""
-        return n % self.sc.record_every == 0 or n == self.steps
+        return 0 <= n <= self.steps and (n % self.sc.record_every == 0 or n == self.steps)
+
+    def index(self, n: int) -> int:
+        """Return the sample index of recorded step n."""
+        return -(-n // self.sc.record_every)
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None,
                channels: dict[str, RealArray] | None = None) -> None:
         """Record the state X (6, N), inputs U (2, N), flows used and channels of step n."""
-        if self.keeps(n):
-            self.t.append(n * self.sc.dt_control)
-            self.X.append(X.copy())
-            self.U.append(U.copy())
-            if flow_hat is not None:
-                self.flow_hat.append(np.broadcast_to(flow_hat, X.shape[1:]).copy())
-            for name, value in (channels or {}).items():
-                self.channels.setdefault(name, []).append(np.array(value, float))
+        if not self.keeps(n):
+            return
+        i = self.index(n)
+        self._put(self._arrays, 'X', i, X)
+        self._put(self._arrays, 'U', i, U)
+        if flow_hat is not None:
+            self._put(self._arrays, 'flow_hat', i, np.broadcast_to(flow_hat, X.shape[1:]))
+        for name, value in (channels or {}).items():
+            self._put(self._channels, name, i, np.asarray(value, float))
+        self.count = i + 1
+
+    def _put(self, arrays: dict[str, Any], name: str, i: int, value: Any) -> None:
+        if name not in arrays:
+            blank = complex(np.nan, np.nan) if np.iscomplexobj(value) else np.nan
+            arrays[name] = np.full((self.size, *np.shape(value)), blank,
+                                   np.result_type(value, float))
+        arrays[name][i] = value
+
+    @property
+    def t(self) -> RealArray:
+        """(count,) sample times so far (s)."""
+        return self._t[:self.count]
 
     def run(self) -> Run:
-        """Return what was recorded as a :class:`Run`."""
-        flow_hat = np.array(self.flow_hat) if self.flow_hat else None
-        return Run(self.sc, np.array(self.t), np.array(self.X), np.array(self.U),
-                   flow_hat=flow_hat,
-                   channels={name: np.array(v) for name, v in self.channels.items()})
+        """Return what was recorded as a :class:`Run` (views of the reserved arrays)."""
+        n, got = self.count, self._arrays
+        flow_hat = got['flow_hat'][:n] if 'flow_hat' in got else None
+        return Run(self.sc, self.t, got['X'][:n] if 'X' in got else np.empty((0,)),
+                   got['U'][:n] if 'U' in got else np.empty((0,)), flow_hat=flow_hat,
+                   channels={name: v[:n] for name, v in self._channels.items()})
 
 
 class Outcome:

@@ -17,7 +17,7 @@
 A flood of malformed samples on every topic the fleet's nodes subscribe, from another process.
 
 A lockstep fleet (plant, vehicles, monitor, recorder; built in this process, ``use_sim_time``
-as the swarm runs them) starts once a flooder process (test/flooder.py) has matched every one
+as the swarm runs them; estimating rigid bodies, or particles told a vortex) starts once a flooder process (test/flooder.py) has matched every one
 of its subscriptions, and runs under the flood. The samples are mutations of real serialized
 messages of each topic's type (random bytes, truncations, flipped bytes, length fields of
 2^31-1 and 2^32-1, a zeroed encapsulation header, trailing garbage), each checked undecodable
@@ -38,9 +38,10 @@ from formation_control.protocol import names
 from formation_control.ros import interface as itf
 from formation_control.ros.bag import FleetRecorder
 from formation_control.sim import simulator
-from geometry_msgs.msg import TwistStamped
+from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 import numpy as np
+import pytest
 from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 from rclpy.qos import qos_profile_parameter_events
@@ -50,9 +51,15 @@ from rosutil import CONFIG, node_args
 from runs import assert_equal_runs, offline_run
 from std_msgs.msg import Empty, String
 
-RIGID = CONFIG / 'rigid_parallel.yaml'
-OVERRIDES = ('num_vehicles:=3', 'flow_source:=estimated', 'duration:=2.0')
-"""Estimating rigid bodies: the vehicles hear water_velocity, the plant formation states."""
+FLEETS = {
+    'estimating': (CONFIG / 'rigid_parallel.yaml',
+                   ('num_vehicles:=3', 'flow_source:=estimated', 'duration:=2.0')),
+    'told_the_flow': (CONFIG / 'particle_circular.yaml',
+                      ('num_vehicles:=3', 'flow_model:=vortex', 'flow_circulation:=2.0',
+                       'flow_radius:=2.0', 'duration:=2.0')),
+}
+"""Estimating rigid bodies (the vehicles hear water_velocity, the plant formation states), and
+particles told a vortex (each vehicle hears its local flow with each odometry)."""
 NODE_PARAMS = ('use_sim_time:=true',)
 LOG_BOUND = 25
 """Lines each node may log over the whole run: its start-up and end, and the dropped samples'
@@ -107,10 +114,16 @@ def _water(k, value):
     return itf.water_velocity_msg(k, 20_000_000, np.full(6, value))
 
 
+def _flow(k, value):
+    return itf.flow_msg(k, 20_000_000, complex(value, 0.1))
+
+
 def _plan(sc):
     """Return the flooder's topics and, per node, the samples it is sent by reason."""
+    from formation_control.protocol.onboard import needs_second_sensor
     from formation_control_msgs.msg import FormationState, VehicleCommand
     rng = np.random.default_rng(32)
+    second = needs_second_sensor(sc)
     n, graph = sc.num_vehicles, sc.comm_graph
     state_qos = {'reliability': 'RELIABLE', 'durability': 'TRANSIENT_LOCAL', 'depth': 1000}
     topics, heard = [], {'plant': [], 'formation_monitor': [], 'formation_bag_recorder': []}
@@ -130,14 +143,19 @@ def _plan(sc):
         vehicle = f'vehicle_{k}'
         add(names.topic(k, 'odom'), Odometry, _odom(k, 1.0), [vehicle, 'formation_monitor'],
             [_odom(k, v) for v in (math.nan, math.inf, -math.inf)])
-        add(names.topic(k, 'water_velocity'), TwistStamped, _water(k, 0.2), [vehicle],
-            [_water(k, v) for v in (math.nan, math.inf)])
-        add(names.topic(k, 'cmd'), VehicleCommand, itf.cmd_msg(k, 0, (1.0, 0.1), 'rigid'),
+        if second == 'water':
+            add(names.topic(k, 'water_velocity'), TwistStamped, _water(k, 0.2), [vehicle],
+                [_water(k, v) for v in (math.nan, math.inf)])
+        if second == 'flow':
+            add(names.topic(k, 'flow'), Vector3Stamped, _flow(k, 0.2), [vehicle],
+                [_flow(k, v) for v in (math.nan, math.inf)])
+        add(names.topic(k, 'cmd'), VehicleCommand, itf.cmd_msg(k, 0, (1.0, 0.1), sc.model),
             ['plant', 'formation_monitor'])
         listeners = [f'vehicle_{j}' for j in range(1, n + 1) if k in graph.neighbours(j)]
+        estimating = ['plant'] if sc.flow_source == 'estimated' else []
         add(names.topic(k, 'formation_state'), FormationState, itf.state_msg(
             k, 0, X, (complex(1.0, 2.0), 0.3, 0.2, 1.0), graph.neighbours(k),
-            [True] * len(graph.neighbours(k))), listeners + ['plant', 'formation_monitor'])
+            [True] * len(graph.neighbours(k))), listeners + estimating + ['formation_monitor'])
     latched = {**state_qos}
     add('/' + names.SCENARIO_TOPIC, String, itf.scenario_msg(sc),
         [f'vehicle_{k}' for k in range(1, n + 1)] + ['formation_monitor'], qos=latched)
@@ -211,17 +229,19 @@ class Flooder:
         self.proc.stdout.close()
 
 
+@pytest.mark.parametrize('fleet', FLEETS)
 def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes, tmp_path,
-                                                                          capfd):
-    sc = scenario.load(RIGID, list(OVERRIDES))
+                                                                          capfd, fleet):
+    cfg, overrides = FLEETS[fleet]
+    sc = scenario.load(cfg, list(overrides))
     topics, heard = _plan(sc)
     plan = tmp_path / 'plan.json'
     plan.write_text(json.dumps(topics))
     capfd.readouterr()                  # the checks of the samples here print, the nodes not
     record = tmp_path / 'run.npz'
-    params = OVERRIDES + NODE_PARAMS
-    plant = nodes.plant(RIGID, *params, 'wait_for_start:=true', f'record_path:={record}')
-    vehicles = [nodes.vehicle(k, RIGID, *params) for k in range(1, sc.num_vehicles + 1)]
+    params = overrides + NODE_PARAMS
+    plant = nodes.plant(cfg, *params, 'wait_for_start:=true', f'record_path:={record}')
+    vehicles = [nodes.vehicle(k, cfg, *params) for k in range(1, sc.num_vehicles + 1)]
     monitor = nodes.monitor(*NODE_PARAMS)
     recorder = nodes.add(FleetRecorder(str(tmp_path / 'bag'), sc.num_vehicles,
                                        context=nodes.context,
@@ -265,7 +285,7 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
         assert counts.pop('non_finite', 0) == non_finite, node.get_name()
         counts.pop('stale', None)       # a step asked again (the loaded machine) is answered twice
         assert not any(counts.values()), (node.get_name(), counts)
-    assert_equal_runs(simulator.load_run(record), offline_run(RIGID, OVERRIDES))
+    assert_equal_runs(simulator.load_run(record), offline_run(cfg, overrides))
     published = [(name, 'malformed', node.reject.counts['malformed'])
                  for node, name in [(plant, 'formation_control/plant')] + [
                      (v, f'formation_control/vehicle_{v.k}/links') for v in vehicles]]
