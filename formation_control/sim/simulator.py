@@ -343,7 +343,7 @@ class Recorder:
         self.size = self.index(self.steps) + 1
         self.count = 0
         self._t = np.minimum(np.arange(self.size) * sc.record_every, self.steps) * sc.dt_control
-        self._arrays: dict[str, RealArray] = {}
+        self._arrays: dict[str, Any] = {}
         self._channels: dict[str, RealArray] = {}
 
     def keeps(self, n: int) -> bool:

@@ -17,8 +17,9 @@
 A flood of malformed samples on every topic the fleet's nodes subscribe, from another process.
 
 A lockstep fleet (plant, vehicles, monitor, recorder; built in this process, ``use_sim_time``
-as the swarm runs them; estimating rigid bodies, or particles told a vortex) starts once a flooder process (test/flooder.py) has matched every one
-of its subscriptions, and runs under the flood. The samples are mutations of real serialized
+as the swarm runs them; estimating rigid bodies, or particles told a vortex) starts once a
+flooder process (test/flooder.py) has matched every one of its subscriptions, and runs under
+the flood. The samples are mutations of real serialized
 messages of each topic's type (random bytes, truncations, flipped bytes, length fields of
 2^31-1 and 2^32-1, a zeroed encapsulation header, trailing garbage), each checked undecodable
 here, and messages with NaN or infinite doubles. Every node survives, counts each sample under
