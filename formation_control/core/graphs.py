@@ -27,7 +27,7 @@ all-to-all laws), ``ring``, ``circulant`` (vehicle k hears k +- d for each d in
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from functools import lru_cache
 import math
 from typing import NoReturn, TYPE_CHECKING
@@ -288,7 +288,8 @@ def build(n: int, graph: str = 'complete', offsets: Sequence[int] = (1,), degree
     return Graph(n, pairs.astype(np.int64), nu)
 
 
-def live_edges(graph: Graph, hearing: BoolArray, fresh: BoolArray) -> IntArray:
+def live_edges(graph: Graph, fresh: BoolArray,
+               deaf: Collection[tuple[int, int]] = ()) -> IntArray:
     """
     Return the edges of ``graph`` that are live: both ends fresh and each hearing the other.
 
@@ -296,10 +297,11 @@ def live_edges(graph: Graph, hearing: BoolArray, fresh: BoolArray) -> IntArray:
     ----------
     graph : Graph
         The communication graph.
-    hearing : (n, n) bool
-        ``hearing[k, j]``: vehicle k's latest state says it hears j.
     fresh : (n,) bool
         The vehicles whose state is recent.
+    deaf : collection of (k, j)
+        The pairs (0-based) where vehicle k's latest state says it does not hear j; O(pairs)
+        memory, not a dense (n, n) table.
 
     Returns
     -------
@@ -308,8 +310,16 @@ def live_edges(graph: Graph, hearing: BoolArray, fresh: BoolArray) -> IntArray:
 
     """
     i, j = graph.edges.T
-    live = fresh[i] & fresh[j] & hearing[i, j] & hearing[j, i]
+    live = fresh[i] & fresh[j]
+    if deaf:
+        pairs = np.array(list(deaf), dtype=np.int64)
+        lo, hi = pairs.min(axis=1), pairs.max(axis=1)
+        live &= ~np.isin(i.astype(np.int64) * graph.n + j, lo * graph.n + hi)
     return graph.edges[live]
+
+
+CONNECTIVITY_DENSE_MAX = 1000
+"""The most vehicles whose lambda_2 :func:`connectivity` computes (a dense eigenproblem)."""
 
 
 def connectivity(members: BoolArray, edges: IntArray) -> float:
@@ -327,11 +337,16 @@ def connectivity(members: BoolArray, edges: IntArray) -> float:
     -------
     float
         lambda_2 of its Laplacian (:func:`algebraic_connectivity`): 0 when disconnected; the
-        formation laws converge at a rate of about K lambda_2 / nu.
+        formation laws converge at a rate of about K lambda_2 / nu. Past
+        ``CONNECTIVITY_DENSE_MAX`` members, where the dense Laplacian (m^2 floats) and its
+        eigenvalues (m^3 work) cost too much each sample: 0 when disconnected (union-find,
+        O(m + L)), else NaN (connected; lambda_2 not computed).
 
     """
     index = np.cumsum(members) - 1
     m = int(np.count_nonzero(members))
+    if m > CONNECTIVITY_DENSE_MAX:
+        return 0.0 if _components(m, index[edges]) > 1 else math.nan
     A = np.zeros((m, m))
     A[index[edges[:, 0]], index[edges[:, 1]]] = 1.0
     return algebraic_connectivity(A + A.T)

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING
 
 from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import BoolArray, RealArray
+from formation_control.core.graphs import CONNECTIVITY_DENSE_MAX
 from formation_control.core.models import RIGID_MODELS, ROW_OMEGA
 import numpy as np
 
@@ -84,12 +85,18 @@ def formation_rate(sc: Scenario) -> float:
     ``(|K| + K_pattern) lambda_max(L) / nu``: the Jacobian of phi in the phases is the sum of
     the formation's ``-|K| L / nu`` (all-to-all ``-|K| (I - 1 1^T / N)``: ``lambda_max / nu = 1``)
     and the pattern potential's Hessian, whose eigenvalues are at most the slot gain times
-    ``lambda_max(L) / nu`` or the largest moment gain ``|K_m|`` (docs/errata.md).
+    ``lambda_max(L) / nu`` or the largest moment gain ``|K_m|`` (docs/errata.md). Past
+    ``graphs.CONNECTIVITY_DENSE_MAX`` vehicles lambda_max(L) is bounded by twice the largest
+    degree (Gershgorin; equal on even rings) instead of computed from the dense Laplacian
+    (N^2 floats, N^3 work).
     """
     spread = 1.0
     if not sc.all_to_all:
         g = sc.comm_graph
-        spread = float(np.linalg.eigvalsh(g.laplacian())[-1]) / g.nu
+        if g.n > CONNECTIVITY_DENSE_MAX:
+            spread = 2.0 * float(g.degrees().max(initial=0)) / g.nu
+        else:
+            spread = float(np.linalg.eigvalsh(g.laplacian())[-1]) / g.nu
     pattern = 0.0
     if sc.pattern != 'none':
         pattern = max(abs(k) for k in sc.pattern_gains) if not sc.pattern_slots else \

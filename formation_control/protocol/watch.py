@@ -261,7 +261,7 @@ class Watch:
         self.vehicle_ok = np.zeros(n, bool)
         self.saturated = np.zeros(n, bool)
         self.values: dict[str, float] = {}
-        self.hearing = np.ones((n, n), bool)
+        self.deaf: set[tuple[int, int]] = set()     # (k, j): k's latest state does not hear j
         self.shown: tuple[int, float, RealArray, RealArray] | None = None
 
     @property
@@ -293,13 +293,16 @@ class Watch:
     def state(self, k: int, hears: Mapping[int, bool]) -> None:
         """Note vehicle k's formation state: ``hears`` {neighbour id: heard} (from ``hears_j``)."""
         for j, heard in hears.items():
-            self.hearing[k - 1, j - 1] = heard
+            if heard:
+                self.deaf.discard((k - 1, j - 1))
+            else:
+                self.deaf.add((k - 1, j - 1))
         self.heard['state'][k - 1] = self.clock()
 
     def live_graph(self) -> tuple[BoolArray, IntArray]:
         """Return the live vehicles (N,) bool and the live links (L, 2), 0-based."""
         fresh = self.clock() - self.heard['state'] <= self.stale
-        return fresh, graphs.live_edges(self.sc.comm_graph, self.hearing, fresh)
+        return fresh, graphs.live_edges(self.sc.comm_graph, fresh, self.deaf)
 
     def sample(self, ns: int) -> tuple[dict[str, float], bool]:
         """

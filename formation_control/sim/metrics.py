@@ -438,20 +438,23 @@ def vehicles_converged(ctrl: Controller, view: laws.View) -> BoolArray:
 
 
 NEAREST_ROWS = 1024
-"""Vehicles whose distances to all others :func:`nearest_distance` holds at once."""
+"""Vehicles whose distances to all others :func:`nearest_distance` holds at once, at most."""
+NEAREST_PAIRS = 1 << 21
+"""Distances :func:`nearest_distance` holds at once, at most (fewer rows in a large fleet)."""
 
 
 def nearest_distance(r: ComplexArray) -> RealArray:
     """
     Return each vehicle's distance to its nearest other vehicle (m), shape (N,).
 
-    All pairs, ``NEAREST_ROWS`` vehicles at a time (O(N^2) time, O(N) memory per row); inf
-    for a vehicle alone.
+    All pairs, up to ``NEAREST_ROWS`` vehicles at a time and ``NEAREST_PAIRS`` distances
+    (O(N^2) time, bounded memory); inf for a vehicle alone.
     """
     r = np.asarray(r, complex)
     out = np.full(r.shape, np.inf)
-    for start in range(0, r.size, NEAREST_ROWS):
-        rows = np.arange(start, min(start + NEAREST_ROWS, r.size))
+    step = max(1, min(NEAREST_ROWS, NEAREST_PAIRS // max(r.size, 1)))
+    for start in range(0, r.size, step):
+        rows = np.arange(start, min(start + step, r.size))
         d = abs(r[rows, None] - r[None, :])
         d[np.arange(rows.size), rows] = np.inf
         out[rows] = d.min(axis=1, initial=np.inf)

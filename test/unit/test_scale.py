@@ -16,7 +16,8 @@
 """
 Metrics at scale: the minimum separation equals the all-pairs minimum in O(N) memory.
 
-And ``formation-control sim`` of a large fleet stays within a bounded memory.
+And ``formation-control sim`` of a large fleet stays within a bounded memory, and so does the
+monitor's sample (its hearing graph and lambda_2).
 """
 import os
 from pathlib import Path
@@ -24,8 +25,10 @@ import subprocess
 import sys
 import tracemalloc
 
+from formation_control.core import graphs
 from formation_control.core.control import Controller
 from formation_control.core.scenario import initial_state, load
+from formation_control.protocol import watch
 from formation_control.sim import metrics, simulator
 import numpy as np
 import pytest
@@ -36,6 +39,7 @@ SIZES = [1, 2, 3, 7, 8, 9, 16, 17, 33, 100, 257]
 PEAK_BYTES_PER_VEHICLE = 400         # min_separation: a few (N,) arrays, not N^2
 SIM_N = 20_000
 SIM_PEAK_RSS = 1 << 29               # bytes (it takes ~110 MB); all pairs of one sample: 6.4 GB
+MONITOR_PEAK_BYTES_PER_VEHICLE = 4000   # a (N, N) bool hearing table alone: 20 000 per vehicle
 
 
 def all_pairs(r):
@@ -125,3 +129,42 @@ def test_sim_of_a_large_fleet_stays_within_bounded_memory(tmp_path):
     assert proc.returncode == 0, text
     assert f'{SIM_N} vehicles' in text and 'min_separation' in text
     assert usage.ru_maxrss * 1024 < SIM_PEAK_RSS
+
+
+def test_the_monitors_sample_of_a_large_fleet_needs_memory_linear_in_the_fleet():
+    """A ring of 20 000 with links unheard: the live links, lambda_2 (large: NaN, or 0 split)."""
+    sc = load(CONFIG / 'particle_circular_ring.yaml', [f'num_vehicles:={SIM_N}'])
+    X = initial_state(sc)
+    tracemalloc.start()
+    try:
+        w = watch.Watch(sc, '/', 0.0, stale_timeout=2.0, converge_within=60.0, trail_length=10,
+                        clock=lambda: 0.0)
+        for k in range(1, SIM_N + 1):
+            w.state(k, {})
+        w.state(2, {1: False})
+        due = [w.odom(k, X[:, k - 1], 0) for k in range(1, SIM_N + 1)]
+        path, _ = w.sample(0)
+        w.state(SIM_N // 2, {SIM_N // 2 + 1: False})
+        w.state(SIM_N // 2, {SIM_N // 2 + 1: True})
+        w.state(100, {101: False})
+        split, _ = w.sample(0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert due[-1] and not any(due[:-1])
+    assert path['live_links'] == SIM_N - 1 and np.isnan(path['algebraic_connectivity'])
+    assert split['live_links'] == SIM_N - 2 and split['algebraic_connectivity'] == 0.0
+    assert peak < MONITOR_PEAK_BYTES_PER_VEHICLE * SIM_N
+
+
+def test_connectivity_past_the_dense_size_tells_a_split_graph():
+    n = graphs.CONNECTIVITY_DENSE_MAX + 10
+    ring = graphs.build(n, 'ring')
+    everyone = np.ones(n, bool)
+    assert np.isnan(graphs.connectivity(everyone, ring.edges))
+    two_paths = graphs.live_edges(ring, everyone, {(0, 1), (n // 2, n // 2 + 1)})
+    assert len(two_paths) == n - 2
+    assert graphs.connectivity(everyone, two_paths) == 0.0
+    small = graphs.build(12, 'ring')
+    assert graphs.connectivity(np.ones(12, bool), small.edges) == pytest.approx(
+        2.0 * (1.0 - np.cos(2.0 * np.pi / 12)))
