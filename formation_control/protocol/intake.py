@@ -140,6 +140,19 @@ def message(what: str) -> Intake[Any]:
     return Intake(_NoWire(), lambda msg: msg, lambda msg: None, what)
 
 
+def clock(what: str) -> Intake[Any]:
+    """
+    Return the rule of ``/clock``: a message whose time is not negative (rclpy's is not).
+
+    rclpy's time source raises on a negative ``sec``, in the callback: the node would die.
+    """
+    def check(msg: Any) -> Rejection | None:
+        if msg.clock.sec < 0:
+            return Rejection(MALFORMED, f'a {what} of negative time ({msg.clock.sec} s)')
+        return None
+    return Intake(_NoWire(), lambda msg: msg, check, what)
+
+
 def odometry(wire: Wire[Stamped], k: int, world: str,
              base: str | None = None) -> Intake[Stamped]:
     """

@@ -125,16 +125,17 @@ def raw_subscription(node, msg_type, topic, on_bytes, signed=None, **qos):
     return signed.subscription(topic, on_bytes, **qos)
 
 
-def subscribe_messages(node, msg_type, topic, take, reject, signed=None, **qos):
+def subscribe_messages(node, msg_type, topic, take, reject, signed=None, rule=intake.message,
+                       **qos):
     """
     Subscribe ``node`` to the raw bytes of ``topic``, each deserialized, then ``take``-n.
 
     Bytes that do not deserialize are dropped and counted by ``reject`` (a
     :class:`Rejections`, kind ``malformed``) instead of the middleware's log of each; ``qos``
     are the keyword arguments of the QoS (``qos_profile=...``); ``signed``: as
-    :func:`subscribe`.
+    :func:`subscribe`; ``rule``: the intake of the message, given what it is (text).
     """
-    decode = Decoder(intake.message(f'{msg_type.__name__} on {topic}'), msg_type, reject)
+    decode = Decoder(rule(f'{msg_type.__name__} on {topic}'), msg_type, reject)
 
     def on_bytes(data):
         got = decode(data)
@@ -158,7 +159,7 @@ def clock_bytes(node, reject, signed=None):
         return
     node.destroy_subscription(source._clock_sub)
     source._clock_sub = subscribe_messages(
-        node, ClockMsg, '/clock', source.clock_callback, reject, signed,
+        node, ClockMsg, '/clock', source.clock_callback, reject, signed, rule=intake.clock,
         qos_profile=QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
 
 

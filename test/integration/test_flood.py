@@ -26,6 +26,7 @@ here, and messages with NaN or infinite doubles. Every node survives, counts eac
 its reason, keeps its log short and free of the middleware's per-sample errors, and the fleet's
 record equals the offline simulator's: nothing of the flood was taken for data.
 """
+from collections import Counter
 import json
 import math
 import os
@@ -35,6 +36,7 @@ import threading
 
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core import scenario
+from formation_control.ops import security, signing
 from formation_control.protocol import names
 from formation_control.ros import interface as itf
 from formation_control.ros.bag import FleetRecorder
@@ -50,7 +52,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
 from rosutil import CONFIG, node_args
 from runs import assert_equal_runs, offline_run
-from std_msgs.msg import Empty, String
+from std_msgs.msg import Empty, String, UInt8MultiArray
 
 FLEETS = {
     'estimating': (CONFIG / 'rigid_parallel.yaml',
@@ -58,10 +60,20 @@ FLEETS = {
     'told_the_flow': (CONFIG / 'particle_circular.yaml',
                       ('num_vehicles:=3', 'flow_model:=vortex', 'flow_circulation:=2.0',
                        'flow_radius:=2.0', 'duration:=2.0')),
+    'signing': (CONFIG / 'particle_parallel.yaml', ('num_vehicles:=3', 'duration:=2.0')),
 }
-"""Estimating rigid bodies (the vehicles hear water_velocity, the plant formation states), and
-particles told a vortex (each vehicle hears its local flow with each odometry)."""
+"""Estimating rigid bodies (the vehicles hear water_velocity, the plant formation states),
+particles told a vortex (each vehicle hears its local flow with each odometry), and a signing
+fleet (the vehicles and the plant hear the control topics' envelopes on ``TOPIC/signed``)."""
+SIGNED = ('odom', 'cmd', 'formation_state')
+"""The per-vehicle topics a signing fleet's vehicles and plant hear as envelopes (and /clock)."""
+UNSIGNING = ('formation_monitor', 'formation_bag_recorder')
+"""The nodes that hear the plain topics in a signing fleet too."""
 NODE_PARAMS = ('use_sim_time:=true',)
+EXACT = ('neighbor_timeout:=60.0', 'command_timeout:=120.0')
+"""The plant's and vehicles' silences that would leave a peer out of a step's sums, lifted: a
+sample lost in the flood is sent again after a second or more of wall time, and the run must
+still equal the offline one."""
 LOG_BOUND = 25
 """Lines each node may log over the whole run: its start-up and end, and the dropped samples'
 warnings (throttled to one per 2 s per kind of line)."""
@@ -119,8 +131,13 @@ def _flow(k, value):
     return itf.flow_msg(k, 20_000_000, complex(value, 0.1))
 
 
-def _plan(sc):
-    """Return the flooder's topics and, per node, the samples it is sent by reason."""
+def _plan(sc, fleet=None):
+    """
+    Return the flooder's topics and, per node, the reason of each sample it is sent.
+
+    With ``fleet`` (a signing fleet's directory), the vehicles and the plant hear the control
+    topics' envelopes instead (``TOPIC/signed``); the monitor the plain topics still.
+    """
     from formation_control.protocol.onboard import needs_second_sensor
     from formation_control_msgs.msg import FormationState, VehicleCommand
     rng = np.random.default_rng(32)
@@ -132,13 +149,23 @@ def _plan(sc):
         heard[f'vehicle_{k}'] = []
 
     def add(topic, msg_type, template, readers, nan=(), qos=state_qos):
-        samples = _undecodable(template, msg_type, rng)
-        bad = [serialize_message(m) for m in nan]
+        plain = [r for r in readers if fleet is None or r in UNSIGNING
+                 or topic.rsplit('/', 1)[-1] not in SIGNED + ('clock',)]
+        if plain:
+            samples = _undecodable(template, msg_type, rng)
+            _flood(topic, msg_type, samples + [serialize_message(m) for m in nan],
+                   ['malformed'] * len(samples) + ['non_finite'] * len(nan), plain, qos)
+        if len(plain) < len(readers):
+            samples, reasons = _bad_envelopes(fleet, topic, template, rng)
+            _flood(topic + signing.SUFFIX, UInt8MultiArray, samples, reasons,
+                   [r for r in readers if r not in plain], qos)
+
+    def _flood(topic, msg_type, samples, reasons, readers, qos):
         topics.append({'topic': topic, 'type': msg_type.__module__.split('.')[0] + '/msg/'
                        + msg_type.__name__, 'matches': len(readers), **qos,
-                       'samples': [s.hex() for s in samples + bad]})
+                       'samples': [s.hex() for s in samples]})
         for name in readers:
-            heard[name].append((topic, len(samples), qos is not state_qos))
+            heard[name].append((topic, reasons, qos is not state_qos))
 
     for k in range(1, n + 1):
         vehicle = f'vehicle_{k}'
@@ -170,6 +197,36 @@ def _plan(sc):
         f'vehicle_{k}' for k in range(1, n + 1)], qos={
             'reliability': 'BEST_EFFORT', 'durability': 'VOLATILE', 'depth': 1})
     return topics, heard
+
+
+def _padded(data):
+    """Return ``data`` as a reader gets it: zeros up to a multiple of 4 bytes (RTPS payloads)."""
+    return data + bytes(-len(data) % 4)
+
+
+def _bad_envelopes(fleet, topic, template, rng):
+    """
+    Return envelopes for ``topic`` that no receiver may accept, and the reason of each.
+
+    Undecodable mutations of a true envelope (no envelope: ``unsigned``), bytes without the
+    envelope's mark, the message sealed by a member other than the topic's, and sealed by the
+    topic's member for another topic. None is validly signed: one would be data, and its
+    sequence would make the true member's next envelopes replays.
+    """
+    topic = '/' + topic.lstrip('/')                     # as the receivers resolve it
+    signer = signing.signer_for(topic)
+    other = 'vehicle_1' if signer != 'vehicle_1' else 'vehicle_2'
+    payload = serialize_message(template)
+    true = signing.load_member(fleet / signer).signer
+    samples = _undecodable(deserialize_message(true.seal(topic, payload), UInt8MultiArray),
+                           UInt8MultiArray, rng)
+    samples += [signing.array_message(b'no mark ' + payload),
+                signing.load_member(fleet / other).signer.seal(topic, payload),
+                true.seal('/vehicle_9/' + topic.rsplit('/', 1)[-1], payload)]
+    judge = signing.load_member(fleet / 'plant').verifier
+    reasons = [judge.unseal(topic, _padded(data)).kind for data in samples]
+    assert reasons[-3:] == [signing.UNSIGNED, signing.WRONG_SIGNER, signing.WRONG_TOPIC]
+    return samples, reasons
 
 
 def _ask_malformed(nodes, everyone):
@@ -232,17 +289,33 @@ class Flooder:
 
 @pytest.mark.parametrize('fleet', FLEETS)
 def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes, tmp_path,
-                                                                          capfd, fleet):
+                                                                          capfd, monkeypatch,
+                                                                          fleet):
     cfg, overrides = FLEETS[fleet]
     sc = scenario.load(cfg, list(overrides))
-    topics, heard = _plan(sc)
+    members = None
+    if fleet == 'signing':
+        members = tmp_path / 'fleet'
+        security.write_fleet(members, security.roster(sc.num_vehicles))
+    topics, heard = _plan(sc, members)
     plan = tmp_path / 'plan.json'
     plan.write_text(json.dumps(topics))
     capfd.readouterr()                  # the checks of the samples here print, the nodes not
     record = tmp_path / 'run.npz'
-    params = overrides + NODE_PARAMS
+    params = overrides + NODE_PARAMS + EXACT
+
+    def member(name):
+        if members is not None:
+            monkeypatch.setenv('FASTRTPS_DEFAULT_PROFILES_FILE',
+                               str(members / name / security.PROFILE))
+    member('plant')
     plant = nodes.plant(cfg, *params, 'wait_for_start:=true', f'record_path:={record}')
-    vehicles = [nodes.vehicle(k, cfg, *params) for k in range(1, sc.num_vehicles + 1)]
+    vehicles = []
+    for k in range(1, sc.num_vehicles + 1):
+        member(f'vehicle_{k}')
+        vehicles.append(nodes.vehicle(k, cfg, *params))
+    monkeypatch.delenv('FASTRTPS_DEFAULT_PROFILES_FILE', raising=False)
+    assert all((node.signed is None) == (members is None) for node in [plant, *vehicles])
     monitor = nodes.monitor(*NODE_PARAMS)
     recorder = nodes.add(FleetRecorder(str(tmp_path / 'bag'), sc.num_vehicles,
                                        context=nodes.context,
@@ -265,27 +338,26 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
         everyone = [plant, *vehicles, monitor, recorder]
         expected = {}
         for node in everyone:
-            expected[node.get_name()] = [0, 0, 0]
-            for topic, m, shallow in heard[node.get_name()]:
-                counts = expected[node.get_name()]
-                counts[2 if shallow else 0] += sum(i < m for i in sent[topic])
-                counts[1] += sum(i >= m for i in sent[topic])
+            deep, shallow = expected[node.get_name()] = Counter(), Counter()
+            for topic, reasons, lossy in heard[node.get_name()]:
+                (shallow if lossy else deep).update(reasons[i] for i in sent[topic])
 
         def counted():
-            return all(node.reject.counts['malformed'] >= sum(expected[node.get_name()][::2])
-                       for node in everyone)
+            return all(node.reject.counts[kind] >= count for node in everyone
+                       for kind, count in expected[node.get_name()][0].items())
         nodes.spin_until(counted, timeout=10)
         assert nodes.spin_until(lambda: all(f.done() for f in asked))
         assert all(_refused(f.result()) for f in asked)
     finally:
         flooder.close()
     for node in everyone:
-        malformed, non_finite, shallow = expected[node.get_name()]
+        deep, shallow = expected[node.get_name()]
         counts = dict(node.reject.counts)
-        assert malformed <= counts.pop('malformed') <= malformed + shallow, node.get_name()
-        assert counts.pop('non_finite', 0) == non_finite, node.get_name()
         counts.pop('stale', None)       # a step asked again (the loaded machine) is answered twice
-        assert not any(counts.values()), (node.get_name(), counts)
+        assert set(deep) | set(shallow) <= set(counts), (node.get_name(), counts)
+        for kind, count in counts.items():
+            assert deep[kind] <= count <= deep[kind] + shallow[kind], (
+                node.get_name(), kind, counts, deep, shallow)
     assert_equal_runs(simulator.load_run(record), offline_run(cfg, overrides))
     published = [(name, 'malformed', node.reject.counts['malformed'])
                  for node, name in [(plant, 'formation_control/plant')] + [

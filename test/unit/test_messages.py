@@ -124,6 +124,18 @@ def _from(msg):
     return deserialize
 
 
+def test_a_clock_of_negative_time_is_malformed_not_handed_to_rclpy():
+    """A negative time: rclpy's time source raises on it in the callback (the recorder died)."""
+    def clock(sec):
+        return SimpleNamespace(clock=SimpleNamespace(sec=sec, nanosec=5))
+    rule = intake.clock('Clock on /clock')
+    fine = clock(0)
+    assert rule(b'x', _from(fine)) is fine
+    assert rule(b'x', _from(clock(-1041558194))) == Rejection(
+        'malformed', 'a Clock on /clock of negative time (-1041558194 s)')
+    assert rule(b'garbage', _from(None)).kind == 'malformed'
+
+
 def test_canonical_bytes_are_read_in_place_and_others_checked():
     wire = StateWire(3, (2, 4))
     rule = intake.formation_state(wire, DEFAULT_FRAMES)
