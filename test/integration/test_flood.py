@@ -38,6 +38,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core import scenario
 from formation_control.ops import security, signing
 from formation_control.protocol import names
+from formation_control.protocol.intake import Rejection
 from formation_control.ros import interface as itf
 from formation_control.ros.bag import FleetRecorder
 from formation_control.sim import simulator
@@ -92,7 +93,12 @@ killed every node before :func:`parameters.guard_services`."""
 
 
 def _undecodable(template, msg_type, rng):
-    """Return mutations of the serialized ``template`` that do not deserialize as ``msg_type``."""
+    """
+    Return mutations of the serialized ``template`` that do not deserialize as ``msg_type``.
+
+    Neither as sent nor as a reader gets them (:func:`_padded`): a cut whose lost bytes were
+    zeros arrives as the whole template, a true message.
+    """
     data = serialize_message(template)
     n = len(data)
     out = [rng.bytes(int(m)) for m in rng.integers(1, 2 * n, 6)]
@@ -106,7 +112,8 @@ def _undecodable(template, msg_type, rng):
     out += [data[:m] + rng.bytes(16) for m in (n // 3, n - 2) if m > 0]
     kept = []
     for sample in out:
-        if sample and sample not in kept and not _decodes(sample, msg_type):
+        if sample and sample not in kept and not _decodes(sample, msg_type) \
+                and not _decodes(_padded(sample), msg_type):
             kept.append(sample)
     return kept
 
@@ -211,7 +218,8 @@ def _bad_envelopes(fleet, topic, template, rng):
     Undecodable mutations of a true envelope (no envelope: ``unsigned``), bytes without the
     envelope's mark, the message sealed by a member other than the topic's, and sealed by the
     topic's member for another topic. None is validly signed: one would be data, and its
-    sequence would make the true member's next envelopes replays.
+    sequence would make the true member's next envelopes replays (a cut whose lost bytes were
+    zeros is whole again once padded: left out).
     """
     topic = '/' + topic.lstrip('/')                     # as the receivers resolve it
     signer = signing.signer_for(topic)
@@ -224,9 +232,11 @@ def _bad_envelopes(fleet, topic, template, rng):
                 signing.load_member(fleet / other).signer.seal(topic, payload),
                 true.seal('/vehicle_9/' + topic.rsplit('/', 1)[-1], payload)]
     judge = signing.load_member(fleet / 'plant').verifier
-    reasons = [judge.unseal(topic, _padded(data)).kind for data in samples]
-    assert reasons[-3:] == [signing.UNSIGNED, signing.WRONG_SIGNER, signing.WRONG_TOPIC]
-    return samples, reasons
+    verdicts = [judge.unseal(topic, _padded(data)) for data in samples]
+    kept = [(data, got.kind) for data, got in zip(samples, verdicts) if isinstance(got, Rejection)]
+    assert [kind for _, kind in kept[-3:]] == [signing.UNSIGNED, signing.WRONG_SIGNER,
+                                               signing.WRONG_TOPIC]
+    return [data for data, _ in kept], [kind for _, kind in kept]
 
 
 def _ask_malformed(nodes, everyone):
