@@ -64,6 +64,8 @@ SAMPLE_PERIOD = 5.0
 """Wall seconds between two samples of every process's memory and CPU."""
 WARM_UP = 0.2
 """The fraction of each process's life (its longest-lived pid) before its memory growth counts."""
+SERIES_POINTS = 40
+"""Samples of each process's RSS kept in the report (its curve over the run)."""
 ORPHAN_DEADLINE = 20.0
 
 
@@ -144,8 +146,15 @@ class Sampler:
             out[name] = {'rss_warm_MB': round(rss0, 1), 'rss_end_MB': round(rss1, 1),
                          'growth_pct': round(100 * (rss1 - rss0) / rss0, 1),
                          'cpu_mean_pct': round(statistics.mean(r[4] for r in life[1:] or life), 1),
-                         'pids': len({r[2] for r in rows}), 'samples': len(life)}
+                         'pids': len({r[2] for r in rows}), 'samples': len(life),
+                         'rss_MB': _series(life)}
         return out
+
+
+def _series(life, points=SERIES_POINTS):
+    """Return (t s, RSS MB) of a process's life at about ``points`` evenly spaced samples."""
+    step = max(1, len(life) // points)
+    return [(round(r[0]), round(r[3], 1)) for r in life[::step] + life[-1:]]
 
 
 def reconvergence(run, episodes, duration):

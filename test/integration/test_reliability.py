@@ -192,16 +192,34 @@ def _sub_converged(sc, X, members):
     return metrics.converged(sub, snap)
 
 
-def _assert_reconverged(record, t_kill, t_back):
+def _spans(t, flags):
+    """Return the [start, end] times (s) of each run of True in ``flags``."""
+    edges = np.flatnonzero(np.diff(np.r_[0, flags.astype(int), 0]))
+    return [(round(float(t[a]), 2), round(float(t[b - 1]), 2)) for a, b in edges.reshape(-1, 2)]
+
+
+def _story(run, log=''):
+    """Tell each vehicle's spans of zero command and of a frozen state, for a failed check."""
+    zero = np.all(run.U == 0.0, axis=1)
+    frozen = np.r_[np.zeros((1, run.X.shape[2]), bool),
+                   np.all(np.diff(run.X[:, :2], axis=0) == 0.0, axis=1)]
+    lines = [f'vehicle {i + 1}: zero command {_spans(run.t, zero[:, i])}, frozen '
+             f'{_spans(run.t, frozen[:, i])}' for i in range(run.X.shape[2])]
+    return '\n'.join([f'record t {run.t[0]}..{run.t[-1]} s, {len(run.t)} samples', *lines,
+                      log])
+
+
+def _assert_reconverged(record, t_kill, t_back, log=''):
     """Check the five converged without vehicle 6 (zero command), the six once it is back."""
     run = simulator.load_run(record)
     sc = run.sc
     five = np.array([True] * 5 + [False])
     back = int(np.searchsorted(run.t, t_back - 1.0))
-    assert not _sub_converged(sc, run.X[int(np.searchsorted(run.t, t_kill))], five)
-    assert _sub_converged(sc, run.X[back], five)
-    assert not _sub_converged(sc, run.X[back], np.ones(6, bool))
-    assert _sub_converged(sc, run.X[-1], np.ones(6, bool))
+    story = _story(run, log)
+    assert not _sub_converged(sc, run.X[int(np.searchsorted(run.t, t_kill))], five), story
+    assert _sub_converged(sc, run.X[back], five), story
+    assert not _sub_converged(sc, run.X[back], np.ones(6, bool)), story
+    assert _sub_converged(sc, run.X[-1], np.ones(6, bool)), story
     gone = (run.t > t_kill + 3.0) & (run.t < t_back - 3.0)
     assert np.all(run.U[gone, :, 5] == 0.0)
 
@@ -242,7 +260,9 @@ def test_fleet_reconverges_without_a_killed_vehicle_and_again_when_it_returns(ro
                                       'use_sim_time:=true'))
     plant.wait(timeout=600)
     assert plant.returncode == 0, output(plant)
-    _assert_reconverged(record, t_kill, t_back)
+    logs = [output(plant)[-3000:]] + [f'vehicle {k}: {output(vehicle[k])[-600:]}'
+                                      for k in range(1, 6)]
+    _assert_reconverged(record, t_kill, t_back, '\n'.join(logs))
 
 
 def test_circular_fleet_reconverges_without_a_removed_vehicle_and_again_with_a_new_one(
