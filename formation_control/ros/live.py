@@ -38,7 +38,14 @@ Channels, named as the monitor resolves its topics (absolute: a fleet in ``/flee
 
 ``formation-control layout --namespace NS --world-frame F`` prints the layout of these names.
 Each message is logged at the fleet time of the state it shows (ns).
+
+What a client sends wrong (bytes that are no frame, frames no message of the protocol fits,
+unknown channels) is answered by the servers and logged through Python's logging: those lines
+are taken from :data:`SERVER_LOGGERS` into the node's ``reject`` (:class:`ServerLog`), counted
+under ``live_client`` and logged throttled, so that a flood of bad frames costs a counter.
 """
+import logging
+
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
 from formation_control.protocol.names import BASE_FRAME, WORLD_FRAME
@@ -52,6 +59,10 @@ from rosbags.typesys import get_typestore, Stores
 
 DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
 MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
+SERVER_LOGGERS = ('foxglove', 'websockets', 'tungstenite')
+"""The loggers of the live view's servers: foxglove-sdk (its Rust log included), the relay's."""
+LIVE_CLIENT = 'live_client'
+"""The kind under which the servers' warnings about a client are counted."""
 TF_MESSAGE = 'tf2_msgs/msg/TFMessage'
 TYPES = get_typestore(Stores.ROS2_JAZZY)
 
@@ -78,11 +89,16 @@ class LiveView:
         The world frame of the scene (the monitor's ``world_frame``).
     base : str, optional
         The vehicles' base frames (the monitor's ``base_frame``), for ``/tf``.
+    reject : callable, optional
+        ``reject(kind, text)``, the node's :class:`~formation_control.ros.common.Rejections`:
+        what the servers log about a client goes there (:class:`ServerLog`); printed as it is
+        without.
 
     """
 
-    def __init__(self, node, host, port, frame=WORLD_FRAME, base=BASE_FRAME):
+    def __init__(self, node, host, port, frame=WORLD_FRAME, base=BASE_FRAME, reject=None):
         self.frame, self.base = frame, base
+        self.log = ServerLog(reject) if reject is not None else None
         self.context = foxglove.Context()
         self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
                                             host='127.0.0.1', port=0, context=self.context)
@@ -90,6 +106,7 @@ class LiveView:
             self.relay = Relay(host, port, self.server.port)
         except OSError as err:
             self.server.stop()
+            self._unhook()
             raise UsageError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
                              f'{host}:{port} ({err})') from None
         self.scene = SceneUpdateChannel(node.resolve_topic_name(names.SCENE_TOPIC),
@@ -142,3 +159,39 @@ class LiveView:
     def close(self):
         self.relay.close()
         self.server.stop()
+        self._unhook()
+
+    def _unhook(self):
+        if self.log is not None:
+            self.log.remove()
+            self.log = None
+
+
+class ServerLog(logging.Handler):
+    """
+    The live view servers' warnings, taken from Python's logging into a node's ``reject``.
+
+    Each record at WARNING or above of :data:`SERVER_LOGGERS` becomes
+    ``reject(LIVE_CLIENT, text)``: counted and logged throttled
+    (:class:`~formation_control.ros.common.Rejections`), not printed once per bad frame.
+    """
+
+    def __init__(self, reject):
+        super().__init__(logging.WARNING)
+        self.reject = reject
+        self.kept = []
+        for name in SERVER_LOGGERS:
+            logger = logging.getLogger(name)
+            self.kept.append((logger, logger.propagate))
+            logger.addHandler(self)
+            logger.propagate = False
+
+    def emit(self, record):
+        self.reject(LIVE_CLIENT, f"a live-view client's frame ({record.name}: "
+                                 f'{record.getMessage()[:200]})')
+
+    def remove(self):
+        """Give the loggers back as they were."""
+        for logger, propagate in self.kept:
+            logger.removeHandler(self)
+            logger.propagate = propagate

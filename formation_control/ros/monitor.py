@@ -81,7 +81,8 @@ class MonitorNode(Node):
         self.watch = None
         self.reject = common.Rejections(self.get_logger(),
                                         ('malformed', 'non_finite', 'wrong_frame',
-                                         'foreign_id', 'wrong_kind', 'interface_version'))
+                                         'foreign_id', 'wrong_kind', 'interface_version',
+                                         'live_client'))
         common.clock_bytes(self, self.reject)
         common.subscribe_messages(self, String, names.SCENARIO_TOPIC, self._on_scenario,
                                   self.reject, qos_profile=itf.LATCHED_READER_QOS)
@@ -95,7 +96,7 @@ class MonitorNode(Node):
         if self.p['foxglove_port']:
             from formation_control.ros.live import LiveView
             self.live = LiveView(self, self.p['foxglove_host'], self.p['foxglove_port'],
-                                 self.p['world_frame'], self.p['base_frame'])
+                                 self.p['world_frame'], self.p['base_frame'], self.reject)
             self.get_logger().info(f"Foxglove live view on ws://{self.p['foxglove_host']}:"
                                    f'{self.live.port}')
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,

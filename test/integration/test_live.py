@@ -19,6 +19,7 @@ The server is read by a headless client of the Foxglove WebSocket protocol
 (:mod:`foxglove_client`), which decodes what it receives as the Foxglove app does.
 """
 import cmath
+import contextlib
 import json
 import math
 from pathlib import Path
@@ -244,3 +245,70 @@ def test_foxglove_port_in_use_is_a_clear_error(nodes):
         port = busy.getsockname()[1]
         with pytest.raises(UsageError, match=f'foxglove_port {port}'):
             nodes.monitor(f'foxglove_port:={port}')
+
+
+BAD_FRAMES = [b'>' + bytes(range(40)), 'not json', json.dumps({'op': 'nope'}),
+              json.dumps({'op': 'subscribe', 'subscriptions': [{'id': 2**40, 'channelId': 9}]}),
+              json.dumps({'op': 'subscribe', 'subscriptions': 'x'}),
+              json.dumps({'op': 'unsubscribe', 'subscriptionIds': [5, -1]}),
+              json.dumps({'op': 'advertise', 'channels': [{'id': 1}]}),
+              b'\x01\x07\x00\x00\x00' + bytes(12), b'\x02\x00', '{' * 100_000,
+              json.dumps({'op': 'getParameters', 'parameterNames': [1]})]
+"""Frames no message of the protocol fits: binary of an unknown opcode, text that is no JSON or
+no op, ids out of range, a message for a channel never advertised, a short binary frame."""
+NOT_WEBSOCKET = [bytes(range(256)) * 2, b'GET / HTTP/1.1\r\nHost: x\r\n\r\n',
+                 b'\x16\x03\x01\x02\x00' + bytes(200),
+                 b'GET / HTTP/1.1\r\nX: ' + b'a' * 100_000 + b'\r\n\r\n']
+"""Bytes to the live port that open no WebSocket: noise, HTTP without upgrade, a TLS hello,
+a header too large."""
+FLOOD_ROUNDS = 30
+
+
+def _statuses(fox, timeout):
+    """Read the status messages the server sends until none comes for ``timeout`` s."""
+    got = []
+    while True:
+        try:
+            frame = fox.ws.recv(timeout=timeout)
+        except TimeoutError:
+            return got
+        if isinstance(frame, str) and json.loads(frame)['op'] == 'status':
+            got.append(json.loads(frame))
+
+
+@pytest.mark.parametrize('subprotocol', ['foxglove.sdk.v1', 'foxglove.websocket.v1'])
+def test_a_flood_of_bad_frames_is_answered_counted_and_the_live_view_serves_on(
+        nodes, capfd, subprotocol):
+    """
+    What a client sends wrong is answered (a status), counted and logged throttled.
+
+    foxglove-sdk logs each bad frame through Python's logging: before :class:`live.ServerLog`
+    took those lines, every frame printed one on stderr.
+    """
+    port = _free_port()
+    monitor = nodes.add(MonitorNode(context=nodes.context, cli_args=[
+        '--ros-args', '-p', 'period:=0.0', '-p', f'foxglove_port:={port}']))
+    for data in NOT_WEBSOCKET:
+        with socket.create_connection(('127.0.0.1', port), timeout=5) as raw:
+            raw.sendall(data)
+            with contextlib.suppress(OSError):
+                raw.recv(200)
+    with client(port, subprotocols=[subprotocol]) as fox:
+        for _ in range(FLOOD_ROUNDS):
+            for frame in BAD_FRAMES:
+                fox.ws.send(frame)
+        statuses = _statuses(fox, 1.0)
+    assert len(statuses) == FLOOD_ROUNDS * len(BAD_FRAMES), statuses[:12]
+    assert all(s['level'] == 2 for s in statuses)
+    invalid = sum(s['message'].startswith(('Invalid message', 'Unknown channel'))
+                  for s in statuses)
+    assert nodes.spin_until(lambda: monitor.reject.counts[live_view.LIVE_CLIENT] >= invalid)
+    assert monitor.reject.counts[live_view.LIVE_CLIENT] == invalid
+    with client(port) as fox:
+        fox.wait_advertised(['/' + names.METRICS_TOPIC],
+                            lambda: nodes.spin_until(lambda: True, timeout=0))
+    nodes.spin_until(lambda: False, timeout=1.0)                # the log lines arrive
+    lines = [m.msg for m in nodes.rosout if m.name == monitor.get_name()]
+    assert len(lines) <= 5, lines
+    err = capfd.readouterr().err.splitlines()
+    assert len([e for e in err if 'Invalid message' in e]) <= 3, err[-20:]
