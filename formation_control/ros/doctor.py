@@ -30,16 +30,14 @@ from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core.scenario import PARAMETER_NAMES, resolve, ScenarioError
 from formation_control.ops import doctor
 from formation_control.protocol import intake, messages, names
-from formation_control.protocol.intake import Rejection
 from formation_control.ros import interface as itf
-from formation_control.ros.common import Rejections, subscribe_messages
+from formation_control.ros.common import Rejections, subscribe, subscribe_messages
 from formation_control_msgs.msg import FormationState
 from rcl_interfaces.srv import GetParameters
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import qos_check_compatible
-from rclpy.serialization import deserialize_message
 from std_msgs.msg import String
 
 ENVIRONMENT = ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY',
@@ -58,6 +56,10 @@ def _python(value):
     return v if isinstance(v, (str, bool, int, float)) else list(v)
 
 
+STATE_REFUSALS = (intake.MALFORMED, intake.FOREIGN_ID, intake.WRONG_FRAME, intake.VERSION)
+"""What the doctor counts of what it refuses (:func:`intake.formation_state`, the scenario)."""
+
+
 class Gatherer:
     """The doctor's node in ``namespace`` on ``context``, spun by ``executor`` (None: its own)."""
 
@@ -68,7 +70,7 @@ class Gatherer:
         self.executor = SingleThreadedExecutor(context=context) if self.own else executor
         self.executor.add_node(self.node)
         self.me = self.node.get_fully_qualified_name()
-        self.reject = Rejections(self.node.get_logger(), ['malformed'])
+        self.reject = Rejections(self.node.get_logger(), STATE_REFUSALS)
 
     def spin_until(self, predicate, timeout):
         end = time.monotonic() + timeout
@@ -123,10 +125,10 @@ class Gatherer:
     def _listen(self, facts, sc, seconds):
         for k, topic in facts.state_topics.items():
             stream = facts.streams[topic] = doctor.Stream()
-            rule = intake.formation_state(messages.StateWire.of(sc, k))
-            self.node.create_subscription(FormationState, topic,
-                                          lambda data, s=stream, r=rule: self._heard(s, r, data),
-                                          raw=True, qos_profile=itf.STATE_QOS)
+            subscribe(self.node, FormationState, topic,
+                      intake.formation_state(messages.StateWire.of(sc, k)),
+                      lambda kind, what, s=stream: self._refused(s, kind, what),
+                      lambda got, s=stream: self._heard(s, got))
         subscribe_messages(self.node, DiagnosticArray, self.node.resolve_topic_name(
             names.DIAGNOSTICS_TOPIC), lambda msg: self._clocked(facts, msg), self.reject,
             qos_profile=itf.STREAM_QOS)
@@ -142,12 +144,12 @@ class Gatherer:
             if who is not None:
                 facts.clock_lags.setdefault(who, []).append(lag)
 
+    def _refused(self, stream, kind, what):
+        stream.refused = what
+        self.reject(kind, what)
+
     @staticmethod
-    def _heard(stream, rule, data):
-        got = rule(data, lambda raw: deserialize_message(raw, FormationState))
-        if isinstance(got, Rejection):
-            stream.refused = got.what
-            return
+    def _heard(stream, got):
         stream.count += 1
         stream.hears = dict(got.hears)
 
@@ -166,7 +168,7 @@ class Gatherer:
         topic = node.resolve_topic_name(names.SCENARIO_TOPIC)
         box = []
         subscribe_messages(node, String, topic, box.append, self.reject,
-                           qos_profile=itf.LATCHED_QOS)
+                           qos_profile=itf.LATCHED_READER_QOS)
         self.spin_until(lambda: box, discover)
         if not box:
             self._graph(facts, topic)

@@ -103,10 +103,10 @@ class FleetTuner:
         self.node, self.executor = node, executor
         self.prefix = names.namespace_prefix(namespace)
         self.announced = []
+        self.reject = Rejections(node.get_logger(), ['malformed'])
         subscribe_messages(node, String, self.prefix + names.SCENARIO_TOPIC,
-                           lambda msg: self.announced.append(msg.data),
-                           Rejections(node.get_logger(), ['malformed']),
-                           qos_profile=itf.LATCHED_QOS)
+                           lambda msg: self.announced.append(msg.data), self.reject,
+                           qos_profile=itf.LATCHED_READER_QOS)
 
     def spin_until(self, predicate, timeout):
         end = time.monotonic() + timeout

@@ -382,3 +382,59 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
     err = capfd.readouterr().err
     assert not [e for e in MIDDLEWARE_ERRORS if e in err], err[-2000:]
     assert len(err.splitlines()) <= LOG_BOUND * len(everyone), err[-2000:]
+
+
+def test_the_doctor_and_set_count_a_flood_and_still_read_the_fleet(nodes, tmp_path, capfd):
+    """
+    The tools' subscriptions under a flood: the doctor's and ``formation-control set``'s.
+
+    While the doctor listens, the flooder sends undecodable samples on the fleet's latched
+    scenario and on each vehicle's formation_state; ``set``'s tuner heard the scenario's. Each
+    counts every sample as ``malformed``, the doctor still reads the scenario and each
+    vehicle's states, and the tuner still sets the vehicles' parameters.
+    """
+    from formation_control.ros.doctor import Gatherer
+    from formation_control.ros.tuning import FleetTuner
+    from formation_control_msgs.msg import FormationState
+    from rclpy.parameter import Parameter as Param
+    cfg, n = CONFIG / 'particle_circular.yaml', 2
+    sc = scenario.load(cfg, [f'num_vehicles:={n}'])
+    nodes.plant(cfg, f'num_vehicles:={n}', 'exit_when_done:=false')
+    for k in range(1, n + 1):
+        nodes.vehicle(k, cfg, f'num_vehicles:={n}')
+    rng = np.random.default_rng(7)
+    state_qos = {'reliability': 'RELIABLE', 'durability': 'TRANSIENT_LOCAL', 'depth': 1000}
+    topics = [{'topic': '/' + names.SCENARIO_TOPIC, 'type': 'std_msgs/msg/String',
+               'matches': n + 2, **state_qos,
+               'samples': [s.hex() for s in _undecodable(itf.scenario_msg(sc), String, rng)]}]
+    for k in range(1, n + 1):
+        samples = _undecodable(itf.state_msg(k, 0, X, (complex(1.0, 2.0), 0.3, 0.2, 1.0)),
+                               FormationState, rng)
+        topics.append({'topic': names.topic(k, 'formation_state'),
+                       'type': 'formation_control_msgs/msg/FormationState',
+                       'matches': n, **state_qos, 'samples': [s.hex() for s in samples]})
+    plan = tmp_path / 'plan.json'
+    plan.write_text(json.dumps(topics))
+    capfd.readouterr()
+    tuner = FleetTuner(nodes.node, nodes.executor)
+    gatherer = Gatherer('/', nodes.context, nodes.executor)
+    flooder = Flooder(plan, dict(os.environ, ROS_DOMAIN_ID=str(nodes.context.get_domain_id())))
+    try:
+        facts = gatherer.gather(listen=4.0, discover=20.0)
+        assert nodes.spin_until(lambda: flooder.proc.poll() is not None, timeout=60)
+        assert flooder.proc.returncode == 0, flooder.lines
+        sent = json.loads(flooder.lines[-1])
+        results = tuner.apply([Param('kappa', value=3.0)])
+    finally:
+        gatherer.close()
+        flooder.close()
+    on_scenario = len(sent['/' + names.SCENARIO_TOPIC])
+    assert tuner.reject.counts['malformed'] == on_scenario
+    assert gatherer.reject.counts['malformed'] == sum(len(v) for v in sent.values())
+    assert results == {f'/vehicle_{k}': None for k in range(1, n + 1)}
+    assert facts.scenario['num_vehicles'] == n
+    assert all(facts.streams['/' + names.topic(k, 'formation_state')].count > 0
+               for k in range(1, n + 1)), facts.streams
+    err = capfd.readouterr().err
+    assert not [e for e in MIDDLEWARE_ERRORS if e in err], err[-2000:]
+    assert len(err.splitlines()) <= 3 * LOG_BOUND, err[-2000:]
