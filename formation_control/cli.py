@@ -233,7 +233,13 @@ def load_source(path):
     """Return the run of a simulator/plant ``.npz`` or of a rosbag2 bag directory."""
     if Path(path).is_dir() and (Path(path) / 'metadata.yaml').exists():
         from formation_control.bags import reader as bagfile  # only bags need rosbags
-        return bagfile.read_run(path)
+        run = bagfile.read_run(path)
+        skipped = run.meta['skipped']
+        if skipped:
+            print(f'{path}: left out {sum(skipped.values())} samples no node takes '
+                  f'(undecodable or not finite): '
+                  + ', '.join(f'{t} {n}' for t, n in sorted(skipped.items())), file=sys.stderr)
+        return run
     if Path(path).is_file():
         try:
             return simulator.load_run(path)

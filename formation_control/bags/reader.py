@@ -21,8 +21,12 @@ formation_control_msgs types are decoded by the definitions the bag carries
 (:mod:`formation_control.bags.schemas`). A bag of another interface version is refused with the
 version that wrote it: those of formation_control before formation_control_msgs (JointState
 formation states and metrics, WrenchStamped commands) are interface version 0.
+
+A bag holds what its recorder received, a flood's bytes too: a sample no message of its type
+fits is left out, and so is an odometry or command with a non-finite value (what the nodes
+refuse, :mod:`formation_control.protocol.intake`); :func:`read_run` counts them.
 """
-from collections import defaultdict
+from collections import Counter, defaultdict
 import json
 
 from formation_control.bags import schemas
@@ -41,9 +45,12 @@ LEGACY = {'sensor_msgs/msg/JointState', 'geometry_msgs/msg/WrenchStamped'}
 """The stand-ins of interface version 0 for the formation states, commands and metrics."""
 
 
-def messages(path, topics):
+def messages(path, topics, skipped=None):
     """
     Yield (topic, message) for ``topics`` in a bag, in recorded order.
+
+    A sample no message of its topic's type fits is left out, counted in ``skipped`` (a
+    :class:`collections.Counter` by topic) when given.
 
     Raises
     ------
@@ -60,7 +67,12 @@ def messages(path, topics):
             if conn.msgtype in LEGACY and not conn.topic.endswith('/diagnostics'):
                 _refuse(path, conn.topic, 0, f'its type {conn.msgtype}')
         for conn, _, data in reader.messages(connections=conns):
-            msg = store.deserialize_cdr(data, conn.msgtype)
+            try:
+                msg = store.deserialize_cdr(data, conn.msgtype)
+            except Exception:           # what the bytes make rosbags raise: struct, index, ...
+                if skipped is not None:
+                    skipped[conn.topic] += 1
+                continue
             version = getattr(msg, 'interface_version', INTERFACE_VERSION)
             if version != INTERFACE_VERSION:
                 _refuse(path, conn.topic, version, 'its interface_version')
@@ -109,7 +121,8 @@ def read_run(path):
     -------
     simulator.Run
         Every ``record_dt`` (and the last) of the steps at which every vehicle's odometry is
-        present, with each vehicle's latest command at that time.
+        present, with each vehicle's latest command at that time; its ``meta['skipped']`` is
+        {topic: samples left out} (undecodable, or an odometry or command not finite).
 
     Raises
     ------
@@ -125,13 +138,21 @@ def read_run(path):
     odom = defaultdict(dict)
     cmds = [[] for _ in range(n)]
     field = Flowfield(sc)
-    for topic, msg in messages(path, set(index) | set(cmd_index)):
+    skipped = Counter()
+    for topic, msg in messages(path, set(index) | set(cmd_index), skipped):
         if topic in index:
             pos = msg.pose.pose.position
-            flow = complex(field(_stamp(msg) * 1e-9, pos.x, pos.y))    # lockstep stamps: t
-            odom[_stamp(msg)][index[topic]] = state_from_odom(msg, flow, sc.model)
+            with np.errstate(invalid='ignore'):
+                flow = complex(field(_stamp(msg) * 1e-9, pos.x, pos.y))  # lockstep stamps: t
+            value = state_from_odom(msg, flow, sc.model)
         else:
-            cmds[cmd_index[topic]].append((_stamp(msg), input_from_cmd(msg, sc.model)))
+            value = np.asarray(input_from_cmd(msg, sc.model))
+        if not np.all(np.isfinite(value)):
+            skipped[topic] += 1
+        elif topic in index:
+            odom[_stamp(msg)][index[topic]] = value
+        else:
+            cmds[cmd_index[topic]].append((_stamp(msg), value))
     stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)
     if stamps.size == 0:
         raise UsageError(f'{path}: no step with the odometry of all {n} vehicles')
@@ -148,7 +169,7 @@ def read_run(path):
         U[at >= 0, :, k] = values[at[at >= 0]]
     if sc.model == 'first_order':
         X[:, ROW_OMEGA] = U[:, 1]
-    return Run(sc, steps * sc.dt_control, X, U, {'source': str(path)})
+    return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)})
 
 
 def metrics(path):

@@ -35,6 +35,7 @@ import sys
 import threading
 
 from diagnostic_msgs.msg import DiagnosticArray
+from formation_control.bags import reader as bagfile
 from formation_control.core import scenario
 from formation_control.ops import security, signing
 from formation_control.protocol import names
@@ -369,6 +370,14 @@ def test_a_flood_of_malformed_samples_is_counted_and_never_taken_for_data(nodes,
             assert deep[kind] <= count <= deep[kind] + shallow[kind], (
                 node.get_name(), kind, counts, deep, shallow)
     assert_equal_runs(simulator.load_run(record), offline_run(cfg, overrides))
+    nodes.remove(recorder)
+    recorder.close()
+    bagged = bagfile.read_run(tmp_path / 'bag')
+    read = simulator.load_run(record)
+    flooded = {'/' + t: len(i) for t, i in sent.items() if t.endswith(('/odom', '/cmd'))}
+    assert bagged.meta['skipped'] == flooded
+    assert np.array_equal(bagged.t, read.t)
+    np.testing.assert_allclose(bagged.X, read.X, rtol=0, atol=1e-9)
     published = [(name, 'malformed', node.reject.counts['malformed'])
                  for node, name in [(plant, 'formation_control/plant')] + [
                      (v, f'formation_control/vehicle_{v.k}/links') for v in vehicles]]
