@@ -226,9 +226,45 @@ def formation_level(t: float, since: float | None, converge_within: float) -> tu
     return OK, 'converging'
 
 
+HISTORY = 16
+"""Odometry samples and commands kept per vehicle, so that a sample takes each vehicle's as of
+its stamp: a monitor that joins late gets each vehicle's last samples at once (transient local),
+one vehicle after the other, and vehicle 1 is steps ahead when vehicle 2's first one arrives."""
+
+
+class History:
+    """
+    The last :data:`HISTORY` values (``rows`` each) of each of ``n`` vehicles, with their stamps.
+
+    :meth:`as_of` reads, for each vehicle, its latest value stamped at or before a time.
+    """
+
+    def __init__(self, rows: int, n: int, depth: int = HISTORY) -> None:
+        self.ns = np.full((depth, n), -1, np.int64)
+        self.values = np.full((depth, rows, n), np.nan)
+        self.head = np.zeros(n, int)
+
+    def add(self, i: int, ns: int, value: ArrayLike) -> None:
+        """Keep vehicle ``i``'s (0-based) ``value`` stamped ``ns``, over its oldest."""
+        h = self.head[i]
+        self.ns[h, i], self.values[h, :, i] = ns, value
+        self.head[i] = (h + 1) % len(self.ns)
+
+    def as_of(self, ns: int, latest: RealArray) -> RealArray:
+        """Return (rows, n): each vehicle's last value stamped at most ``ns``, else ``latest``."""
+        stamps = np.where(self.ns <= ns, self.ns, -1)
+        best = stamps.argmax(axis=0)
+        found = np.flatnonzero(stamps[best, np.arange(stamps.shape[1])] >= 0)
+        out = np.array(latest, float)
+        out[:, found] = self.values[best[found], :, found].T
+        return out
+
+
 class Watch:
     """
     The monitor's view of one fleet: its latest odometry and commands, what it heard when.
+
+    A sample stamped t takes each vehicle's state and command as of t (:class:`History`).
 
     Parameters
     ----------
@@ -253,6 +289,7 @@ class Watch:
         self.clock, self.stale, self.converge_within = clock, stale_timeout, converge_within
         self.X = np.full((6, n), np.nan)
         self.U = np.zeros((2, n))
+        self.past = {'X': History(6, n), 'U': History(2, n)}
         self.heard = {stream: np.full(n, np.nan) for stream in STREAMS}
         self.started = clock()
         self.sampling = Sampling(n, period)
@@ -283,11 +320,14 @@ class Watch:
     def odom(self, k: int, x: ArrayLike, ns: int) -> bool:
         """Note vehicle k's state ``x`` stamped ``ns``; return whether to sample now."""
         self.X[:, k - 1] = x
+        self.past['X'].add(k - 1, ns, x)
         self.heard['odom'][k - 1] = self.clock()
         return self.sampling.odom(k - 1, ns)
 
-    def cmd(self, k: int, u: ArrayLike) -> None:
+    def cmd(self, k: int, u: ArrayLike, ns: int) -> None:
+        """Note vehicle k's command ``u`` stamped ``ns`` (the odometry it answers)."""
         self.U[:, k - 1] = u
+        self.past['U'].add(k - 1, ns, u)
         self.heard['cmd'][k - 1] = self.clock()
 
     def state(self, k: int, hears: Mapping[int, bool]) -> None:
@@ -314,16 +354,16 @@ class Watch:
             The metrics and whether the convergence latch changed.
 
         """
-        snap = metrics.snapshot(self.ctrl, self.X, self.U, self.t)
+        X, U = self.past['X'].as_of(ns, self.X), self.past['U'].as_of(ns, self.U)
+        snap = metrics.snapshot(self.ctrl, X, U, self.t)
         fresh, live = self.live_graph()
         self.values = {**snap.values(), 'live_links': float(len(live)),
                        'algebraic_connectivity': graphs.connectivity(fresh, live)}
-        self.shown = ns, self.t, self.X.copy(), self.U.copy()
-        self.trails.add(position(self.X))
-        flow = self.flow(self.X[ROW_X], self.X[ROW_Y])
-        self.vehicle_ok = metrics.vehicles_converged(self.ctrl,
-                                                     self.ctrl.view(self.X, self.U[1], flow))
-        self.saturated = self.ctrl.saturated(self.U)
+        self.shown = ns, self.t, X, U
+        self.trails.add(position(X))
+        flow = self.flow(X[ROW_X], X[ROW_Y])
+        self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(X, U[1], flow))
+        self.saturated = self.ctrl.saturated(U)
         return self.values, self.latch.update(bool(metrics.converged(self.sc, snap)), self.t)
 
     def vehicle_status(self, i: int) -> Status:

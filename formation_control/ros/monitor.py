@@ -162,7 +162,7 @@ class MonitorNode(Node):
         u = np.array(messages.input_from_cmd_values(got[1], self.sc.model))
         if not np.all(np.isfinite(u)):
             return self.reject('non_finite', f'a non-finite command of vehicle {k}')
-        self.watch.cmd(k, u)
+        self.watch.cmd(k, u, got[0])
 
     def _on_odom(self, k, got):
         ns, values = got

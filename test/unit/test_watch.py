@@ -118,6 +118,30 @@ def test_a_sample_waits_for_an_odometry_of_every_vehicle_from_the_period():
     assert not sampling.odom(0, 140 * MS)                  # the next is due at 0.22 s
 
 
+def test_a_sample_takes_each_vehicles_state_and_command_as_of_its_stamp(clock):
+    """A monitor joining late gets vehicle 1's last samples before vehicle 2's first."""
+    sc = _scenario(num_vehicles=2)
+    w = _watch(sc, clock)
+    X = _aligned(2)
+    for n in range(10):
+        x = X[:, 0] + [0.02 * n, 0, 0, 0, 0, 0]
+        assert not w.odom(1, x, n * 20 * MS)
+        w.cmd(1, [0.0, 0.1 * n], n * 20 * MS)
+    assert w.odom(2, X[:, 1], 0)
+    w.sample(0)
+    _, _, shown_X, shown_U = w.shown
+    np.testing.assert_array_equal(shown_X, X)
+    assert shown_U[1, 0] == 0.0
+    assert w.odom(2, X[:, 1], 20 * MS)
+    w.sample(20 * MS)
+    assert w.shown[2][ROW_X, 0] == X[ROW_X, 0] + 0.02 and w.shown[3][1, 0] == 0.1
+    held = watch.History(1, 1, depth=2)
+    for n in (1, 2, 3):
+        held.add(0, n, [n])
+    assert held.as_of(0, np.array([[9.0]]))[0, 0] == 9.0      # older than all it keeps
+    assert held.as_of(2, np.array([[9.0]]))[0, 0] == 2.0
+
+
 def test_with_period_0_every_step_is_sampled_and_times_count_from_the_first():
     sampling = watch.Sampling(1, period=0.0)
     assert sampling.odom(0, 5000 * MS) and sampling.t == 0.0
@@ -162,7 +186,7 @@ def test_a_vehicle_unheard_goes_stale_from_the_start_of_the_watch(clock):
     w = _watch(_scenario(num_vehicles=2), clock)
     clock.t += 1.0
     w.odom(1, _aligned(2)[:, 0], 0)
-    w.cmd(1, np.zeros(2))
+    w.cmd(1, np.zeros(2), 0)
     w.state(1, {})
     clock.t += 1.5
     name, level, message, values = w.vehicle_status(1)
