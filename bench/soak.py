@@ -23,7 +23,8 @@ a kill (its restart 10 s later), a restart, a freeze (SIGSTOP, SIGCONT 5 s later
 link (5 s). Reported: each fault applied and recovered (the process started again, continued
 or the link mended), the fleet's reconvergence time after each (the first time from which the
 whole fleet holds the convergence test until the next fault, from the fault's start), every
-process's memory (RSS) and CPU over time (growth after warm-up), no process left after the
+process's memory (RSS) and CPU over time (growth from warm-up to the run's end, the plant's
+exit; the peak, and the RSS at the process's own exit apart), no process left after the
 end, the bag complete (closed, every fault on ``/formation/faults``).
 
 ``startup``: ``--repeat`` lockstep starts of ``particle_circular`` with N vehicles,
@@ -46,6 +47,7 @@ ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; bench/ is not in CI's suite.
 import argparse
 import itertools
 import json
+import math
 import os
 from pathlib import Path
 import random
@@ -133,18 +135,34 @@ class Sampler:
             except psutil.Error:
                 continue
 
-    def table(self):
-        """Per process name: RSS after warm-up and at the end, growth %, mean CPU %."""
+    def lives(self):
+        """Per process name, the samples of its longest-lived pid."""
         out = {}
         for name in sorted({r[1] for r in self.rows if r[1]}):
             rows = [r for r in self.rows if r[1] == name]
             pid = max({r[2] for r in rows}, key=lambda p: sum(r[2] == p for r in rows))
-            life = [r for r in rows if r[2] == pid]
-            born, died = life[0][0], life[-1][0]
-            warm = [r for r in life if r[0] >= born + WARM_UP * (died - born)] or life
+            out[name] = (rows, [r for r in rows if r[2] == pid])
+        return out
+
+    def table(self):
+        """
+        Per process name: RSS after warm-up and at the run's end, growth %, mean CPU %.
+
+        The run ends when the plant exits; what a process does after (the swarm closing the
+        bag, reading the record for its summary) is its exit: ``rss_exit_MB``, apart.
+        """
+        lives = self.lives()
+        run_end = lives['plant'][1][-1][0] if 'plant' in lives else math.inf
+        out = {}
+        for name, (rows, life) in lives.items():
+            born, died = life[0][0], min(life[-1][0], run_end)
+            running = [r for r in life if r[0] <= died] or life
+            warm = [r for r in running if r[0] >= born + WARM_UP * (died - born)] or running
             rss0, rss1 = warm[0][3], warm[-1][3]
             out[name] = {'rss_warm_MB': round(rss0, 1), 'rss_end_MB': round(rss1, 1),
                          'growth_pct': round(100 * (rss1 - rss0) / rss0, 1),
+                         'rss_peak_MB': round(max(r[3] for r in warm), 1),
+                         'rss_exit_MB': round(life[-1][3], 1),
                          'cpu_mean_pct': round(statistics.mean(r[4] for r in life[1:] or life), 1),
                          'pids': len({r[2] for r in rows}), 'samples': len(life),
                          'rss_MB': _series(life)}
