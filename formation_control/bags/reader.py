@@ -144,15 +144,13 @@ def read_run(path):
             pos = msg.pose.pose.position
             with np.errstate(invalid='ignore'):
                 flow = complex(field(_stamp(msg) * 1e-9, pos.x, pos.y))  # lockstep stamps: t
-            value = state_from_odom(msg, flow, sc.model)
+            x = state_from_odom(msg, flow, sc.model)
+            if _finite(x, topic, skipped):
+                odom[_stamp(msg)][index[topic]] = x
         else:
-            value = np.asarray(input_from_cmd(msg, sc.model))
-        if not np.all(np.isfinite(value)):
-            skipped[topic] += 1
-        elif topic in index:
-            odom[_stamp(msg)][index[topic]] = value
-        else:
-            cmds[cmd_index[topic]].append((_stamp(msg), value))
+            u = input_from_cmd(msg, sc.model)
+            if _finite(u, topic, skipped):
+                cmds[cmd_index[topic]].append((_stamp(msg), u))
     stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)
     if stamps.size == 0:
         raise UsageError(f'{path}: no step with the odometry of all {n} vehicles')
@@ -170,6 +168,14 @@ def read_run(path):
     if sc.model == 'first_order':
         X[:, ROW_OMEGA] = U[:, 1]
     return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)})
+
+
+def _finite(value, topic, skipped):
+    """Return whether ``value`` is finite; count it in ``skipped`` under ``topic`` if not."""
+    if np.all(np.isfinite(value)):
+        return True
+    skipped[topic] += 1
+    return False
 
 
 def metrics(path):

@@ -85,20 +85,19 @@ class LiveView:
         Address to listen on.
     port : int
         TCP port (1..65535).
+    reject : callable
+        ``reject(kind, text)``, the node's :class:`~formation_control.ros.common.Rejections`:
+        what the servers log about a client goes there (:class:`ServerLog`).
     frame : str, optional
         The world frame of the scene (the monitor's ``world_frame``).
     base : str, optional
         The vehicles' base frames (the monitor's ``base_frame``), for ``/tf``.
-    reject : callable, optional
-        ``reject(kind, text)``, the node's :class:`~formation_control.ros.common.Rejections`:
-        what the servers log about a client goes there (:class:`ServerLog`); printed as it is
-        without.
 
     """
 
-    def __init__(self, node, host, port, frame=WORLD_FRAME, base=BASE_FRAME, reject=None):
+    def __init__(self, node, host, port, reject, frame=WORLD_FRAME, base=BASE_FRAME):
         self.frame, self.base = frame, base
-        self.log = ServerLog(reject) if reject is not None else None
+        self.log = ServerLog(reject)
         self.context = foxglove.Context()
         self.server = foxglove.start_server(name=node.get_fully_qualified_name(),
                                             host='127.0.0.1', port=0, context=self.context)
@@ -106,7 +105,7 @@ class LiveView:
             self.relay = Relay(host, port, self.server.port)
         except OSError as err:
             self.server.stop()
-            self._unhook()
+            self.log.remove()
             raise UsageError(f'foxglove_port {port}: cannot serve the Foxglove live view on '
                              f'{host}:{port} ({err})') from None
         self.scene = SceneUpdateChannel(node.resolve_topic_name(names.SCENE_TOPIC),
@@ -159,12 +158,7 @@ class LiveView:
     def close(self):
         self.relay.close()
         self.server.stop()
-        self._unhook()
-
-    def _unhook(self):
-        if self.log is not None:
-            self.log.remove()
-            self.log = None
+        self.log.remove()
 
 
 class ServerLog(logging.Handler):

@@ -96,7 +96,7 @@ class MonitorNode(Node):
         if self.p['foxglove_port']:
             from formation_control.ros.live import LiveView
             self.live = LiveView(self, self.p['foxglove_host'], self.p['foxglove_port'],
-                                 self.p['world_frame'], self.p['base_frame'], self.reject)
+                                 self.reject, self.p['world_frame'], self.p['base_frame'])
             self.get_logger().info(f"Foxglove live view on ws://{self.p['foxglove_host']}:"
                                    f'{self.live.port}')
         self.create_timer(self.p['diagnostics_period'], self.publish_diagnostics,
