@@ -29,12 +29,14 @@ TF2_BUILD := $(VENV)/build/tf2_msgs
 TF2_STAMP := $(VENV)/.installed-tf2_msgs
 TF2_SOURCES := $(TF2)/msg/TFMessage.msg $(TF2)/CMakeLists.txt $(TF2)/package.xml \
 	tools/rosidl_wheel_includes.cmake
-# cmake, a C++ compiler and the Python headers, checked before anything is installed.
+# cmake, a C and a C++ compiler and the Python headers, checked before anything is installed:
+# the package's RK4 kernel (formation_control/core/_rk4.c) is C, $(MSGS) and $(TF2) C++.
 CHECK_BUILD_TOOLS := command -v cmake >/dev/null && command -v "$${CXX:-c++}" >/dev/null && \
+	command -v "$${CC:-cc}" >/dev/null && \
 	$(PYTHON) -c 'import os, sys, sysconfig; \
 	sys.exit(not os.path.exists(sysconfig.get_paths()["include"] + "/Python.h"))' || \
-	{ echo 'make setup: building $(MSGS) and $(TF2) needs cmake, a C++ compiler and the Python headers:' \
-	'install them (Debian/Ubuntu: sudo apt-get install cmake g++ python3-dev)'; exit 1; }
+	{ echo 'make setup: building the RK4 kernel, $(MSGS) and $(TF2) needs cmake, C and C++ compilers and the Python headers:' \
+	'install them (Debian/Ubuntu: sudo apt-get install cmake gcc g++ python3-dev)'; exit 1; }
 # The real ros2 command line (ros2cli, launch, launch_ros as wheels: not on PyPI), installed
 # into the venv when present, so that the tests with `ros2` run; without it they skip, unless
 # a ros2 of a Jazzy installation is on PATH.
@@ -50,7 +52,7 @@ setup: $(STAMP) $(MSGS_STAMP) $(TF2_STAMP)
 # pip, setuptools and wheel at their pins first: the package is built with them
 # (--no-build-isolation), not with whatever setuptools is newest. check_pins.py fails if a
 # dependency of the package is not pinned in constraints.txt.
-$(STAMP): setup.py package.xml $(CONSTRAINTS)
+$(STAMP): setup.py package.xml $(CONSTRAINTS) formation_control/core/_rk4.c
 	@$(CHECK_BUILD_TOOLS)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -c $(CONSTRAINTS) pip setuptools wheel

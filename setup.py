@@ -14,7 +14,7 @@
 
 from glob import glob
 
-from setuptools import find_packages, setup
+from setuptools import Extension, find_packages, setup
 
 package_name = 'formation_control'
 
@@ -82,10 +82,16 @@ docs_requires = ['sphinx', 'myst-parser', 'numpydoc']   # docs/conf.py, make doc
 bench_requires = ['pytest-benchmark']                   # bench/suite: make bench, bench-compare
 aircraft_requires = ['jsbsim']                          # plant_backend: jsbsim (core/aircraft.py)
 
+# The compiled RK4 of core/models.py (core/_rk4.c: C99 and the Python headers, no numpy headers).
+# -ffp-contract=off: no fused multiply-add, so that every instruction set gives the same numbers.
+rk4 = Extension('formation_control.core._rk4', ['formation_control/core/_rk4.c'],
+                extra_compile_args=['-O3', '-ffp-contract=off', '-std=gnu99'])
+
 setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
+    ext_modules=[rk4],
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
@@ -99,7 +105,7 @@ setup(
                     'test': test_requires, 'docs': docs_requires,
                     'msgs-build': msgs_build_requires, 'bench': bench_requires,
                     'aircraft': aircraft_requires},
-    zip_safe=True,
+    zip_safe=False,
     maintainer='formation_control developers',
     maintainer_email='dev@formation-control.local',
     description='Backstepping formation control of vehicle fleets in a flowfield (ROS 2).',

@@ -17,7 +17,8 @@ Compare the tracked benchmarks (bench/suite) of a base commit with the work tree
 
 The base commit's tree is exported (``git archive``) into a temporary directory and timed with
 the work tree's benchmark definitions, ``PYTHONPATH`` pointing at it, then the work tree the
-same way, alternately ``--repeat`` times (a load that drifts then weighs on both alike). Prints
+same way, alternately ``--repeat`` times (a load that drifts then weighs on both alike); the
+compiled modules of both trees (the RK4 kernel) are built in place first. Prints
 each benchmark's median over the repeats of its medians, base and now, their ratio, and flags
 a ratio above 1 + threshold as a regression (exit status 1). A benchmark the base cannot run
 (a function it does not have yet) is listed as new.
@@ -56,10 +57,17 @@ def timed(tree, out, pytest_args):
 
 
 def export(rev, into):
-    """Write the tree of commit ``rev`` into the directory ``into``."""
+    """Write the tree of commit ``rev`` into the directory ``into``, its extensions built."""
     archive = subprocess.run(['git', '-C', str(ROOT), 'archive', rev], check=True,
                              capture_output=True).stdout
     subprocess.run(['tar', '-x', '-C', str(into)], input=archive, check=True)
+    build(into)
+
+
+def build(tree):
+    """Build the compiled modules of ``tree`` in place (the RK4 kernel; none before it)."""
+    subprocess.run([sys.executable, 'setup.py', '-q', 'build_ext', '--inplace'], cwd=tree,
+                   check=True, capture_output=True)
 
 
 def report(base, now, threshold):
@@ -102,6 +110,7 @@ def main():
         tree = Path(tmp) / 'base'
         tree.mkdir()
         export(args.base, tree)
+        build(ROOT)
         runs = {'base': [], 'now': []}
         for i in range(args.repeat):
             for key, where in (('base', tree), ('now', ROOT)):

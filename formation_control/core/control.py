@@ -101,9 +101,12 @@ def particle_view(X: RealArray, flow: complex | ComplexArray,
         f / V, s and the steady part of s' V times theirs, and v = V e^{i theta} + f.
 
     """
+    w = X[ROW_OMEGA]
+    if jet is None and not np.any(flow):                   # (1.3): the heading is the phase
+        return laws.View(position(X), np.array(X[ROW_THETA], float), np.array(w, float),
+                         np.full(np.shape(w), float(speed)), np.zeros(np.shape(w)))
     f = flow if speed == 1.0 else flow / speed
     s, gamma, g = particle_speed_terms(X[ROW_THETA], f)
-    w = X[ROW_OMEGA]
     e = np.exp(1j * X[ROW_THETA])
     s_dot = inner(f, 1j * e) * w / s
     if speed != 1.0:
@@ -140,6 +143,8 @@ def body_rate_from_inertial(w: RealArray, theta: RealArray,
         ``w_k / g`` in a uniform steady flow.
 
     """
+    if jet is None and not np.any(flow):                   # g = 1
+        return np.array(w, float)
     g = particle_speed_terms(theta, flow)[2]
     if jet is None:
         return w / g
@@ -178,6 +183,8 @@ def body_accel_from_inertial(lam: RealArray, theta: RealArray,
         (5.4).
 
     """
+    if jet is None and not np.any(flow):                   # (5.4) with f = 0: a = lambda
+        return np.array(lam, float)
     e = np.exp(1j * theta)
     v = e + flow
     s2 = abs(v) ** 2
@@ -254,15 +261,16 @@ def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
 
     """
     r = position(X)
-    vel = ground_velocity(X, flow)
+    rel = X[ROW_U] + 1j * X[ROW_V]
+    turn = np.exp(1j * X[ROW_THETA])
+    vel = rel * turn + flow                                                # (8.1)
     speed = abs(vel)
     if use_heading:
         return laws.View(r, X[ROW_THETA], X[ROW_OMEGA], speed, np.zeros_like(speed))
     if not full:
         return laws.View(r, np.angle(vel), X[ROW_OMEGA], speed, np.zeros_like(speed))
     du, dv, _ = body_accel(X, U_applied, plant)
-    rel = X[ROW_U] + 1j * X[ROW_V]
-    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * rel) * np.exp(1j * X[ROW_THETA])   # r''
+    acc = (du + 1j * dv + 1j * X[ROW_OMEGA] * rel) * turn                   # r''
     if jet is not None:
         acc = acc + jet.rate(vel)
     rate = inner(1j * vel, acc) / speed ** 2
@@ -532,8 +540,8 @@ class Controller:
         Returns
         -------
         ndarray, shape (6, n)
-            One RK4 step of the model over ``delay + sc.command_lead`` (:func:`models.integrate`,
-            on cache-sized blocks of a large fleet; errata, sampled-data laws): a command held
+            One RK4 step of the model over ``delay + sc.command_lead`` (:func:`models.integrate`;
+            errata, sampled-data laws): a command held
             over ``[t, t + h]`` and computed for the state at ``t + h/2`` makes each period a
             midpoint-rule step of the continuous closed loop, whose error is of order h^2
             instead of the zero-order hold's h. ``X`` itself, whatever the delay, when
@@ -546,7 +554,7 @@ class Controller:
         if self.speed != 1.0:                          # the laws' units (aircraft)
             X = np.array(X, float)
             X[ROW_X:ROW_Y + 1] /= self.speed
-        X = integrate(X, U_held, lead, 1, self.still, plain=True)
+        X = integrate(X, U_held, lead, 1, self.still)
         if self.speed != 1.0:
             X[ROW_X:ROW_Y + 1] *= self.speed
         drift = lead * np.asarray(self.flow(flow))

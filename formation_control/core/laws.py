@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, TypeAlias
 
 from formation_control.core.geometry import ComplexArray, inner, IntArray, RealArray
@@ -83,9 +84,9 @@ class View:
     speed: RealArray
     speed_dot: RealArray
 
-    @property
+    @cached_property
     def e(self) -> ComplexArray:
-        """(N,) complex unit vectors ``e_k = e^{i phase_k}``."""
+        """(N,) complex unit vectors ``e_k = e^{i phase_k}`` (computed once per view)."""
         return np.exp(1j * self.phase)
 
     def ahead(self, tau: RealArray | float) -> View:

@@ -33,16 +33,17 @@ model                     ``U[0]``                               ``U[1]``
 vehicle's own place and time (uniform and steady in the thesis). Particles keep ``u = 1, v = 0``.
 
 :func:`deriv` is the right-hand side and :func:`rk4_step` one classical RK4 step on it;
-:func:`integrate` takes the same steps, for large fleets in place on cache-sized blocks of
-vehicles with work rows reused by every stage and step (``_rk4_block``), and agrees with
-the plain formulas to rounding (test_rigid.py); in a flow that is not uniform, where every
-stage needs its own positions, it takes :func:`rk4_step`.
+:func:`integrate` takes the same steps in a uniform steady flow with the compiled RK4
+(``_rk4.c``, vehicle by vehicle), and agrees with :func:`rk4_step` to rounding
+(test_rigid.py); in a flow that is not uniform, where every stage needs its own positions,
+it takes :func:`rk4_step`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from formation_control.core import _rk4  # type: ignore[attr-defined]
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
@@ -55,17 +56,6 @@ STATE_NAMES = ('x', 'y', 'theta', 'omega', 'u', 'v')
 PARTICLE_MODELS = ('first_order', 'second_order')
 RIGID_MODELS = ('rigid', 'rigid_couple', 'rigid_cop')
 MODELS = PARTICLE_MODELS + RIGID_MODELS
-# How many leading rows each model moves: x, y, theta (first order: omega holds the input);
-# and omega (second order); all six (rigid bodies). The others have zero derivative.
-MOVED_ROWS = dict(first_order=ROW_THETA + 1, second_order=ROW_OMEGA + 1,
-                  **dict.fromkeys(RIGID_MODELS, 6))
-
-PLAIN_BELOW = 1000                               # fleets integrated with the plain formulas
-BLOCK = 16384                                    # vehicles integrated together (cache-sized)
-PLAIN_BLOCK = 4096                               # the same, with the plain formulas
-TURN_MAX = 0.05                                  # largest theta increment turned by series (rad)
-_SIN = (-1 / 6, 1 / 120, -1 / 5040)              # sin d = d + d d^2 (a0 + d^2 (a1 + ...))
-_COS = (-1 / 2, 1 / 24, -1 / 720, 1 / 40320)     # cos d = 1 + d^2 (b0 + d^2 (b1 + ...))
 
 
 @dataclass(frozen=True)
@@ -292,89 +282,6 @@ def deriv(X: RealArray, U: RealArray, plant: Plant,
     return dX
 
 
-def _series(d2: RealArray, coefs: tuple[float, ...], power: int, dmax: float,
-            out: RealArray) -> RealArray:
-    """
-    Write ``out = d2 (a0 + d2 (a1 + ...))`` by Horner, in place, for a Taylor series in d.
-
-    The term ``a_k d^(power + 2k)`` is left out, with all after it, once below 1e-17 at
-    ``|d| = dmax``.
-    """
-    keep = max(1, sum(abs(a) * dmax ** (power + 2 * k) > 1e-17 for k, a in enumerate(coefs)))
-    np.multiply(d2, coefs[keep - 1], out=out)
-    for a in reversed(coefs[:keep - 1]):
-        out += a
-        out *= d2
-    return out
-
-
-def _cos_sin(out: RealArray, cs: RealArray, theta: RealArray,
-             d: RealArray, t: RealArray) -> None:
-    """
-    Write (cos, sin)(theta + d) into out, given cs = (cos, sin)(theta); t: three scratch rows.
-
-    For |d| <= TURN_MAX this turns cs by d with the angle-sum formulas and the Taylor series of
-    sin d and cos d - 1 (truncation error below 1e-17), a few multiply-adds instead of the
-    much dearer np.cos and np.sin; otherwise (or with NaN) it calls them.
-    """
-    dmax = np.maximum(d.max(), -d.min())
-    if not dmax <= TURN_MAX:
-        angle = theta + d
-        np.cos(angle, out=out[0])
-        np.sin(angle, out=out[1])
-        return
-    d2, sin_d, cos_d1 = t[0], t[1], t[2]
-    np.multiply(d, d, out=d2)
-    _series(d2, _SIN, 3, dmax, sin_d)
-    sin_d *= d
-    sin_d += d                                               # sin d
-    _series(d2, _COS, 2, dmax, cos_d1)                       # cos d - 1
-    (c, s), (oc, os_) = cs, out
-    np.multiply(c, cos_d1, out=oc)
-    oc -= np.multiply(s, sin_d, out=d2)
-    oc += c                                                  # c cos d - s sin d
-    np.multiply(s, cos_d1, out=os_)
-    os_ += np.multiply(c, sin_d, out=d2)
-    os_ += s                                                 # s cos d + c sin d
-
-
-def _rk4_block(X: RealArray, U: RealArray, dt: float, steps: int,
-               plant: Plant) -> None:
-    """
-    Take ``steps`` RK4 steps of one block of vehicles in place, reusing its work rows.
-
-    Only the rows the model moves are integrated (x, y, theta for first order; up to omega
-    for second order; all for rigid bodies): the others have zero derivative. cos and sin of
-    theta are computed once, then turned by each stage's increment of theta (:func:`_cos_sin`).
-    When omega' is held (every model but ``rigid_cop``), theta is quadratic in time and RK4
-    exact on it, so k4's stage theta is also the next step's: three turns per step, not four.
-    """
-    n, m = X.shape[1], MOVED_ROWS[plant.model]
-    held = plant.model != 'rigid_cop'
-    K, Z = np.zeros((6, n)), np.empty((6, n))              # a stage's k, its state (omega, u, v)
-    acc, t = np.empty((m, n)), np.empty((6, n))            # k1/2 + k2 + k3 + k4/2; scratch
-    cs, stage_cs = np.empty((2, n)), np.empty((2, n))      # cos, sin of theta; of a stage's
-    np.cos(X[ROW_THETA], out=cs[0])
-    np.sin(X[ROW_THETA], out=cs[1])
-    d = np.empty(n)
-    fed = slice(ROW_OMEGA, m)                              # stage rows that k depends on
-    for _ in range(steps):
-        _rates(K, X, U, plant, cs[0], cs[1], t)            # k1
-        np.multiply(0.5, K[:m], out=acc)
-        for stage, h in ((2, 0.5 * dt), (3, 0.5 * dt), (4, dt)):
-            np.multiply(h, K[ROW_THETA], out=d)            # stage theta - theta
-            _cos_sin(stage_cs, cs, X[ROW_THETA], d, t)
-            np.multiply(h, K[fed], out=Z[fed])
-            Z[fed] += X[fed]                               # X + h k
-            _rates(K, Z, U, plant, stage_cs[0], stage_cs[1], t)
-            acc += np.multiply(0.5, K[:m], out=t[:m]) if stage == 4 else K[:m]
-        acc *= dt / 3.0                # = (dt/6)(k1 + 2 k2 + 2 k3 + k4), to the last bit
-        if not held:
-            _cos_sin(stage_cs, cs, X[ROW_THETA], acc[ROW_THETA], t)
-        cs, stage_cs = stage_cs, cs
-        X[:m] += acc
-
-
 def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
              t: float = 0.0) -> RealArray:
     """
@@ -407,16 +314,18 @@ def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
 
 
 def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
-              t: float = 0.0, plain: bool | None = None) -> RealArray:
+              t: float = 0.0) -> RealArray:
     """
     Return the state after ``steps`` RK4 steps with the input held (one sampled-data period).
 
     Parameters
     ----------
-    X : array_like, shape (6, N)
-        State at the start of the period (see :func:`deriv`); not modified.
-    U : array_like, shape (2, N) or (2, 1)
-        Input, held over the period (zero-order hold); not modified.
+    X : array_like, shape (6, ...)
+        State at the start of the period (see :func:`deriv`): (6, N) a fleet, (6, B, N) a
+        batch of fleets; not modified.
+    U : array_like, shape (2, ...)
+        Input, held over the period (zero-order hold), broadcast to the vehicles of ``X``;
+        not modified.
     dt : float
         Integration step (s).
     steps : int
@@ -425,40 +334,34 @@ def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
         The model and its physical parameters.
     t : float, optional
         Time at the start of the period (s), where the flow varies in time.
-    plain : bool or None, optional
-        Take :func:`rk4_step` (True) or the blocked path (False); None: by the number of
-        vehicles, as below. A flow that is not uniform always takes :func:`rk4_step`.
 
     Returns
     -------
-    ndarray, shape (6, N)
+    ndarray, shape of ``X``
         The state ``steps * dt`` later, equal to ``steps`` calls of :func:`rk4_step` to
-        rounding. ``X`` may also be (6, B, N), a batch of B fleets (shapes of ``U`` alike):
-        the vehicles are independent over a period, so it is integrated as B N vehicles.
+        rounding (test_rigid.py).
 
     Notes
     -----
-    Fleets of fewer than PLAIN_BELOW vehicles, where the cost is per numpy call, take
-    :func:`rk4_step`. Larger ones take ``_rk4_block`` (the same numbers to rounding,
-    several times faster) on blocks of BLOCK vehicles, which are independent over the period,
-    so that each block's work rows stay in cache. With ``plain``, more than PLAIN_BLOCK
-    vehicles take :func:`rk4_step` on blocks of PLAIN_BLOCK, for the same reason (each
-    vehicle's numbers are those of :func:`rk4_step` on the whole fleet, bit for bit).
+    In a uniform steady flow this is the compiled RK4 (``_rk4.c``), vehicle by vehicle: a
+    vehicle's numbers do not depend on the others, so a fleet integrated alone, in a batch or
+    as one vehicle of a node are the same bit for bit. cos and sin of each stage's heading are
+    those of the step's turned by the stage's increment (a Taylor series below 0.05 rad);
+    omega' held, the last stage's heading is the next step's. A flow that is not uniform takes
+    :func:`rk4_step`, which evaluates it at every stage.
 
     """
-    shape = np.shape(X)
-    n = int(np.prod(shape[1:]))
-    plain = (n < PLAIN_BELOW if plain is None else plain) or not plant.flow.uniform
-    if plain and n <= PLAIN_BLOCK:
+    if not plant.flow.uniform:
         for step in range(steps):
             X = rk4_step(X, U, dt, plant, t + step * dt)
         return X
-    X = np.array(X, dtype=float).reshape(6, n)
-    U = np.broadcast_to(np.asarray(U, dtype=float), (2,) + shape[1:]).reshape(2, n)
-    for start in range(0, n, PLAIN_BLOCK if plain else BLOCK):
-        cols = slice(start, start + (PLAIN_BLOCK if plain else BLOCK))
-        if plain:
-            X[:, cols] = integrate(X[:, cols], U[:, cols], dt, steps, plant, t, plain=True)
-        else:
-            _rk4_block(X[:, cols], U[:, cols], dt, steps, plant)
-    return X.reshape(shape)
+    shape = np.shape(X)
+    X = np.array(X, dtype=float, order='C')
+    U = np.ascontiguousarray(np.broadcast_to(np.asarray(U, dtype=float), (2,) + shape[1:]))
+    params = [np.asarray(p, dtype=float) for p in (plant.m0, plant.I0, plant.h, plant.l1)]
+    if any(p.ndim for p in params):
+        params = [np.broadcast_to(p, shape[1:]) for p in params]
+    flow = complex(plant.flow.value)
+    _rk4.integrate(X, U, np.ascontiguousarray(params), MODELS.index(plant.model), dt, steps,
+                   plant.l, flow.real, flow.imag)
+    return X

@@ -281,7 +281,7 @@ class PositionFilter:
 
     def _ahead(self, X: RealArray, U_held: RealArray) -> RealArray:
         """Return the last estimate X carried over one period by the model (plain RK4)."""
-        return integrate(X, U_held, self.sc.dt_control, 1, self.still, plain=True)
+        return integrate(X, U_held, self.sc.dt_control, 1, self.still)
 
     def velocities(self, v_ground: ComplexArray, v_rel: ComplexArray,
                    U_held: RealArray) -> tuple[ComplexArray, ComplexArray]:

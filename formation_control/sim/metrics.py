@@ -26,8 +26,7 @@ from typing import Any, TYPE_CHECKING
 from formation_control.core import laws
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
-from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_THETA, ROW_U,
-                                           ROW_V, ROW_X, ROW_Y)
+from formation_control.core.models import RIGID_MODELS, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
 from formation_control.core.scenario import practical
 import numpy as np
 from numpy.typing import ArrayLike
@@ -527,7 +526,7 @@ def crab_angles(X: RealArray, flow: complex | ComplexArray) -> tuple[RealArray, 
 
     """
     beta = np.arctan2(X[ROW_V], X[ROW_U])
-    beta_hat = np.angle(ground_velocity(X, flow) * np.exp(-1j * X[ROW_THETA]))
+    beta_hat = np.angle(X[ROW_U] + 1j * X[ROW_V] + flow * np.exp(-1j * X[ROW_THETA]))
     return beta, beta_hat
 
 

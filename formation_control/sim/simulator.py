@@ -41,8 +41,12 @@ from formation_control.core.scenario import initial_state, practical, resolve, S
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.world import active, World
 from formation_control.sim import metrics
+from formation_control.sim.allocator import keep_freed_memory
 import numpy as np
 from numpy.typing import ArrayLike
+
+LARGE_FLEET = 10_000
+"""From this many vehicles (all fleets of a batch) freed memory is kept (:mod:`allocator`)."""
 
 
 @dataclass
@@ -173,6 +177,8 @@ class Stepper:
         self.sc = sc
         self.ctrl = Controller(sc)
         self.X = initial_state(sc) if X0 is None else np.array(X0, float)
+        if self.X.size >= 6 * LARGE_FLEET:
+            keep_freed_memory()
         self.U = np.zeros((2,) + self.X.shape[1:])
         self.aircraft: aircraft.Fleet | None = None
         if sc.plant_backend == 'jsbsim':
@@ -298,10 +304,9 @@ class Stepper:
         Integrate one control period with the held inputs; return the new state (6, N).
 
         ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
-        (the real-time plant advances one step per tick). A batch of fleets (6, B, N) takes
-        the plain RK4 formulas, vehicle by vehicle: the blocked path of :func:`models.integrate`
-        chooses its series per block, so a run's result would depend on the fleets that share
-        its batch; this way it equals the run alone, bit for bit.
+        (the real-time plant advances one step per tick). :func:`models.integrate` takes each
+        vehicle on its own numbers, so a fleet of a batch (6, B, N) equals its run alone, bit
+        for bit.
         """
         sc, steps = self.sc, steps or self.sc.substeps
         if self.aircraft is not None:
@@ -313,8 +318,7 @@ class Stepper:
                 self.X = self.world.step(self.X, self.U, self.t)
                 self.steps += 1
             return self.X
-        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t,
-                           plain=True if self.X.ndim > 2 else None)
+        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t)
         self.steps += steps
         return self.X
 
@@ -627,13 +631,12 @@ def summary(run: Run) -> dict[str, Any]:
     flags: list[Any] = []
     met: list[dict[str, Any]] = []
     errors: list[dict[str, Any]] = []
-    separation = metrics.needs_separation(sc)
-    for t, X, U in zip(run.t, run.X, run.U):
-        snap = metrics.snapshot(ctrl, X, U, t, separation)
-        flags.append(metrics.converged(sc, snap))
-        met.append(metrics.conditions(sc, snap))
-        errors.append(metrics.steady_errors(sc, snap))
-    final = metrics.snapshot(ctrl, run.X[-1], run.U[-1], run.t[-1])
+    separation, last = metrics.needs_separation(sc), len(run.t) - 1
+    for i, (t, X, U) in enumerate(zip(run.t, run.X, run.U)):
+        final = metrics.snapshot(ctrl, X, U, t, separation or i == last)
+        flags.append(metrics.converged(sc, final))
+        met.append(metrics.conditions(sc, final))
+        errors.append(metrics.steady_errors(sc, final))
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
            'converged': bool(metrics.verdict(sc, run.t, flags)),
            'unmet': metrics.unmet(sc, final),

@@ -18,7 +18,9 @@ Rigid-body scenarios (Ch. 6-8, App. A) from several seeds.
 Convergence and the steady states of the thesis' analysis (with the errata's corrections), and
 measured bounds where a law is only practically stable.
 """
-from formation_control.core import models
+from dataclasses import replace
+
+from formation_control.core import _rk4, models
 from formation_control.core.scenario import Scenario
 from formation_control.sim import metrics
 import numpy as np
@@ -204,20 +206,23 @@ def _assert_close_per_row(new, ref, rtol=1e-12):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('plain_below', [0, 10**9], ids=['blocks', 'plain'])
+@pytest.mark.parametrize('per_vehicle', [False, True], ids=['one plant', 'one each'])
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
 @pytest.mark.parametrize('model', models.MODELS)
-def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch):
+def test_integrator_agrees_with_plain_rk4(model, flow, per_vehicle):
     """
-    Both paths of ``integrate`` agree with the plain RK4 formulas to 1e-12 of each row's size.
+    The compiled ``integrate`` agrees with the plain RK4 formulas to 1e-12 of each row's size.
 
-    Several blocks (the last one partial), the series turns (2 ms steps), the np.cos fallback
-    (0.1 s steps), negative steps and a long run; the inputs are left untouched.
+    600 vehicles (blocks of 256, the last one partial), the series turns (2 ms steps), cos and
+    sin beyond 0.05 rad (0.1 s steps), negative steps and a long run; physical parameters
+    shared or one per vehicle; the inputs are left untouched.
     """
-    monkeypatch.setattr(models, 'PLAIN_BELOW', plain_below)
-    monkeypatch.setattr(models, 'BLOCK', 16)
+    rng = np.random.default_rng(7)
     plant = models.Plant.of(Scenario(model=model, flow=(flow.real, flow.imag), l1=0.2))
-    X, U = _random_fleet(model, 40, np.random.default_rng(7))
+    if per_vehicle:
+        plant = replace(plant, m0=rng.uniform(0.5, 2.0, 600), I0=rng.uniform(0.05, 0.2, 600),
+                        h=rng.uniform(1.0, 8.0, 600), l1=rng.uniform(0.1, 0.3, 600))
+    X, U = _random_fleet(model, 600, rng)
     X_before, U_before = X.copy(), U.copy()
     _assert_close_per_row(models.deriv(X, U, plant), _plain_deriv(X, U, plant))
     for dt, steps in ((0.002, 10), (0.1, 3), (-0.001, 2), (0.001, 500)):
@@ -225,6 +230,20 @@ def test_integrator_agrees_with_plain_rk4(model, flow, plain_below, monkeypatch)
                               _plain_rk4(X, U, dt, steps, plant))
     _assert_close_per_row(models.rk4_step(X, U, 0.002, plant), _plain_rk4(X, U, 0.002, 1, plant))
     assert np.array_equal(X, X_before) and np.array_equal(U, U_before)
+
+
+def test_integrator_refuses_arrays_it_cannot_take():
+    """The compiled RK4 names what is wrong with its arrays instead of reading past them."""
+    X, U = _random_fleet('rigid', 3, np.random.default_rng(1))
+    P = np.ones((4, 1))
+    with pytest.raises(ValueError, match='U must hold 2 float64 rows'):
+        _rk4.integrate(X, U[:, :2].copy(), P, 2, 0.01, 1, 0.5, 0.0, 0.0)
+    with pytest.raises(ValueError, match='P must hold 4 float64 rows'):
+        _rk4.integrate(X, U, np.ones((4, 2)), 2, 0.01, 1, 0.5, 0.0, 0.0)
+    with pytest.raises(ValueError, match='model must index'):
+        _rk4.integrate(X, U, P, 5, 0.01, 1, 0.5, 0.0, 0.0)
+    with pytest.raises(TypeError, match='argument 1 must be read-write bytes-like'):
+        _rk4.integrate(np.asfortranarray(X), U, P, 2, 0.01, 1, 0.5, 0.0, 0.0)
 
 
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
