@@ -64,6 +64,7 @@ def test_installed_console_script_finds_configs_through_the_ament_index(install,
                            cwd=tmp_path,
                            text=True, timeout=60)
     assert probe.stdout.startswith(str(site))
+    assert list((site / 'formation_control' / 'core').glob('_rk4*.so')), 'the RK4 not built'
 
 
 def test_colcon_finds_the_nested_interface_package_only_by_its_path(tmp_path):
