@@ -105,7 +105,7 @@ def main():
     parser.add_argument('--repeat', type=int, default=3,
                         help='alternate base and now this many times (default 3)')
     parser.add_argument('pytest_args', nargs='*', help='after --: passed to pytest (e.g. -k)')
-    args = parser.parse_args()
+    args = parser.parse_intermixed_args()      # BASE --repeat 3 -- -k x as well
     with tempfile.TemporaryDirectory(prefix='bench_compare_') as tmp:
         tree = Path(tmp) / 'base'
         tree.mkdir()
