@@ -59,7 +59,7 @@ from formation_control.protocol.names import START_TOPIC
 from formation_control.protocol.node_parameters import check_frames, PLANT
 from formation_control.protocol.onboard import needs_second_sensor
 from formation_control.protocol.plant import Plant
-from formation_control.ros import common, interface as itf, parameters, signed
+from formation_control.ros import common, interface as itf, parameters, signed, tracing
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -96,6 +96,7 @@ class PlantNode(Node):
         self.fleet = self.plant.fleet
         self.reject = common.Rejections(self.get_logger(), REJECTS)
         self.signed = signed.of_node(self, self.reject, 'plant')
+        self.trace = tracing.of_node('plant')
         common.clock_bytes(self, self.reject, self.signed)
         self.missing = self.fleet_timer = None
         self.done = self.ended = False
@@ -121,6 +122,8 @@ class PlantNode(Node):
         """Keep the record so far when stopped before the end (Ctrl-C, SIGTERM, the swarm gone)."""
         if self.p['record_path'] and not self.ended:
             self._save({**self.plant.progress(), 'complete': False})
+        if self.trace is not None:
+            self.trace.save()
         return super().destroy_node()
 
     def _create_topics(self):
@@ -204,9 +207,17 @@ class PlantNode(Node):
             if self.water_pubs is not None:
                 self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, water,
                                                                   self.frames))
-            self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
+            if self.trace is None:
+                self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
+            else:
+                data = self.odom_wires[i].encode(ns, values)
+                self.trace('odom_pub', i + 1, ns)
+                self.odom_pubs[i].publish(data)
+                self.trace('odom_sent', i + 1, ns)
 
     def _on_cmd(self, k, got):
+        if self.trace is not None:
+            self.trace('cmd_in', k, got[0])
         self._held(self.plant.command(k, *got))
 
     def _on_demand(self, k, got):
@@ -238,6 +249,8 @@ class PlantNode(Node):
         if due is not None:
             which, ns, step = due
             if step:
+                if self.trace is not None:
+                    self.trace('step', 0, ns)
                 msg = Clock()
                 messages.set_time(msg.clock, ns)
                 self.clock_pub.publish(msg)

@@ -38,7 +38,7 @@ from formation_control.protocol import intake, links, lockstep, messages, names
 from formation_control.protocol.node_parameters import (check_frames, check_vehicle, FRAMES,
                                                         plant_differences, VEHICLE)
 from formation_control.protocol.vehicle import Vehicle
-from formation_control.ros import common, interface as itf, parameters, signed
+from formation_control.ros import common, interface as itf, parameters, signed, tracing
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -79,6 +79,7 @@ class VehicleNode(Node):
         self.signed = signed.of_node(self, self.reject, f'vehicle_{k}')
         common.clock_bytes(self, self.reject, self.signed)
         self.latency = common.Latencies(LATENCIES)
+        self.trace = tracing.of_node(f'vehicle_{k}')
         self._create_topics(sc)
         self.add_on_set_parameters_callback(parameters.validator(self, lambda params: links.check(
             {p.name: tuple(p.value or ()) for p in params if p.name == 'cut_links'},
@@ -128,7 +129,7 @@ class VehicleNode(Node):
         for j in sc.comm_graph.neighbours(k):
             common.subscribe(self, FormationState, names.topic(j, 'formation_state'),
                              intake.formation_state(messages.StateWire.of(sc, j, frames), frames),
-                             self.reject, lambda state, j=j: self._heard(self.me.heard(j, state)),
+                             self.reject, lambda state, j=j: self._on_state(j, state),
                              self.signed)
         self.diag_pub = common.diagnostics_publisher(self)
 
@@ -151,10 +152,20 @@ class VehicleNode(Node):
                                     f'{listed}')
             self.done, self.exit_code = True, 2
 
+    def destroy_node(self):
+        """Write the trace of the hot path, if asked (:mod:`formation_control.ros.tracing`)."""
+        if self.trace is not None:
+            self.trace.save()
+        return super().destroy_node()
+
     def _on_odom(self, data):
         self.odom_in = time.perf_counter_ns()
         got = self.odometry(data)
         if got is not None:
+            if self.trace is not None:
+                self.trace.rows.append((tracing.CODE['odom_in'], self.k, got[0],
+                                        self.trace.clock() - (time.perf_counter_ns()
+                                                              - self.odom_in)))
             self._measured(self.me.odometry(*got))
 
     def _measured(self, got):
@@ -172,6 +183,8 @@ class VehicleNode(Node):
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
+        if self.trace is not None:
+            self.trace('state_sent', self.k, got.stamp)
         if self.mode == 'lockstep':
             self._try_command()
 
@@ -185,19 +198,31 @@ class VehicleNode(Node):
         for j, state in self.me.inbox.due():
             self._heard(self.me.accept(j, state))
 
+    def _on_state(self, j, state):
+        if self.trace is not None:
+            self.trace('state_in', j, state.stamp)
+        self._heard(self.me.heard(j, state))
+
     def _heard(self, accepted):
         if not self._refused(accepted) and accepted and self.mode == 'lockstep':
             self._try_command()
 
     def _try_command(self):
+        if self.trace is not None:
+            start = self.trace.clock()
         due = self.me.command()
         if due is None:
             return
         ns, u, first = due
+        if self.trace is not None:
+            self.trace.rows.append((tracing.CODE['law_start'], self.k, ns, start))
+            self.trace('law_end', self.k, ns)
         if first:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
+        if self.trace is not None:
+            self.trace('cmd_sent', self.k, ns)
         if self.cmd_vel_pub is not None:
             self._publish_cmd_vel(ns, u)
         if self.mode == 'realtime':
