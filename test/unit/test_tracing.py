@@ -1,0 +1,43 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""ros/tracing.py: off unless asked; asked, the events a node notes are the ones it writes."""
+import os
+
+from formation_control.ros import tracing
+import numpy as np
+
+
+def test_a_node_traces_nothing_unless_asked(monkeypatch):
+    monkeypatch.delenv(tracing.ENV, raising=False)
+    assert tracing.of_node('vehicle_1') is None
+    monkeypatch.setenv(tracing.ENV, '')
+    assert tracing.of_node('vehicle_1') is None
+
+
+def test_the_events_noted_are_written_in_order_on_one_clock(monkeypatch, tmp_path):
+    monkeypatch.setenv(tracing.ENV, str(tmp_path / 'trace'))
+    trace = tracing.of_node('vehicle_3')
+    before = tracing.time.monotonic_ns()
+    for event in ('odom_in', 'law_start', 'law_end', 'cmd_sent'):
+        trace(event, 3, 20_000_000)
+    trace.save()
+    saved = np.load(tmp_path / 'trace' / f'vehicle_3_{os.getpid()}.npz')
+    rows = saved['rows']
+    assert [saved['events'][code] for code in rows[:, 0]] == \
+        ['odom_in', 'law_start', 'law_end', 'cmd_sent']
+    assert np.all(rows[:, 1] == 3) and np.all(rows[:, 2] == 20_000_000)
+    assert np.all(np.diff(rows[:, 3]) >= 0) and rows[0, 3] >= before
+    assert saved['cpu'].shape == (2,) and saved['switches'].shape == (2,)
+    assert saved['traced'][0] >= 0 and saved['schedstat'].shape == (2, 3)
