@@ -21,6 +21,7 @@ its publishers offer and its type's definition (the MCAP schema; formation_contr
 its installed ``.msg`` files, :mod:`formation_control.bags.schemas`).
 """
 from pathlib import Path
+import sys
 
 from ament_index_python.packages import get_package_share_directory
 from formation_control.bags import schemas
@@ -92,6 +93,23 @@ class RecordError(RuntimeError):
     """The bag could not be created or written: what failed, and what was kept."""
 
 
+def msgs_share() -> str:
+    """
+    Return the share directory of formation_control_msgs (its .msg files, for the bag's schemas).
+
+    From the ament index; else this interpreter's prefix, where ``make setup`` installs it into
+    a venv that has no ROS installation to set ``AMENT_PREFIX_PATH``.
+    """
+    try:
+        return get_package_share_directory(schemas.MSGS)
+    except (LookupError, OSError):                   # not indexed, or no AMENT_PREFIX_PATH
+        share = Path(sys.prefix) / 'share' / schemas.MSGS
+        if (share / 'msg').is_dir():
+            return str(share)
+    raise RecordError(f'bag: the message definitions of {schemas.MSGS} are not found: source '
+                      f'the ROS 2 workspace that built it (AMENT_PREFIX_PATH)')
+
+
 class BagRecorder(Node):
     """
     A node writing every message of ``topics`` ((name, type, QoS)) to a bag at ``path``.
@@ -119,8 +137,7 @@ class BagRecorder(Node):
         self.reject = Rejections(self.get_logger(), ['malformed'])
         clock_bytes(self, self.reject)
         guard_services(self)
-        typestore = schemas.typestore(schemas.msg_files(
-            get_package_share_directory(schemas.MSGS)))
+        typestore = schemas.typestore(schemas.msg_files(msgs_share()))
         self.count = 0
         self.failure = None
         self.done, self.exit_code = False, 0
