@@ -180,70 +180,16 @@ def body_accel(X: RealArray, U: RealArray,
     ``D sin(beta) = h s v``. Written in flow-relative u, v, the uniform steady flow drops out.
 
     """
-    shape = np.shape(X[ROW_U])
-    out = np.empty((3,) + shape)
-    _body_accel(out[0], out[1], out[2], X, U, plant, np.empty((2,) + shape))
-    return out[0], out[1], out[2]
-
-
-def _body_accel(du: RealArray, dv: RealArray, dw: RealArray,
-                X: RealArray, U: RealArray, plant: Plant,
-                t: RealArray) -> None:
-    """Write :func:`body_accel` into the rows du, dv, dw; t: two scratch rows."""
     u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
     thrust, force = U[0], U[1]
-    hs, tmp = t[0], t[1]
-    np.multiply(u, u, out=hs)
-    hs += np.multiply(v, v, out=tmp)
-    np.sqrt(hs, out=hs)
-    hs *= plant.h                                            # h s (faster than np.hypot)
-    np.subtract(thrust, np.multiply(hs, u, out=du), out=du)
-    du *= 1.0 / plant.m0
-    du += np.multiply(v, w, out=tmp)                         # (T - h s u) / m0 + v omega
-    np.multiply(hs, v, out=dv)
-    if plant.model == 'rigid_couple':                        # (8.22): F is a pure couple
-        np.negative(dv, out=dv)
-    else:
-        np.subtract(force, dv, out=dv)
-    dv *= 1.0 / plant.m0
-    dv -= np.multiply(u, w, out=tmp)                         # (F - h s v) / m0 - u omega
-    np.multiply(force, -plant.l / plant.I0, out=dw)          # -l F / I0
-    if plant.model == 'rigid_cop':                           # (A.3): drag moment
-        np.multiply(hs, plant.l1, out=tmp)
-        tmp *= v
-        tmp *= 1.0 / plant.I0
-        dw -= tmp
-
-
-def _rates(K: RealArray, Z: RealArray, U: RealArray, plant: Plant,
-           c: RealArray, s: RealArray, t: RealArray) -> None:
-    """
-    Write dX/dt at the state Z into K, given c, s = cos, sin(theta); t: two scratch rows.
-
-    Rows with no dynamics (u, v of particles; omega of first-order ones) are left as they are.
-    A uniform flow is added here; :func:`deriv` adds one that is not.
-    """
-    kx, ky, kth, kw, ku, kv = K
-    if plant.model in PARTICLE_MODELS:
-        np.copyto(kx, c)                                     # (1.1), (1.3)
-        np.copyto(ky, s)
-        if plant.model == 'first_order':
-            np.copyto(kth, U[1])
-        else:
-            np.copyto(kth, Z[ROW_OMEGA])
-            np.copyto(kw, U[1])
-    else:
-        u, v = Z[ROW_U], Z[ROW_V]
-        np.multiply(u, c, out=kx)                            # (6.7)
-        kx -= np.multiply(v, s, out=t[0])
-        np.multiply(u, s, out=ky)
-        ky += np.multiply(v, c, out=t[0])
-        np.copyto(kth, Z[ROW_OMEGA])
-        _body_accel(ku, kv, kw, Z, U, plant, t)
-    flow = plant.flow.value
-    if plant.flow.uniform and flow:
-        kx += flow.real                                      # (1.4), (1.7), (8.1)
-        ky += flow.imag
+    hs = np.sqrt(u * u + v * v) * plant.h                  # h s (faster than np.hypot)
+    side = -(hs * v) if plant.model == 'rigid_couple' else force - hs * v   # (8.22): a couple
+    du = (thrust - hs * u) * (1.0 / plant.m0) + v * w      # (T - h s u) / m0 + v omega
+    dv = side * (1.0 / plant.m0) - u * w                   # (F - h s v) / m0 - u omega
+    dw = force * (-plant.l / plant.I0)                     # -l F / I0
+    if plant.model == 'rigid_cop':                         # (A.3): drag moment
+        dw = dw - hs * plant.l1 * v * (1.0 / plant.I0)
+    return du, dv, dw
 
 
 def deriv(X: RealArray, U: RealArray, plant: Plant,
@@ -272,13 +218,22 @@ def deriv(X: RealArray, U: RealArray, plant: Plant,
 
     """
     X = np.asarray(X, dtype=float)
-    theta = X[ROW_THETA]
+    c, s = np.cos(X[ROW_THETA]), np.sin(X[ROW_THETA])
     dX = np.zeros(X.shape)
-    _rates(dX, X, U, plant, np.cos(theta), np.sin(theta), np.empty((2,) + theta.shape))
-    if not plant.flow.uniform:
-        f = plant.flow(t, X[ROW_X], X[ROW_Y])                # at each vehicle's own place
-        dX[ROW_X] += f.real
-        dX[ROW_Y] += f.imag
+    if plant.model in PARTICLE_MODELS:
+        dX[ROW_X], dX[ROW_Y] = c, s                          # (1.1), (1.3)
+        dX[ROW_THETA] = U[1] if plant.model == 'first_order' else X[ROW_OMEGA]
+        if plant.model == 'second_order':
+            dX[ROW_OMEGA] = U[1]
+    else:
+        u, v = X[ROW_U], X[ROW_V]
+        dX[ROW_X], dX[ROW_Y] = u * c - v * s, u * s + v * c  # (6.7)
+        dX[ROW_THETA] = X[ROW_OMEGA]
+        dX[ROW_U], dX[ROW_V], dX[ROW_OMEGA] = body_accel(X, U, plant)
+    flow = plant.flow.value if plant.flow.uniform else \
+        plant.flow(t, X[ROW_X], X[ROW_Y])                    # at each vehicle's own place
+    dX[ROW_X] += np.real(flow)                               # (1.4), (1.7), (8.1)
+    dX[ROW_Y] += np.imag(flow)
     return dX
 
 
