@@ -15,11 +15,14 @@
 """
 A member posing as another (test helper, run as a script): vehicle_2's key, vehicle K's topics.
 
-``impostor.py MEMBER_DIR K MODEL`` runs with a TLS profile of its own and the key of the member
-in MEMBER_DIR. At 50 Hz it publishes on ``vehicle_K/formation_state`` and ``vehicle_K/cmd``
+``impostor.py MEMBER_DIR K MODEL [STATUS ...]`` runs with a TLS profile of its own and the key
+of the member in MEMBER_DIR. At 50 Hz it publishes on ``vehicle_K/formation_state`` and ``vehicle_K/cmd``
 (plain, in the canonical layout, full-scale values), their envelopes signed with its key
 (``wrong_signer``) and envelopes that claim to be vehicle K's (``bad_signature``); it replays
-the envelopes vehicle K sends on them half a second later (``replay``). It prints ``probing``
+the envelopes vehicle K sends on them half a second later (``replay``). Given STATUS names, it publishes ``formation/start`` (the
+fleet's plant waits for it) once each of those ``/diagnostics`` statuses counts more than
+``START_AFTER`` wrong-signer and bad-signature drops: the run starts once every receiver hears
+it, however long the TLS discovery took. It prints ``probing``
 once started and, on SIGINT or SIGTERM, one JSON line: what it sent, and the last
 ``/diagnostics`` values of each status.
 """
@@ -32,19 +35,24 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.ops import signing
+from formation_control.protocol.names import START_TOPIC
 from formation_control.protocol.messages import CommandWire, FormationState, StateWire
+from formation_control.ros.interface import LATCHED_QOS
 from formation_control_msgs.msg import FormationState as StateMsg, VehicleCommand
 import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import UInt8MultiArray
+from std_msgs.msg import Empty, UInt8MultiArray
 
 QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """The fleet's state QoS (a volatile writer would match none of its readers)."""
+START_AFTER = 50
+"""Drops of each kind every named receiver counts before the impostor starts the run."""
+KINDS = (signing.WRONG_SIGNER, signing.BAD_SIGNATURE)
 
 
 def main():
-    home, k, model = Path(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+    home, k, model, awaited = Path(sys.argv[1]), int(sys.argv[2]), sys.argv[3], sys.argv[4:]
     me = signing.load_member(home)
     own, forged = me.signer, signing.Signer(f'vehicle_{k}', me.signer.sign)
     rclpy.init(signal_handler_options=rclpy.SignalHandlerOptions.NO)
@@ -68,8 +76,15 @@ def main():
                                  lambda data, name=name, topic=topic: genuine(name, topic, data),
                                  QOS, raw=True)
     status = {}
-    node.create_subscription(DiagnosticArray, '/diagnostics', lambda msg: status.update(
-        {s.name: {v.key: v.value for v in s.values} for s in msg.status}), 10)
+    start = node.create_publisher(Empty, '/' + START_TOPIC, LATCHED_QOS)
+
+    def diagnostics(msg):
+        status.update({s.name: {v.key: v.value for v in s.values} for s in msg.status})
+        if awaited and all(int(status.get(name, {}).get(kind, 0)) > START_AFTER
+                           for name in awaited for kind in KINDS):
+            start.publish(Empty())
+            awaited.clear()
+    node.create_subscription(DiagnosticArray, '/diagnostics', diagnostics, 10)
 
     def inject():
         for name, (_kind, payload) in topics.items():

@@ -47,8 +47,11 @@ def one_host():
     yield from made_hosts(1)
 
 
-def start_impostor(hosts, tmp, fleet, env, model):
-    """Start test/impostor.py on the intruders' host with vehicle_2's key; wait for it."""
+def start_impostor(hosts, tmp, fleet, env, model, awaited):
+    """Start test/impostor.py on the intruders' host with vehicle_2's key; wait for it.
+
+    The impostor starts the run once each status in ``awaited`` has counted its envelopes.
+    """
     home = tmp / 'fleet' / 'vehicle_2'
     profile = tmp / 'impostor.xml'
     profile.write_text(security.profile_xml(
@@ -58,7 +61,7 @@ def start_impostor(hosts, tmp, fleet, env, model):
                OPENSSL_CONF=str(home / security.OPENSSL_CONF),
                ROS_AUTOMATIC_DISCOVERY_RANGE='SYSTEM_DEFAULT')
     proc = subprocess.Popen(hosts.prefix(INTRUDER) + [
-        sys.executable, str(HERE / 'impostor.py'), str(home), str(POSED), model], env=env,
+        sys.executable, str(HERE / 'impostor.py'), str(home), str(POSED), model, *awaited], env=env,
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     assert proc.stdout.readline().strip() == 'probing'
     return proc
@@ -70,19 +73,25 @@ def test_a_member_posing_as_another_is_ignored_and_counted(hosts, tmp_path):
 
     The impostor also sends envelopes that claim vehicle 3's name (bad signature), vehicle 3's
     own envelopes again half a second later (replays) and plain messages on the topics; the
-    lockstep run over the TLS fleet equals the offline one.
+    lockstep run over the TLS fleet equals the offline one. The plant holds step 0 until every
+    receiver has counted the impostor's envelopes (TLS discovery takes 1-10 s here), so the
+    counts do not hang on how fast the run is.
     """
     n = 4
     sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=8.0')
     fleet = fleet_of(hosts, n)
     security.write_fleet(tmp_path / 'fleet', fleet)
+    hearers = [j for j in range(1, n + 1) if POSED in sc.comm_graph.neighbours(j)]
+    assert hearers, 'no vehicle hears the posed one'
+    statuses = ['formation_control/plant',
+                *(f'formation_control/vehicle_{j}/links' for j in hearers)]
     with domains(1) as (did,):
         base = {k: v for k, v in os.environ.items() if k != 'FASTDDS_BUILTIN_TRANSPORTS'}
         base.update(ROS_DOMAIN_ID=str(did), PYTHONUNBUFFERED='1')
-        impostor = start_impostor(hosts, tmp_path, fleet, base, sc.model)
+        impostor = start_impostor(hosts, tmp_path, fleet, base, sc.model, statuses)
         try:
             with Swarm(sc, place=placer(hosts), env=base, node_params=EXACT,
-                       secure=tmp_path / 'fleet') as swarm:
+                       secure=tmp_path / 'fleet', wait_for_start=True) as swarm:
                 wait_plant(swarm, 180)
                 seen = report(impostor)
         finally:
@@ -95,10 +104,6 @@ def test_a_member_posing_as_another_is_ignored_and_counted(hosts, tmp_path):
     for name in ('formation_state', 'cmd'):
         assert min(sent[f'{name}_{how}'] for how in ('plain', 'wrong_signer', 'forged')) > 100
         assert sent[f'{name}_replayed'] > 100, sent
-    hearers = [j for j in range(1, n + 1) if POSED in sc.comm_graph.neighbours(j)]
-    assert hearers, 'no vehicle hears the posed one'
-    statuses = ['formation_control/plant',
-                *(f'formation_control/vehicle_{j}/links' for j in hearers)]
     for name in statuses:
         counts = seen['status'][name]
         for kind in (signing.WRONG_SIGNER, signing.BAD_SIGNATURE, signing.REPLAY):
