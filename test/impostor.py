@@ -16,14 +16,14 @@
 A member posing as another (test helper, run as a script): vehicle_2's key, vehicle K's topics.
 
 ``impostor.py MEMBER_DIR K MODEL [STATUS ...]`` runs with a TLS profile of its own and the key
-of the member in MEMBER_DIR. At 50 Hz it publishes on ``vehicle_K/formation_state`` and ``vehicle_K/cmd``
-(plain, in the canonical layout, full-scale values), their envelopes signed with its key
-(``wrong_signer``) and envelopes that claim to be vehicle K's (``bad_signature``); it replays
-the envelopes vehicle K sends on them half a second later (``replay``). Given STATUS names, it publishes ``formation/start`` (the
-fleet's plant waits for it) once each of those ``/diagnostics`` statuses counts more than
-``START_AFTER`` wrong-signer and bad-signature drops: the run starts once every receiver hears
-it, however long the TLS discovery took. It prints ``probing``
-once started and, on SIGINT or SIGTERM, one JSON line: what it sent, and the last
+of the member in MEMBER_DIR. At 50 Hz it publishes on ``vehicle_K/formation_state`` and
+``vehicle_K/cmd`` (plain, in the canonical layout, full-scale values), their envelopes signed
+with its key (``wrong_signer``) and envelopes that claim to be vehicle K's (``bad_signature``);
+it replays the envelopes vehicle K sends on them half a second later (``replay``). Given STATUS
+names, it publishes ``formation/start`` (the fleet's plant waits for it) once each of those
+``/diagnostics`` statuses counts more than ``START_AFTER`` wrong-signer and bad-signature
+drops: the run starts once every receiver hears it, however long TLS discovery took. It prints
+``probing`` once started and, on SIGINT or SIGTERM, one JSON line: what it sent, and the last
 ``/diagnostics`` values of each status.
 """
 import collections
@@ -35,8 +35,8 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.ops import signing
-from formation_control.protocol.names import START_TOPIC
 from formation_control.protocol.messages import CommandWire, FormationState, StateWire
+from formation_control.protocol.names import START_TOPIC
 from formation_control.ros.interface import LATCHED_QOS
 from formation_control_msgs.msg import FormationState as StateMsg, VehicleCommand
 import rclpy

@@ -61,8 +61,8 @@ def start_impostor(hosts, tmp, fleet, env, model, awaited):
                OPENSSL_CONF=str(home / security.OPENSSL_CONF),
                ROS_AUTOMATIC_DISCOVERY_RANGE='SYSTEM_DEFAULT')
     proc = subprocess.Popen(hosts.prefix(INTRUDER) + [
-        sys.executable, str(HERE / 'impostor.py'), str(home), str(POSED), model, *awaited], env=env,
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        sys.executable, str(HERE / 'impostor.py'), str(home), str(POSED), model, *awaited],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     assert proc.stdout.readline().strip() == 'probing'
     return proc
 
