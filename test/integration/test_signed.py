@@ -48,7 +48,8 @@ def one_host():
 
 
 def start_impostor(hosts, tmp, fleet, env, model, awaited):
-    """Start test/impostor.py on the intruders' host with vehicle_2's key; wait for it.
+    """
+    Start test/impostor.py on the intruders' host with vehicle_2's key; wait for it.
 
     The impostor starts the run once each status in ``awaited`` has counted its envelopes.
     """
