@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+import functools
 from functools import cached_property
 from typing import Any, TypeAlias
 
@@ -287,15 +288,16 @@ class Moments:
 
         """
         ph, w = view.phase, view.rate
-        b = np.zeros(np.shape(ph[..., idx]))
-        b_dot = np.zeros_like(b)
-        for m, gain in enumerate(self.gains, start=1):
-            E = np.exp(1j * m * ph)
-            pm, pw = _mean(E) / m, _mean(w * E)
-            Ek, wk = E[..., idx], w[..., idx]
-            b = b + gain * inner(pm, 1j * Ek)
-            b_dot = b_dot + gain * (inner(pw, Ek) - m * wk * inner(pm, Ek))
-        return b, b_dot
+        shape = (-1,) + (1,) * np.ndim(ph)
+        m = np.arange(1, len(self.gains) + 1).reshape(shape)
+        gain = np.asarray(self.gains).reshape(shape)
+        E = np.exp(1j * m * ph)                                # (M, ..., N): e^{i m phase}
+        pm, pw = _mean(E) / m, _mean(w * E)
+        idx = [idx] if isinstance(idx, (int, np.integer)) else idx
+        Ek, wk = E[..., idx], w[..., idx]
+        b = gain * inner(pm, 1j * Ek)
+        b_dot = gain * (inner(pw, Ek) - m * wk * inner(pm, Ek))
+        return functools.reduce(np.add, b), functools.reduce(np.add, b_dot)   # m by m: any idx
 
     def potential(self, view: View, coupling: Coupling | None = None) -> Value:
         """Return ``U = sum_m K_m (N/2) (|p_m|^2 - d_m)`` (rad/s) of the view's phases."""

@@ -26,11 +26,11 @@ closes that gap. :func:`check_environment` refuses the settings that would reope
 """
 from dataclasses import dataclass
 import datetime
+from html import escape
 import ipaddress
 import os
 from pathlib import Path
 import re
-from xml.sax.saxutils import escape
 
 import yaml
 
@@ -126,6 +126,11 @@ def parse_hosts(items):
     return hosts
 
 
+def _text(path):
+    """Return ``path`` as XML element text (&, < and > escaped)."""
+    return escape(str(path), quote=False)
+
+
 def profile_xml(member, fleet, key=None, cert=None, ca=None):
     """
     Return the Fast DDS XML profile of ``member``: TCPv4 + TLS only, and its initial peers.
@@ -142,10 +147,10 @@ def profile_xml(member, fleet, key=None, cert=None, ca=None):
     """
     own = ''
     if key is not None:
-        own = (f'<private_key_file>{escape(str(key))}</private_key_file>\n'
-               f'        <cert_chain_file>{escape(str(cert))}</cert_chain_file>\n        ')
+        own = (f'<private_key_file>{_text(key)}</private_key_file>\n'
+               f'        <cert_chain_file>{_text(cert)}</cert_chain_file>\n        ')
     trust = ('<verify_mode><verify>VERIFY_NONE</verify></verify_mode>' if ca is None else
-             f'<verify_file>{escape(str(ca))}</verify_file>\n'
+             f'<verify_file>{_text(ca)}</verify_file>\n'
              '        <verify_mode><verify>VERIFY_PEER</verify></verify_mode>')
     member_of = member in fleet and member.port is not None
     peers = ''.join(f'\n          <locator><tcpv4><address>{m.address}</address>'

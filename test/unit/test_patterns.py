@@ -21,7 +21,7 @@ V_c monotone under backstepping; the runs: splay from several seeds (particles o
 second order, rigid bodies), the (3, 12) pattern, slot patterns on random graphs; the scenario
 refuses a pattern in a flow.
 """
-from dataclasses import replace
+from dataclasses import fields, replace
 
 from formation_control.core import graphs, laws, scenario
 from formation_control.core.control import Controller
@@ -85,6 +85,26 @@ def test_b_is_the_gradient_of_the_pattern_potential(case):
                         - pattern.potential(replace(v, phase=down), coupling)) / (2 * h))
     np.testing.assert_allclose(pattern.gradient(v, coupling=coupling)[0], numeric, atol=1e-7)
     assert abs(np.sum(numeric)) < 1e-7            # U is invariant to a common rotation
+
+
+@pytest.mark.parametrize('n', [5, 16, 19])
+def test_a_vehicle_computes_its_moment_gradient_as_the_fleet_does_bit_for_bit(n):
+    """
+    A node's b_k (idx = k) equals entry k of the simulator's, alone or in a batch of fleets.
+
+    n // 2 >= 8 moments included: the sum over m runs m by m whatever the shape.
+    """
+    rng = np.random.default_rng(n)
+    pattern = laws.Moments(tuple(rng.uniform(-0.5, 0.5, n // 2)))
+    views = [random_view(n, rng) for _ in range(3)]
+    batch = laws.View(*(np.stack([getattr(v, f.name) for v in views])
+                        for f in fields(laws.View)))
+    together = pattern.gradient(batch)
+    for i, v in enumerate(views):
+        fleet = pattern.gradient(v)
+        for k in range(n):
+            for alone, whole, batched in zip(pattern.gradient(v, k), fleet, together):
+                assert alone.tolist() == [whole[k]] == [batched[i, k]]
 
 
 @pytest.mark.parametrize('case', range(4))
