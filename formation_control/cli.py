@@ -414,7 +414,7 @@ def build_parser():
     swarm.add_argument('--vehicles-per-process', default='auto', metavar='M',
                        help='run M vehicle nodes per process (still one node per vehicle, '
                             'talking through topics only); auto (the default): 1 with --secure '
-                            'or a process fault, else the fleet over 2 processes per core')
+                            'or a process fault, else the fleet over one process per core')
     swarm.add_argument('--foxglove', type=int, metavar='PORT',
                        help="serve a Foxglove live view on this port (the monitor's "
                             'foxglove_port)')

@@ -106,10 +106,11 @@ class Process(NamedTuple):
         return 'swarm' if self.name == 'recorder' else self.name
 
 
-PROCESSES_PER_CORE = 2
+PROCESSES_PER_CORE = 1
 """``per_process='auto'``: about this many vehicle processes per core (measured: N = 16 on a
-ring, lockstep, 2 cores: 1.8x real time one per process, 2.8x four per process;
-docs/benchmarks.md section 3 and 6)."""
+ring, 2 cores, lockstep: 2.28x, 2.48x, 2.40x real time with 8 per process against 1.68x, 1.58x,
+1.92x with 4 and 2.03x with 16; real time at 50 Hz, odometry-to-command p99 2.44 ms against
+4.6-5.5 ms with 4; docs/benchmarks.md section 6)."""
 
 
 def auto_per_process(num_vehicles: int, cores: int, one_each: bool = False) -> int:

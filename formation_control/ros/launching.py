@@ -42,7 +42,7 @@ FLEET_ARGUMENTS = {
     'num_vehicles': ('', "override the scenario's number of vehicles; empty = the scenario's"),
     'duration': ('', "override the scenario's duration (s); empty = the scenario's"),
     'vehicles_per_process': ('auto', 'vehicle nodes per process (vehicles executable); auto: 1 '
-                             'with secure, else the fleet over 2 processes per core'),
+                             'with secure, else the fleet over one process per core'),
     'monitor': ('true', 'start the monitor (metrics, diagnostics, markers)'),
     'record': ('', 'record the fleet into this new bag directory (MCAP); empty = none'),
     'record_path': ('', "the plant's record of the run (.npz) when it ends; empty = none"),

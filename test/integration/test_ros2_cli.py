@@ -21,6 +21,7 @@ installs it (the session's workspace). Each ``ros2`` call costs 1-2 s of start-u
 checks against one running fleet run in parallel batches.
 """
 import contextlib
+import math
 import os
 from pathlib import Path
 import shutil
@@ -33,6 +34,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.bags import reader as bagfile
 from formation_control.core import scenario
 from formation_control.protocol import messages, node_parameters
+from formation_control.protocol.fleet_plan import auto_per_process, cores
 from formation_control.ros import interface as itf
 from formation_control.ros.monitor import MonitorNode
 from formation_control.ros.plant import PlantNode
@@ -314,7 +316,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         for m in diagnostics for s in m.status), 30)
     assert launch.poll() is None
     children = _children(launch.pid)
-    assert len(children) == 6                                   # plant, 4 vehicles, monitor
+    assert len(children) == 2 + math.ceil(4 / auto_per_process(4, cores()))  # plant, monitor
     launch.send_signal(signal.SIGINT)
     assert launch.wait(timeout=30) == 0
     assert not [c for c in children if Path(f'/proc/{c}').exists()]

@@ -20,12 +20,14 @@ lockstep swarm converging is in test_monitor), a real-time run converges, the ba
 run, Ctrl-C stops every process.
 """
 import json
+import math
 from pathlib import Path
 import re
 import signal
 
 from formation_control.core.scenario import resolve
 from formation_control.protocol import faults, messages, names
+from formation_control.protocol.fleet_plan import auto_per_process, cores
 from formation_control.sim import simulator
 import numpy as np
 import pytest
@@ -120,7 +122,8 @@ def _fleet_pids(domain_id, parent):
         except (OSError, ValueError, IndexError):
             continue
         if (ppid == parent and f'ROS_DOMAIN_ID={domain_id}'.encode() in environ
-                and any(arg.endswith((b'/plant', b'/vehicle', b'/monitor')) for arg in cmdline)):
+                and any(arg.endswith((b'/plant', b'/vehicle', b'/vehicles', b'/monitor'))
+                        for arg in cmdline)):
             pids.append(int(entry.name))
     return pids
 
@@ -135,7 +138,7 @@ def test_swarm_stops_every_process_on_ctrl_c_or_sigterm(ros, sig):
     cmds = ros.probe.collect(VehicleCommand, '/vehicle_3/cmd', STATE_QOS)
     assert ros.probe.spin_until(lambda: len(cmds) > 5, timeout=60)
     fleet = _fleet_pids(ros.domain_id, swarm.pid)
-    assert len(fleet) == 5
+    assert len(fleet) == 2 + math.ceil(3 / auto_per_process(3, cores()))   # plant, monitor
     swarm.send_signal(sig)
     code = swarm.wait(timeout=30)
     swarm.log.seek(0)
@@ -291,7 +294,6 @@ def test_a_fleet_beyond_localhost_discovery_is_refused_before_any_start(ros):
 
 
 def test_the_default_swarm_groups_vehicle_nodes_by_the_cores(ros, tmp_path):
-    from formation_control.protocol.fleet_plan import auto_per_process, cores
     overrides = ['num_vehicles:=9', 'duration:=1.0']
     out, _ = _swarm(ros, tmp_path, 'particle_circular', '-p', overrides[0], '-p', overrides[1],
                     '--no-monitor')

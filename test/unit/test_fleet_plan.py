@@ -82,15 +82,15 @@ def test_a_secure_fleet_runs_one_vehicle_per_process():
 
 
 @pytest.mark.parametrize('n, cores, per_process', [
-    (16, 2, 4), (17, 2, 5), (4, 2, 1), (5, 2, 2), (16, 1, 8), (16, 8, 1), (1, 2, 1), (64, 2, 16)])
-def test_auto_spreads_the_fleet_over_two_processes_per_core(n, cores, per_process):
+    (16, 2, 8), (17, 2, 9), (4, 2, 2), (5, 2, 3), (16, 1, 16), (16, 8, 2), (1, 2, 1), (64, 2, 32)])
+def test_auto_spreads_the_fleet_over_one_process_per_core(n, cores, per_process):
     assert auto_per_process(n, cores) == per_process
     assert auto_per_process(n, cores, one_each=True) == 1
 
 
 def test_auto_runs_one_vehicle_per_process_in_a_secure_fleet_or_with_process_faults(monkeypatch):
     monkeypatch.setattr(fleet_plan, 'cores', lambda: 2)
-    assert FleetPlan(16, per_process='auto').per_process == 4
+    assert FleetPlan(16, per_process='auto').per_process == 8
     assert FleetPlan(16, per_process='auto', secure=True).per_process == 1
     assert FleetPlan(16, per_process='auto', process_faults=True).per_process == 1
     with pytest.raises(ScenarioError, match=r'^--vehicles-per-process 4 with a process fault '
