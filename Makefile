@@ -171,7 +171,7 @@ bench-scripts: setup
 	$(PY) bench/wire.py
 	$(PY) bench/fleet.py rtf --sizes 5 16
 	$(PY) bench/fleet.py rtf --sizes 32 --per-process 2 4 --repeat 1 --duration 4
-	$(PY) bench/fleet.py rtf --sizes 16 --graphs complete ring --per-process 1 4 --duration 4
+	$(PY) bench/fleet.py rtf --sizes 16 --graphs complete ring --per-process 1 4 8 --duration 4
 	$(PY) bench/fleet.py rtf --sizes 64 --graphs complete circulant:1,2 --per-process 8 \
 		--repeat 1 --duration 2
 	$(PY) bench/fleet.py rtf --sizes 128 --graphs complete circulant:1,2 --per-process 16 \

@@ -35,7 +35,7 @@ def test_sim_command(benchmark):
                              '--duration', '0.4'), rounds=3)
 
 
-@pytest.mark.parametrize('per_process', [1, 4])
+@pytest.mark.parametrize('per_process', [1, 'auto'])
 def test_lockstep_swarm(benchmark, tmp_path, per_process):
     """A lockstep swarm of 16 on a ring, 2 s of fleet time, no monitor, start-up included."""
     summary = tmp_path / 'summary.json'
