@@ -207,12 +207,11 @@ class PlantNode(Node):
             if self.water_pubs is not None:
                 self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, water,
                                                                   self.frames))
-            if self.trace is None:
-                self.odom_pubs[i].publish(self.odom_wires[i].encode(ns, values))
-            else:
-                data = self.odom_wires[i].encode(ns, values)
+            data = self.odom_wires[i].encode(ns, values)
+            if self.trace is not None:
                 self.trace('odom_pub', i + 1, ns)
-                self.odom_pubs[i].publish(data)
+            self.odom_pubs[i].publish(data)
+            if self.trace is not None:
                 self.trace('odom_sent', i + 1, ns)
 
     def _on_cmd(self, k, got):

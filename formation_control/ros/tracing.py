@@ -24,7 +24,7 @@ arrival at a neighbour, a command's arrival at the plant) and writes them to
 and time spent runnable but waiting for a core (``/proc/self/schedstat``: the main
 thread, and the sum over its threads). CLOCK_MONOTONIC is
 one clock for every process of a host, so the times of two processes subtract:
-``bench/fleet.py trace`` reads them. Unset (the default), a node's :data:`trace` is None and
+``bench/fleet_trace.py`` reads them. Unset (the default), a node's :data:`trace` is None and
 the hot path pays one attribute test per event.
 """
 import os
@@ -57,12 +57,16 @@ class Trace:
         return np.array([usage.ru_utime + usage.ru_stime, usage.ru_nvcsw, usage.ru_nivcsw,
                          time.monotonic()])
 
-    def __call__(self, event, vehicle, ns):
-        """Note ``event`` (a name of :data:`EVENTS`) of ``vehicle`` for the step stamped ns."""
+    def __call__(self, event, vehicle, ns, at=None):
+        """
+        Note ``event`` (a name of :data:`EVENTS`) of ``vehicle`` for the step stamped ns.
+
+        ``at``: when it happened (monotonic ns), for an event noted after the fact; now if None.
+        """
         self.last = self._snapshot()
         if self.first is None:
             self.first = self.last
-        self.rows.append((CODE[event], vehicle, ns, self.clock()))
+        self.rows.append((CODE[event], vehicle, ns, self.clock() if at is None else at))
 
     def save(self):
         """Write the events and the process's CPU and scheduling figures."""

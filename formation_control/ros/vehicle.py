@@ -163,9 +163,8 @@ class VehicleNode(Node):
         got = self.odometry(data)
         if got is not None:
             if self.trace is not None:
-                self.trace.rows.append((tracing.CODE['odom_in'], self.k, got[0],
-                                        self.trace.clock() - (time.perf_counter_ns()
-                                                              - self.odom_in)))
+                self.trace('odom_in', self.k, got[0], at=self.trace.clock() - (
+                    time.perf_counter_ns() - self.odom_in))
             self._measured(self.me.odometry(*got))
 
     def _measured(self, got):
@@ -215,7 +214,7 @@ class VehicleNode(Node):
             return
         ns, u, first = due
         if self.trace is not None:
-            self.trace.rows.append((tracing.CODE['law_start'], self.k, ns, start))
+            self.trace('law_start', self.k, ns, at=start)
             self.trace('law_end', self.k, ns)
         if first:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
