@@ -89,6 +89,7 @@ class Vehicle:
         self.flow, self.second = sc.flow_c, needs_second_sensor(sc)
         self.wire = StateWire.of(sc, k, frames)
         self.saturated = 0
+        self.answered_at = -np.inf
 
     def retune(self, sc: Scenario) -> None:
         """Take the run-time parameters of ``sc``."""
@@ -186,6 +187,7 @@ class Vehicle:
         self.saturated += saturated
         first = self.known.commanded_ns < 0
         self.known.commanded()
+        self.answered_at = self.known.clock()
         return self.known.odom_ns, u, first
 
     def autopilot_demand(self, u: RealArray) -> tuple[float, float]:
@@ -202,21 +204,25 @@ class Vehicle:
         return float(demand[0, 0]), float(demand[1, 0])
 
     def stalled(self, now: float, born: float,
-                limit: float) -> str | tuple[float, list[int]] | None:
+                limit: float) -> str | float | tuple[float, list[int]] | None:
         """
-        Lockstep: what the vehicle has waited for more than ``limit`` wall s, else None.
+        Return what the vehicle has waited for more than ``limit`` wall s, else None.
 
-        ``'odometry'`` (none yet, ``born`` the start), or (seconds waited, the ids of the
-        neighbours whose state of the step is awaited).
+        ``'odometry'`` (none yet, ``born`` the start); lockstep, (seconds waited, the ids of
+        the neighbours whose state of the step is awaited); or, its last odometry answered,
+        the seconds since that command (a float): no new odometry came, because the plant
+        waits for another vehicle, has ended, or this vehicle no longer hears it.
         """
         known = self.known
-        if not known.lockstep:
-            return None
         if known.odom_ns < 0:
             return 'odometry' if now - born > limit else None
-        if known.commanded_ns != known.odom_ns and now - known.since > limit:
-            return now - known.since, (np.flatnonzero(known.waiting()) + 1).tolist()
-        return None
+        if known.commanded_ns != known.odom_ns:
+            waited = now - known.since
+            if not known.lockstep or waited <= limit:
+                return None
+            return waited, (np.flatnonzero(known.waiting()) + 1).tolist()
+        silence = now - self.answered_at
+        return silence if silence > limit else None
 
     def status(self, counts: Mapping[str, int]) -> tuple[list[int], str, dict[str, Any]]:
         """

@@ -240,6 +240,13 @@ class VehicleNode(Node):
             topic = self.resolve_topic_name(names.topic(self.k, 'odom'))
             self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
                                    f'publishers matched)', throttle_duration_sec=5.0)
+        elif isinstance(stalled, float):
+            topic = self.resolve_topic_name(names.topic(self.k, 'odom'))
+            self.get_logger().warn(f'no odometry for {stalled:.1f} s since the command for t = '
+                                   f'{self.me.known.odom_ns * 1e-9:.3f} s: the plant waits for '
+                                   f'another vehicle or has ended, or this vehicle no longer '
+                                   f'hears it ({topic}: {self.count_publishers(topic)} '
+                                   f'publishers matched)', throttle_duration_sec=5.0)
         elif stalled is not None:
             self.get_logger().warn(f'step t = {self.me.known.odom_ns * 1e-9:.3f} s: waiting '
                                    f'{stalled[0]:.1f} s for the states of vehicles {stalled[1]}',

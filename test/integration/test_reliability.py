@@ -23,6 +23,7 @@ built in this process (the ``nodes`` fixture).
 """
 import json
 from pathlib import Path
+import re
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -30,6 +31,7 @@ from formation_control.core import scenario
 from formation_control.core.control import Controller
 from formation_control.protocol import links, messages, names
 from formation_control.ros import interface as itf
+from formation_control.ros.interface import STALL
 from formation_control.sim import metrics, simulator
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
@@ -37,7 +39,7 @@ import numpy as np
 import pytest
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rosgraph_msgs.msg import Clock
-from rosutil import CONFIG, output
+from rosutil import CONFIG, output, shm_clean
 from runs import assert_equal_runs, offline_run
 
 PARTICLE = CONFIG / 'particle_parallel.yaml'
@@ -183,6 +185,23 @@ def test_plant_stops_a_vehicle_whose_state_turns_non_finite(nodes):
     assert nodes.logged(plant, 'vehicle 2: its state became non-finite')
 
 
+def test_a_vehicle_answered_and_then_left_without_odometry_says_so(nodes):
+    """The plant ends its run: each vehicle warns once its silence passes the stall time."""
+    plant = nodes.plant(PARTICLE, 'num_vehicles:=2', 'duration:=0.1', 'exit_when_done:=false')
+    for k in (1, 2):
+        nodes.vehicle(k, PARTICLE, 'num_vehicles:=2', 'duration:=0.1', 'use_sim_time:=true')
+    assert nodes.spin_until(lambda: plant.ended, timeout=60)
+
+    def warned(k):
+        return [m.msg for m in nodes.rosout if m.name == f'vehicle_{k}' and re.fullmatch(
+            rf'no odometry for \d+\.\d s since the command for t = 0\.100 s: the plant waits '
+            rf'for another vehicle or has ended, or this vehicle no longer hears it '
+            rf'\(/vehicle_{k}/odom: 1 publishers matched\)', m.msg)]
+    assert not warned(1) and not warned(2)
+    assert nodes.spin_until(lambda: warned(1) and warned(2), timeout=30)
+    assert all(float(warned(k)[0].split()[3]) > STALL for k in (1, 2))
+
+
 # ---- a vehicle lost and restarted ------------------------------------------------------------
 
 def _sub_converged(sc, X, members):
@@ -241,12 +260,45 @@ REMOVED = ('particle_circular.yaml', 5.0, 35.0, 70.0)
 six converge 8-12 s later."""
 
 
-def test_fleet_reconverges_without_a_killed_vehicle_and_again_when_it_returns(ros, tmp_path):
-    """Vehicle 6's process is killed (SIGKILL), and a new process takes its place later."""
+WEDGED = 5.0
+"""Wall seconds without a /diagnostics status from a live vehicle process: it is wedged."""
+
+
+def _heard_statuses(node):
+    """Return {vehicle id: wall times its links status arrived}, filled as /diagnostics comes."""
+    heard = {}
+
+    def take(msg):
+        for s in msg.status:
+            found = re.fullmatch(r'formation_control/vehicle_(\d+)/links', s.name)
+            if found:
+                heard.setdefault(int(found[1]), []).append(time.monotonic())
+    node.create_subscription(DiagnosticArray, names.DIAGNOSTICS_TOPIC, take, itf.STREAM_QOS)
+    return heard
+
+
+def _wedged(heard, ids, start, end):
+    """Return the ids whose status paused for more than :data:`WEDGED` s in [start, end]."""
+    def paused(times):
+        t = np.array([start] + [x for x in times if start < x < end] + [end])
+        return np.diff(t).max() > WEDGED
+    return [k for k in ids if paused(heard.get(k, []))]
+
+
+def _run_killed(ros, tmp_path):
+    """
+    Run :data:`KILLED` as processes; return the record, the logs and the wedged survivors.
+
+    A survivor is wedged when its process stops publishing its 1 Hz status after the kill: a
+    process killed inside Fast DDS's shared-memory transport can leave a lock that blocks
+    others' publish() (with the interpreter lock held) for good (docs/reliability.md).
+    """
     name, t_kill, t_back, duration = KILLED
+    tmp_path.mkdir()
     record = tmp_path / 'run.npz'
     common = ['num_vehicles:=6', f'duration:={duration}', 'seed:=2']
     now = _clock(ros.probe.node)
+    heard = _heard_statuses(ros.probe.node)
     plant = ros.procs.start('plant', *_args(CONFIG / name, *common, f'record_path:={record}'))
     assert ros.probe.spin_until(lambda: now, timeout=60)     # step 0 is held for the vehicles
     vehicle = {k: ros.procs.start('vehicle', *_args(CONFIG / name, *common, f'vehicle_id:={k}',
@@ -255,14 +307,33 @@ def test_fleet_reconverges_without_a_killed_vehicle_and_again_when_it_returns(ro
     assert ros.probe.spin_until(lambda: now[-1] >= t_kill, timeout=120)
     vehicle[6].kill()
     vehicle[6].wait(timeout=10)
+    killed = time.monotonic()
     assert ros.probe.spin_until(lambda: now[-1] >= t_back, timeout=300), output(plant)
     ros.procs.start('vehicle', *_args(CONFIG / name, *common, 'vehicle_id:=6',
                                       'use_sim_time:=true'))
-    plant.wait(timeout=600)
+    assert ros.probe.spin_until(lambda: plant.poll() is not None, timeout=600)
     assert plant.returncode == 0, output(plant)
     logs = [output(plant)[-3000:]] + [f'vehicle {k}: {output(vehicle[k])[-600:]}'
                                       for k in range(1, 6)]
-    _assert_reconverged(record, t_kill, t_back, '\n'.join(logs))
+    return record, '\n'.join(logs), _wedged(heard, range(1, 6), killed, time.monotonic())
+
+
+def test_fleet_reconverges_without_a_killed_vehicle_and_again_when_it_returns(ros, tmp_path):
+    """
+    Vehicle 6's process is killed (SIGKILL), and a new process takes its place later.
+
+    If the kill wedged a survivor's process in the middleware (measured about 1 kill in 115 on
+    a loaded machine), the run says nothing of the protocol: it is run once more, in new
+    processes, and that run must not be wedged.
+    """
+    record, log, wedged = _run_killed(ros, tmp_path / 'first')
+    if wedged:
+        ros.procs.stop_all()
+        shm_clean(ros.env)
+        print(f'vehicles {wedged} wedged after the kill (Fast DDS shared memory): run again')
+        record, log, wedged = _run_killed(ros, tmp_path / 'again')
+    assert not wedged, f'vehicles {wedged} wedged after the kill, twice:\n{log}'
+    _assert_reconverged(record, KILLED[1], KILLED[2], log)
 
 
 def test_circular_fleet_reconverges_without_a_removed_vehicle_and_again_with_a_new_one(

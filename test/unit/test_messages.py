@@ -290,6 +290,34 @@ def test_a_vehicle_counts_a_neighbour_only_while_it_hears_it_back():
     assert values['stale'] == 1 and values['live_neighbours'] == 2
 
 
+@pytest.mark.parametrize('lockstep', [True, False])
+def test_a_vehicle_says_what_it_waits_for_and_how_long_no_step_followed_its_command(lockstep):
+    """Its odometry, its neighbours' states, then, once it answered, the silence since."""
+    sc = scenario.load(CONFIG / 'particle_parallel.yaml', ['num_vehicles:=3'])
+    clock = FakeClock()
+    born = clock.t
+    me = Vehicle(sc, 1, lockstep, LINK, clock)
+    assert me.stalled(born + 2.9, born, 3.0) is None
+    assert me.stalled(born + 3.1, born, 3.0) == 'odometry'
+    clock.t += 10.0
+    me.odometry(20, messages.odom_values(X, 0j))
+    if lockstep:
+        assert me.stalled(clock.t + 2.9, born, 3.0) is None
+        assert me.stalled(clock.t + 3.5, born, 3.0) == (3.5, [2, 3])
+        clock.t += 0.5
+        for j in (2, 3):
+            assert me.heard(j, FormationState(20, float(j), 0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
+    assert me.command() is not None
+    assert me.stalled(clock.t + 3.0, born, 3.0) is None
+    assert me.stalled(clock.t + 3.25, born, 3.0) == 3.25
+    if lockstep:
+        assert me.odometry(20, messages.odom_values(X, 0j)) is REPEATED
+        assert me.stalled(clock.t + 3.25, born, 3.0) == 3.25  # a step asked again is no new one
+    clock.t += 3.25
+    me.odometry(40, messages.odom_values(X, 0j))              # a new step: the wait starts again
+    assert me.stalled(clock.t + 2.9, born, 3.0) is None
+
+
 @pytest.mark.parametrize('name', ['particle_parallel_flow', 'rigid_circular_flow_center',
                                   'first_order_circular'])
 def test_the_plant_and_vehicle_protocols_without_dds_fly_the_offline_simulator(name):
