@@ -40,9 +40,10 @@ from formation_control.ros.monitor import MonitorNode
 from formation_control.ros.plant import PlantNode
 from formation_control.ros.vehicle import VehicleNode
 from formation_control.sim import simulator
-from formation_control_msgs.msg import FormationMetrics, VehicleCommand
+from formation_control_msgs.msg import FormationMetrics, FormationState, VehicleCommand
 import numpy as np
 import pytest
+from rclpy.qos import QoSProfile
 from rosutil import CONFIG, domains, Probe, ros_environment, shm_clean
 import yaml
 
@@ -239,6 +240,11 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     diagnostics = cli.probe.collect(DiagnosticArray, '/diagnostics', itf.STREAM_QOS)
     metrics = cli.probe.collect(FormationMetrics, '/fleet_a/formation/metrics', itf.STREAM_QOS)
     assert cli.probe.spin_until(lambda: metrics, 60), (tmp_path / 'launch.log').read_text()
+    states = []                          # when vehicle 1's states arrived here (epoch ns)
+    cli.probe.node.create_subscription(
+        FormationState, '/fleet_a/vehicle_1/formation_state',
+        lambda _, info: states.append(info['received_timestamp']), QoSProfile(depth=1000),
+        raw=True)
     set_ = subprocess.run([str(BIN / 'formation-control'), 'set', 'kappa:=3', 'K_f:=2',
                            '--namespace', 'fleet_a'], env=cli.env, capture_output=True,
                           text=True, timeout=60)
@@ -266,8 +272,12 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         ['launch', 'formation_control', 'fleet.launch.py', 'scenario:=particle_circular',
          'num_vehicles:=40', 'vehicles_per_process:=1', 'namespace:=fleet_c'],
     )
+    assert launch_b.wait(timeout=180) == 0, (tmp_path / 'fleet_b.log').read_text()
+    window = time.time_ns()
     hz, = cli.many((8.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
-    (_, nodes), odom, state, cmd, metric, info, kind, *dumps = out     # batch loads the CPUs
+    window = (window, time.time_ns())                                  # batch loads the CPUs
+    cli.probe.spin_for(0.5)
+    (_, nodes), odom, state, cmd, metric, info, kind, *dumps = out
     dumps, refusals, (run_rc, run_out), bad_launch, too_many = (
         dumps[:3], dumps[3:7], dumps[7], dumps[8], dumps[9])
     fleet = {'/fleet_a/plant', '/fleet_a/formation_monitor',
@@ -293,8 +303,11 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     assert 0.0 <= msg['order_parameter'] <= 1.0 and isinstance(msg['converged'], bool)
     rates = [float(line.split()[-1]) for line in hz[1].splitlines()
              if line.startswith('average rate')]
-    # 1 / dt_control, in one window at least: on a loaded machine some windows run slower
-    assert any(abs(rate - 50.0) < 10.0 for rate in rates), hz[1]
+    # 1 / dt_control, or less on a loaded machine, where the real-time plant slips: what the
+    # probe heard over the same seconds
+    heard = np.count_nonzero((np.array(states) > window[0]) & (np.array(states) < window[1]))
+    rate = heard / (1e-9 * (window[1] - window[0]))
+    assert 10.0 < rate < 55.0 and rates and abs(rates[-1] - rate) < 0.2 * rate, (rate, hz[1])
     assert 'Node name: plant' in info[1] and 'Node namespace: /fleet_a' in info[1]
     assert 'TRANSIENT_LOCAL' in info[1]
     reasons = [text for _, text in refusals]
@@ -320,7 +333,9 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     launch.send_signal(signal.SIGINT)
     assert launch.wait(timeout=30) == 0
     assert not [c for c in children if Path(f'/proc/{c}').exists()]
-    assert 'every vehicle took' in (tmp_path / 'launch.log').read_text()
+    log = (tmp_path / 'launch.log').read_text()
+    assert 'every vehicle took' in log, '\n'.join(line for line in log.splitlines()
+                                                  if 'monitor' in line or 'WARN' in line)
 
 
 def test_a_formation_state_of_another_interface_version_is_dropped_and_counted(cli, tmp_path):
