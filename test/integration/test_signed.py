@@ -151,7 +151,8 @@ def test_a_member_revoked_while_the_fleet_runs_is_dropped(one_host, tmp_path):
     """
     A real-time fleet: vehicle_2 revoked once it runs is dropped by the plant and its neighbours.
 
-    Each reloads the list within a second and counts vehicle 2's messages as ``revoked``;
+    Each reloads the list within a second and counts vehicle 2's messages as ``revoked``
+    (a neighbour that has a TLS link with vehicle_2 by then);
     the plant holds a zero command for it once it is gone, the others fly on.
     """
     sc = load('particle_parallel', 'num_vehicles:=3', 'duration:=8.0')
@@ -172,6 +173,11 @@ def test_a_member_revoked_while_the_fleet_runs_is_dropped(one_host, tmp_path):
     logs = {p.stem: p.read_text(errors='replace') for p in swarm.dir.glob('*.log')}
     for name in ('plant', 'vehicle_1', 'vehicle_3'):
         assert "reloaded: revoked ['vehicle_2']" in logs[name], logs[name][-2000:]
-        assert "signed by 'vehicle_2', a revoked member (revoked;" in logs[name], name
+    # the plant hears every vehicle before real time starts; two vehicles' TLS link may form
+    # later, or not within the 8 s (seen in CI: vehicle_1 never heard vehicle_2): one neighbour
+    dropped = "signed by 'vehicle_2', a revoked member (revoked;"
+    assert dropped in logs['plant']
+    assert dropped in logs['vehicle_1'] or dropped in logs['vehicle_3'], (
+        logs['vehicle_1'][-2000:], logs['vehicle_3'][-2000:])
     run, _ = swarm.result()
     assert run.t[-1] == 8.0
