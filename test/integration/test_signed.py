@@ -147,15 +147,15 @@ def revoke_once_running(log, fleet, ended):
             return
 
 
-def test_a_member_revoked_while_the_fleet_runs_is_dropped(one_host, tmp_path):
+def _revoked_run(one_host, tmp_path):
     """
-    A real-time fleet: vehicle_2 revoked once it runs is dropped by the plant and its neighbours.
+    Run the 3-vehicle TLS fleet and revoke vehicle_2 once it runs; return the swarm.
 
-    Each reloads the list within a second and counts vehicle 2's messages as ``revoked``
-    (a neighbour that has a TLS link with vehicle_2 by then);
-    the plant holds a zero command for it once it is gone, the others fly on.
+    None when the fleet never started in 60 s because a member's TLS link never formed (the
+    plant still waits for a vehicle that started 0.1 s after it: seen in CI, 1 run in 5).
     """
     sc = load('particle_parallel', 'num_vehicles:=3', 'duration:=8.0')
+    tmp_path.mkdir()
     security.write_fleet(tmp_path / 'fleet', security.roster(3))
     with domains(1) as (did,):
         env = dict(os.environ, ROS_DOMAIN_ID=str(did), PYTHONUNBUFFERED='1')
@@ -166,10 +166,31 @@ def test_a_member_revoked_while_the_fleet_runs_is_dropped(one_host, tmp_path):
                 swarm.dir / 'plant.log', tmp_path / 'fleet', ended))
             revoker.start()
             try:
-                wait_plant(swarm, 120)
+                wait_plant(swarm, 60)
+            except TimeoutError as err:
+                if 'every vehicle is up' in str(err):
+                    raise
+                return None
             finally:
                 ended.set()
                 revoker.join()
+    return swarm
+
+
+def test_a_member_revoked_while_the_fleet_runs_is_dropped(one_host, tmp_path):
+    """
+    A real-time fleet: vehicle_2 revoked once it runs is dropped by the plant and its neighbours.
+
+    Each reloads the list within a second and counts vehicle 2's messages as ``revoked``
+    (a neighbour that has a TLS link with vehicle_2 by then); the plant holds a zero command for
+    it once it is gone, the others fly on. A fleet whose TLS links never all formed says
+    nothing of revocation: it is run once more, and that run must start.
+    """
+    swarm = _revoked_run(one_host, tmp_path / 'first')
+    if swarm is None:
+        print('a member never joined the TLS fleet: run again')
+        swarm = _revoked_run(one_host, tmp_path / 'again')
+    assert swarm is not None, 'a member never joined the TLS fleet, twice'
     logs = {p.stem: p.read_text(errors='replace') for p in swarm.dir.glob('*.log')}
     for name in ('plant', 'vehicle_1', 'vehicle_3'):
         assert "reloaded: revoked ['vehicle_2']" in logs[name], logs[name][-2000:]
