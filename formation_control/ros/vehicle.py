@@ -237,16 +237,16 @@ class VehicleNode(Node):
     def _publish_diagnostics(self):
         stalled = self.me.stalled(self.now(), self.born, itf.STALL)
         if stalled == 'odometry':
-            topic = self.resolve_topic_name(names.topic(self.k, 'odom'))
-            self.get_logger().warn(f'no odometry yet on {topic} ({self.count_publishers(topic)} '
-                                   f'publishers matched)', throttle_duration_sec=5.0)
+            topic, matched = self._odometry_publishers()
+            self.get_logger().warn(f'no odometry yet on {topic} ({matched} publishers matched)',
+                                   throttle_duration_sec=5.0)
         elif isinstance(stalled, float):
-            topic = self.resolve_topic_name(names.topic(self.k, 'odom'))
+            topic, matched = self._odometry_publishers()
             self.get_logger().warn(f'no odometry for {stalled:.1f} s since the command for t = '
                                    f'{self.me.known.odom_ns * 1e-9:.3f} s: the plant waits for '
                                    f'another vehicle or has ended, or this vehicle no longer '
-                                   f'hears it ({topic}: {self.count_publishers(topic)} '
-                                   f'publishers matched)', throttle_duration_sec=5.0)
+                                   f'hears it ({topic}: {matched} publishers matched)',
+                                   throttle_duration_sec=5.0)
         elif stalled is not None:
             self.get_logger().warn(f'step t = {self.me.known.odom_ns * 1e-9:.3f} s: waiting '
                                    f'{stalled[0]:.1f} s for the states of vehicles {stalled[1]}',
@@ -256,6 +256,11 @@ class VehicleNode(Node):
             f'formation_control/vehicle_{self.k}/links',
             DiagnosticStatus.WARN if gone else DiagnosticStatus.OK, text,
             {**values, **self.latency.summary()}, hardware_id=f'vehicle_{self.k}')])
+
+    def _odometry_publishers(self):
+        """Return its odometry topic and the number of publishers matched to it."""
+        topic = self.resolve_topic_name(names.topic(self.k, 'odom'))
+        return topic, self.count_publishers(topic)
 
 
 def _probe_parameter(context, name, default):
