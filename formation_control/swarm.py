@@ -27,7 +27,7 @@ import sys
 import tempfile
 import time
 
-from formation_control.ops import lifetime, security, signing
+from formation_control.ops import dds_profile, lifetime, security, signing
 from formation_control.protocol import faults, names
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, ros_arguments,
                                                    SWARM_LABELS, write_params)
@@ -132,6 +132,9 @@ class Swarm:
         if place is None:
             check_discovery(len(processes) + 1, sc.num_vehicles, plan.per_process,
                             SWARM_LABELS[0], base)
+        if secure is None:
+            profile = dds_profile.fleet_env(base, self.dir)
+            env = {**base, **profile} if profile else env
         self.envs = {name: env if secure is None else security.member_env(secure, name, base)
                      for name in self.names}
         refused = [signing.check_member(e) for e in self.envs.values()] if secure else []
@@ -502,7 +505,8 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         os.environ.update(security.environment(secure, 'swarm'))
         for name in security.UNSET:
             os.environ.pop(name, None)
-    supervisor = Supervisor(sc.num_vehicles, mode, bag, monitor, namespace)
+    with dds_profile.given(None if secure else swarm.dir):
+        supervisor = Supervisor(sc.num_vehicles, mode, bag, monitor, namespace)
     try:
         with swarm:
             wait_plant(swarm, timeout, supervisor, schedule)

@@ -27,7 +27,7 @@ import tempfile
 
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
-from formation_control.ops import lifetime, security
+from formation_control.ops import dds_profile, lifetime, security
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, LAUNCH_LABELS,
                                                    write_params)
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
@@ -80,11 +80,17 @@ def _true(text):
 
 
 def _scenario(a, recorded=False):
-    """Validate the scenario of the arguments ``a``; return it and its parameter file."""
+    """
+    Validate the scenario of the arguments ``a``; return it and its parameter files.
+
+    Without ``secure``, ``a['profile']`` becomes the variables of the fleet's Fast DDS profile
+    (:func:`~formation_control.ops.dds_profile.fleet_env`), written beside the parameters.
+    """
     overrides = [f'{name}:={a[name]}' for name in ('num_vehicles', 'duration') if a.get(name)]
     sc = scenario.load(scenario.find(a['scenario']), overrides)
     folder = Path(tempfile.mkdtemp(prefix='formation_launch_'))
     files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
+    a['profile'] = {} if a['secure'] else dds_profile.fleet_env(os.environ, folder)
     if a['params_file']:
         if not Path(a['params_file']).is_file():
             raise UsageError(f"params_file {a['params_file']!r} not found")
@@ -99,7 +105,7 @@ def _node(executable, a, params, member, **kwargs):
     The node stops when the launch dies, even by SIGKILL
     (:func:`~formation_control.ops.lifetime.die_with_parent`).
     """
-    env = security.environment(a['secure'], member) if a['secure'] else {}
+    env = security.environment(a['secure'], member) if a['secure'] else dict(a['profile'])
     env[lifetime.PARENT_ENV] = str(os.getpid())
     return Node(package=PACKAGE, executable=executable, namespace=a['namespace'] or None,
                 parameters=params, output='screen', emulate_tty=True, additional_env=env,
