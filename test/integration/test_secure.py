@@ -23,6 +23,7 @@ peers their profiles list, all inside the test's network namespaces.
 import json
 import os
 from pathlib import Path
+import re
 import signal
 import subprocess
 import sys
@@ -40,6 +41,16 @@ from test_ros2_cli import Cli, ROS2
 
 HERE = Path(__file__).resolve().parents[1]
 INTRUDER = 4
+NEVER_JOINED = re.compile(r'step 0: waiting [\d.]+ s for the commands of vehicles \[')
+"""The plant's words when the fleet never starts because a member's TLS links never formed:
+Fast DDS 2.14's TCP transport leaves a pair of members unconnected for good, rarely, without
+an error (docs/security.md). Such a run says nothing of what a test checks: it is run once
+more, in a new fleet and domain, and that run must start."""
+
+
+def never_joined(text):
+    """Whether a run's output shows a fleet whose TLS links never all formed."""
+    return NEVER_JOINED.search(text or '') is not None
 
 
 def made_hosts(n):
@@ -92,21 +103,14 @@ def report(proc):
     return json.loads(out.strip().splitlines()[-1])
 
 
-def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
+def _guarded_run(hosts, tmp_path, sc, profiles):
     """
-    Intruders listen and command from their own host and the plant's; the run is the offline one.
+    Run the TLS fleet of ``sc`` with the tap, the operator and the intruders of ``profiles``.
 
-    The operator, a member on the intruders' host, hears every vehicle: the probes work. An
-    intruder with a certificate of another CA (trusting the fleet's CA), one without any and
-    a plain participant on UDP hear nothing, and their commands never reach the plant.
+    Return (the swarm, what each heard), or None when the fleet never started within 90 s
+    (:data:`NEVER_JOINED`; a run takes 20-40 s here).
     """
-    n = 4
-    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=8.0')
-    fleet = fleet_of(hosts, n)
-    security.write_fleet(tmp_path / 'fleet', fleet)
-    other = security.roster(n, {'vehicle_1': hosts.address(INTRUDER)})
-    security.write_fleet(tmp_path / 'other', other, organisation='another fleet')
-    profiles = intruder_profiles(tmp_path, hosts, fleet, tmp_path / 'other')
+    n = sc.num_vehicles
     with domains(1) as (did,):
         base = {k: v for k, v in os.environ.items() if k != 'FASTDDS_BUILTIN_TRANSPORTS'}
         base.update(ROS_DOMAIN_ID=str(did), PYTHONUNBUFFERED='1')
@@ -124,9 +128,38 @@ def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
         try:
             with Swarm(sc, place=placer(hosts), env=base, node_params=EXACT,
                        secure=tmp_path / 'fleet') as swarm:
-                wait_plant(swarm, 180)
+                wait_plant(swarm, 90)
+        except TimeoutError as err:
+            if not never_joined(str(err)):
+                raise
+            return None
         finally:
             seen = {name: report(proc) for name, proc in procs.items()}
+    return swarm, seen
+
+
+def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
+    """
+    Intruders listen and command from their own host and the plant's; the run is the offline one.
+
+    The operator, a member on the intruders' host, hears every vehicle: the probes work. An
+    intruder with a certificate of another CA (trusting the fleet's CA), one without any and
+    a plain participant on UDP hear nothing, and their commands never reach the plant. A fleet
+    that never started (:data:`NEVER_JOINED`) is run once more.
+    """
+    n = 4
+    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=8.0')
+    fleet = fleet_of(hosts, n)
+    security.write_fleet(tmp_path / 'fleet', fleet)
+    other = security.roster(n, {'vehicle_1': hosts.address(INTRUDER)})
+    security.write_fleet(tmp_path / 'other', other, organisation='another fleet')
+    profiles = intruder_profiles(tmp_path, hosts, fleet, tmp_path / 'other')
+    made = _guarded_run(hosts, tmp_path, sc, profiles)
+    if made is None:
+        print('a member never joined the TLS fleet: run again')
+        made = _guarded_run(hosts, tmp_path, sc, profiles)
+    assert made is not None, 'a member never joined the TLS fleet, twice'
+    swarm, seen = made
     run, out = swarm.result()
     assert_equals_simulator(run, sc)
     assert out['converged'], out
@@ -146,15 +179,11 @@ def one_host():
     yield from made_hosts(1)
 
 
-def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path):
-    """
-    ``secure`` then ``swarm --secure --bag`` on one host: every process is a member.
-
-    The bag only starts when the swarm's own recorder (member ``swarm``) has matched every
-    topic, and it then holds the whole run.
-    """
+def _secure_swarm(one_host, tmp_path):
+    """Run ``swarm --secure --bag`` of 3 vehicles; return (the fleet, the result), or None."""
     fleet, bag = tmp_path / 'fleet', tmp_path / 'bag'
     cli = [str(Path(sys.executable).parent / 'formation-control')]
+    tmp_path.mkdir()
     made = subprocess.run(cli + ['secure', fleet, '--vehicles', '3'], capture_output=True,
                           text=True, timeout=60)
     assert made.returncode == 0, made.stderr
@@ -162,42 +191,91 @@ def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path
         env = dict(os.environ, ROS_DOMAIN_ID=str(did))
         done = subprocess.run(one_host.prefix(0) + cli + [
             'swarm', 'particle_parallel', '-p', 'num_vehicles:=3', '--duration', '3',
-            '--secure', fleet, '--bag', bag, '--out', tmp_path / 'run.npz', '--timeout', '120'],
-            capture_output=True, text=True, timeout=180, env=env)
+            '--secure', fleet, '--bag', bag, '--out', tmp_path / 'run.npz', '--timeout', '60'],
+            capture_output=True, text=True, timeout=120, env=env)
+    return None if done.returncode and never_joined(done.stderr) else (fleet, done)
+
+
+def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path):
+    """
+    ``secure`` then ``swarm --secure --bag`` on one host: every process is a member.
+
+    The bag only starts when the swarm's own recorder (member ``swarm``) has matched every
+    topic, and it then holds the whole run. A fleet that never started (:data:`NEVER_JOINED`)
+    is run once more.
+    """
+    made = _secure_swarm(one_host, tmp_path / 'first')
+    if made is None:
+        print('a member never joined the TLS fleet: run again')
+        made = _secure_swarm(one_host, tmp_path := tmp_path / 'again')
+    else:
+        tmp_path = tmp_path / 'first'
+    assert made is not None, 'a member never joined the TLS fleet, twice'
+    fleet, done = made
     assert done.returncode == 0, done.stderr[-3000:]
-    recorded, run = bagfile.read_run(bag), simulator.load_run(tmp_path / 'run.npz')
+    recorded = bagfile.read_run(tmp_path / 'bag')
+    run = simulator.load_run(tmp_path / 'run.npz')
     assert recorded.X.shape == run.X.shape and recorded.t[-1] == run.t[-1] == 3.0
     np.testing.assert_allclose(recorded.X, run.X, rtol=0, atol=1e-12)   # heading: quaternion
-    refused = subprocess.run(one_host.prefix(0) + cli + [
-        'swarm', 'particle_parallel', '-p', 'num_vehicles:=4', '--secure', fleet],
-        capture_output=True, text=True, timeout=60, env=env)
+    cli = [str(Path(sys.executable).parent / 'formation-control')]
+    with domains(1) as (did,):
+        refused = subprocess.run(one_host.prefix(0) + cli + [
+            'swarm', 'particle_parallel', '-p', 'num_vehicles:=4', '--secure', fleet],
+            capture_output=True, text=True, timeout=60,
+            env=dict(os.environ, ROS_DOMAIN_ID=str(did)))
     assert refused.returncode == 2
     assert 'vehicle_4 is not a member of the fleet' in refused.stderr
+
+
+def _launched(one_host, colcon_install, tmp_path):
+    """
+    ``ros2 launch`` the 3-vehicle TLS fleet with a bag, a plain participant beside it.
+
+    Return (the launch's result, what the plain participant heard), or None when the fleet
+    never started within 90 s (:data:`NEVER_JOINED`; a run takes 10-30 s here).
+    """
+    security.write_fleet(tmp_path / 'fleet', security.roster(3))
+    with domains(1) as (did,):
+        env = Cli(colcon_install, did).env
+        plain = start(one_host, 0, [HERE / 'intruder.py', 3],
+                      dict(env, ROS_AUTOMATIC_DISCOVERY_RANGE='SUBNET'))
+        launch = one_host.prefix(0) + [
+            ROS2, 'launch', 'formation_control', 'fleet.launch.py',
+            'scenario:=particle_parallel', 'num_vehicles:=3', 'duration:=3.0',
+            f'secure:={tmp_path / "fleet"}', f'record:={tmp_path / "bag"}',
+            f'record_path:={tmp_path / "run.npz"}']
+        try:
+            done = subprocess.run(launch, env=env, capture_output=True, text=True, timeout=90)
+        except subprocess.TimeoutExpired as err:
+            output = err.stdout.decode(errors='replace') if err.stdout else ''
+            if not never_joined(output):
+                raise
+            return None
+        finally:
+            heard = report(plain)['received']
+    return done, heard
 
 
 def test_a_launched_fleet_runs_each_node_as_its_member(one_host, colcon_install, tmp_path):
     """
     ``ros2 launch ... secure:=DIR`` with a bag: every node, the recorder too, is a member.
 
-    A plain participant on the same host hears nothing of it.
+    A plain participant on the same host hears nothing of it. A fleet that never started
+    (:data:`NEVER_JOINED`) is run once more.
     """
     if ROS2 is None:
         pytest.skip('the ros2 command line is not installed')
-    security.write_fleet(tmp_path / 'fleet', security.roster(3))
     sc = load('particle_parallel', 'num_vehicles:=3', 'duration:=3.0')
-    with domains(1) as (did,):
-        env = Cli(colcon_install, did).env
-        plain = start(one_host, 0, [HERE / 'intruder.py', 3],
-                      dict(env, ROS_AUTOMATIC_DISCOVERY_RANGE='SUBNET'))
-        try:
-            done = subprocess.run(one_host.prefix(0) + [
-                ROS2, 'launch', 'formation_control', 'fleet.launch.py',
-                'scenario:=particle_parallel', 'num_vehicles:=3', 'duration:=3.0',
-                f'secure:={tmp_path / "fleet"}', f'record:={tmp_path / "bag"}',
-                f'record_path:={tmp_path / "run.npz"}'],
-                env=env, capture_output=True, text=True, timeout=180)
-        finally:
-            heard = report(plain)['received']
+    (tmp_path / 'first').mkdir()
+    made = _launched(one_host, colcon_install, tmp_path / 'first')
+    if made is None:
+        print('a member never joined the TLS fleet: run again')
+        (tmp_path / 'again').mkdir()
+        made = _launched(one_host, colcon_install, tmp_path := tmp_path / 'again')
+    else:
+        tmp_path = tmp_path / 'first'
+    assert made is not None, 'a member never joined the TLS fleet, twice'
+    done, heard = made
     assert done.returncode == 0, done.stdout[-3000:]
     assert sum(heard.values()) == 0, heard
     run = simulator.load_run(tmp_path / 'run.npz')
