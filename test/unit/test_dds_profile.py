@@ -32,9 +32,13 @@ def _heartbeat_s(text):
     return int(period.find('p:sec', NS).text) + 1e-9 * int(period.find('p:nanosec', NS).text)
 
 
-def test_the_profile_sets_a_writer_heartbeat_of_a_tenth_of_a_second_and_nothing_else():
+def test_the_profile_sets_a_writers_heartbeats_and_nothing_else():
+    """Every 0.1 s, none with each sample: a default writer profile alone, no transport."""
     root = ET.fromstring(dds_profile.profile_xml())
     assert [child.tag.split('}')[1] for child in root] == ['data_writer']
+    (writer,) = root
+    assert [child.tag.split('}')[1] for child in writer] == ['qos', 'times']
+    assert writer.find('p:qos/p:disable_heartbeat_piggyback', NS).text == 'true'
     assert _heartbeat_s(dds_profile.profile_xml()) == pytest.approx(0.1)
 
 
