@@ -370,3 +370,37 @@ def _refused_by_a_vehicle(cli, log):
                             '{interface_version: 2, vehicle_id: 2, speed: 1.0}'])
     assert rc == 0, text
     assert cli.probe.spin_until(lambda: count() == '1', 30), count()
+
+
+def _env_of(node):
+    """Return a launch Node's additional environment as {name: value} (text substitutions)."""
+    def text(subs):
+        return ''.join(s.text for s in subs)
+    return {text(name): text(value) for name, value in node.additional_env}
+
+
+def test_launched_nodes_get_the_fleets_fast_dds_profile_unless_one_is_named(monkeypatch):
+    """
+    ``fleet.launch.py`` and ``vehicle.launch.py`` give each node the fleet's Fast DDS profile.
+
+    It is written beside the launch's parameter file (ops/dds_profile.py); a profile the user
+    names in either variable is left alone (a TLS member's own profile carries the same writer
+    section: test_dds_profile.py).
+    """
+    if ROS2 is None:
+        pytest.skip('the ros2 command line (and launch) is not installed')
+    from formation_control.ops import dds_profile
+    from formation_control.ros import launching
+    for name in dds_profile.PROFILE_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    args = {'scenario': 'particle_parallel', 'num_vehicles': '3', 'duration': '',
+            'namespace': '', 'params_file': '', 'secure': ''}
+    _, files = launching._scenario(args)
+    env = _env_of(launching._node('vehicle', args, files, 'vehicle_1'))
+    profile = Path(files[0]).parent / dds_profile.FILE
+    assert env['FASTRTPS_DEFAULT_PROFILES_FILE'] == str(profile)
+    assert profile.read_text() == dds_profile.profile_xml()
+    monkeypatch.setenv('FASTDDS_DEFAULT_PROFILES_FILE', '/etc/fleet/mine.xml')
+    _, files = launching._scenario(args)
+    assert 'FASTRTPS_DEFAULT_PROFILES_FILE' not in _env_of(
+        launching._node('vehicle', args, files, 'vehicle_1'))
