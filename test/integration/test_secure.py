@@ -53,6 +53,22 @@ def never_joined(text):
     return NEVER_JOINED.search(text or '') is not None
 
 
+def started(attempt, tmp_path):
+    """
+    Return ``attempt(directory)``, run in a new ``tmp_path / 'first'``, else ``... / 'again'``.
+
+    ``attempt`` returns None when its fleet never started (:data:`NEVER_JOINED`); it is run once
+    more, and that run must start.
+    """
+    for name in ('first', 'again'):
+        (tmp_path / name).mkdir()
+        made = attempt(tmp_path / name)
+        if made is not None:
+            return made
+        print('a member never joined the TLS fleet: run again')
+    raise AssertionError('a member never joined the TLS fleet, twice')
+
+
 def made_hosts(n):
     try:
         with Hosts(n) as made:
@@ -154,12 +170,7 @@ def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
     other = security.roster(n, {'vehicle_1': hosts.address(INTRUDER)})
     security.write_fleet(tmp_path / 'other', other, organisation='another fleet')
     profiles = intruder_profiles(tmp_path, hosts, fleet, tmp_path / 'other')
-    made = _guarded_run(hosts, tmp_path, sc, profiles)
-    if made is None:
-        print('a member never joined the TLS fleet: run again')
-        made = _guarded_run(hosts, tmp_path, sc, profiles)
-    assert made is not None, 'a member never joined the TLS fleet, twice'
-    swarm, seen = made
+    swarm, seen = started(lambda _: _guarded_run(hosts, tmp_path, sc, profiles), tmp_path)
     run, out = swarm.result()
     assert_equals_simulator(run, sc)
     assert out['converged'], out
@@ -180,10 +191,9 @@ def one_host():
 
 
 def _secure_swarm(one_host, tmp_path):
-    """Run ``swarm --secure --bag`` of 3 vehicles; return (the fleet, the result), or None."""
+    """Run ``swarm --secure --bag`` of 3 vehicles in ``tmp_path``: (it, the result), or None."""
     fleet, bag = tmp_path / 'fleet', tmp_path / 'bag'
     cli = [str(Path(sys.executable).parent / 'formation-control')]
-    tmp_path.mkdir()
     made = subprocess.run(cli + ['secure', fleet, '--vehicles', '3'], capture_output=True,
                           text=True, timeout=60)
     assert made.returncode == 0, made.stderr
@@ -193,7 +203,7 @@ def _secure_swarm(one_host, tmp_path):
             'swarm', 'particle_parallel', '-p', 'num_vehicles:=3', '--duration', '3',
             '--secure', fleet, '--bag', bag, '--out', tmp_path / 'run.npz', '--timeout', '60'],
             capture_output=True, text=True, timeout=120, env=env)
-    return None if done.returncode and never_joined(done.stderr) else (fleet, done)
+    return None if done.returncode and never_joined(done.stderr) else (tmp_path, done)
 
 
 def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path):
@@ -204,14 +214,8 @@ def test_the_swarm_command_runs_a_secure_fleet_and_records_it(one_host, tmp_path
     topic, and it then holds the whole run. A fleet that never started (:data:`NEVER_JOINED`)
     is run once more.
     """
-    made = _secure_swarm(one_host, tmp_path / 'first')
-    if made is None:
-        print('a member never joined the TLS fleet: run again')
-        made = _secure_swarm(one_host, tmp_path := tmp_path / 'again')
-    else:
-        tmp_path = tmp_path / 'first'
-    assert made is not None, 'a member never joined the TLS fleet, twice'
-    fleet, done = made
+    tmp_path, done = started(lambda d: _secure_swarm(one_host, d), tmp_path)
+    fleet = tmp_path / 'fleet'
     assert done.returncode == 0, done.stderr[-3000:]
     recorded = bagfile.read_run(tmp_path / 'bag')
     run = simulator.load_run(tmp_path / 'run.npz')
@@ -231,8 +235,8 @@ def _launched(one_host, colcon_install, tmp_path):
     """
     ``ros2 launch`` the 3-vehicle TLS fleet with a bag, a plain participant beside it.
 
-    Return (the launch's result, what the plain participant heard), or None when the fleet
-    never started within 90 s (:data:`NEVER_JOINED`; a run takes 10-30 s here).
+    Return (``tmp_path``, the launch's result, what the plain participant heard), or None
+    when the fleet never started within 90 s (:data:`NEVER_JOINED`; a run takes 10-30 s here).
     """
     security.write_fleet(tmp_path / 'fleet', security.roster(3))
     with domains(1) as (did,):
@@ -253,7 +257,7 @@ def _launched(one_host, colcon_install, tmp_path):
             return None
         finally:
             heard = report(plain)['received']
-    return done, heard
+    return tmp_path, done, heard
 
 
 def test_a_launched_fleet_runs_each_node_as_its_member(one_host, colcon_install, tmp_path):
@@ -266,16 +270,7 @@ def test_a_launched_fleet_runs_each_node_as_its_member(one_host, colcon_install,
     if ROS2 is None:
         pytest.skip('the ros2 command line is not installed')
     sc = load('particle_parallel', 'num_vehicles:=3', 'duration:=3.0')
-    (tmp_path / 'first').mkdir()
-    made = _launched(one_host, colcon_install, tmp_path / 'first')
-    if made is None:
-        print('a member never joined the TLS fleet: run again')
-        (tmp_path / 'again').mkdir()
-        made = _launched(one_host, colcon_install, tmp_path := tmp_path / 'again')
-    else:
-        tmp_path = tmp_path / 'first'
-    assert made is not None, 'a member never joined the TLS fleet, twice'
-    done, heard = made
+    tmp_path, done, heard = started(lambda d: _launched(one_host, colcon_install, d), tmp_path)
     assert done.returncode == 0, done.stdout[-3000:]
     assert sum(heard.values()) == 0, heard
     run = simulator.load_run(tmp_path / 'run.npz')
