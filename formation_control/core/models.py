@@ -40,6 +40,7 @@ it takes :func:`rk4_step`.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -237,6 +238,35 @@ def deriv(X: RealArray, U: RealArray, plant: Plant,
     return dX
 
 
+def rk4(rates: Callable[[RealArray, float], RealArray], X: RealArray, dt: float,
+        t: float = 0.0) -> RealArray:
+    """
+    Return the state after one classical Runge-Kutta (RK4) step of ``X' = rates(X, t)``.
+
+    Parameters
+    ----------
+    rates : callable
+        ``rates(X, t)``: dX/dt, shape of ``X`` (the inputs held inside it).
+    X : array_like, shape (6, ...)
+        State at the start of the step.
+    dt : float
+        Step (s); negative steps integrate backwards.
+    t : float, optional
+        Time at the start of the step (s); the stages are at t, t + dt/2, t + dt/2, t + dt.
+
+    Returns
+    -------
+    ndarray, shape of ``X``
+        ``X + (dt/6)(k1 + 2 k2 + 2 k3 + k4)``.
+
+    """
+    k1 = rates(X, t)
+    k2 = rates(X + 0.5 * dt * k1, t + 0.5 * dt)
+    k3 = rates(X + 0.5 * dt * k2, t + 0.5 * dt)
+    k4 = rates(X + dt * k3, t + dt)
+    return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
 def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
              t: float = 0.0) -> RealArray:
     """
@@ -258,14 +288,10 @@ def rk4_step(X: RealArray, U: RealArray, dt: float, plant: Plant,
     Returns
     -------
     ndarray, shape (6, N)
-        ``X + (dt/6)(k1 + 2 k2 + 2 k3 + k4)`` with the stages ``k_i`` of :func:`deriv`.
+        :func:`rk4` with the stages ``k_i`` of :func:`deriv`.
 
     """
-    k1 = deriv(X, U, plant, t)
-    k2 = deriv(X + 0.5 * dt * k1, U, plant, t + 0.5 * dt)
-    k3 = deriv(X + 0.5 * dt * k2, U, plant, t + 0.5 * dt)
-    k4 = deriv(X + dt * k3, U, plant, t + dt)
-    return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return rk4(lambda X, t: deriv(X, U, plant, t), X, dt, t)
 
 
 def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,

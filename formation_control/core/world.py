@@ -46,7 +46,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import (deriv, Plant, RIGID_MODELS, ROW_OMEGA, ROW_X,
+from formation_control.core.models import (deriv, Plant, RIGID_MODELS, rk4, ROW_OMEGA, ROW_X,
                                            ROW_Y)
 import numpy as np
 
@@ -261,8 +261,8 @@ class World:
         Return the state one integration step later, the commands U held.
 
         The actuators and gusts advance first (:meth:`actuate`, :meth:`blow`), then one RK4
-        step of the true vehicles with them held; a first-order particle's omega is its applied
-        turn rate.
+        step (:func:`models.rk4`) of the true vehicles with them held; a first-order
+        particle's omega is its applied turn rate.
         """
         dt = self.sc.dt_integration
         a = self.actuate(U)
@@ -270,11 +270,7 @@ class World:
         if self.sc.model == 'first_order':
             X = np.array(X, float)
             X[ROW_OMEGA] = a[1] * self.effect[1]
-        k1 = self.rates(X, a, t)
-        k2 = self.rates(X + 0.5 * dt * k1, a, t + 0.5 * dt)
-        k3 = self.rates(X + 0.5 * dt * k2, a, t + 0.5 * dt)
-        k4 = self.rates(X + dt * k3, a, t + dt)
-        return X + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return rk4(lambda X, t: self.rates(X, a, t), X, dt, t)
 
 
 def steady_speed(sc: Scenario, thrust: RealArray, drag: RealArray) -> RealArray:

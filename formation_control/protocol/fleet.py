@@ -21,18 +21,19 @@ over the integration steps (:class:`simulator.Stepper`), records every ``record_
 last finite state, zero command, no more odometry; the others go on.
 :func:`stability.likely_cause` names why.
 
-Aircraft (``plant_backend: jsbsim``) take either: the law's command
+The stepper's plant backend (:mod:`backends`) integrates. Aircraft (``plant_backend: jsbsim``,
+a backend that :attr:`~backends.PlantBackend.takes_demand`) take either: the law's command
 (:meth:`FleetPlant.set_command`, its autopilot demand :func:`aircraft.turn_demand` of the state
 at the hold, as the offline simulator) or the autopilot demand itself
 (:meth:`FleetPlant.set_demand`, what the plant node reads on ``cmd_vel``), which is held as
 sent and recorded as the law's input it stands for against the yaw rate of the odometry last
-sent (:func:`aircraft.law_input`).
+sent (:meth:`~backends.PlantBackend.law_input`).
 """
 from __future__ import annotations
 
 from typing import Any
 
-from formation_control.core import aircraft, stability
+from formation_control.core import stability
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
 from formation_control.core.scenario import Scenario
@@ -146,14 +147,13 @@ class FleetPlant:
         Hold an aircraft's autopilot ``demand`` (airspeed m/s, turn rate rad/s) from the next step.
 
         Vehicle index ``i``'s command becomes the law's input it stands for, against the yaw
-        rate it was last told (:func:`aircraft.law_input`), for the record.
+        rate it was last told (:func:`aircraft.law_input`), for the record. A backend that
+        takes no demand raises ValueError (:meth:`backends.PlantBackend.law_input`).
         """
-        if self.stepper.aircraft is None:
-            raise ValueError("parameter 'plant_backend' = 'native': the plant takes the law's "
-                             'command (cmd), an autopilot demand (cmd_vel) needs jsbsim')
+        law_input = self.stepper.backend.law_input(self.told_rate[[i]],
+                                                   np.asarray(demand, float)[:, None])
         self.demand[:, i] = demand
-        self.pending[:, i] = aircraft.law_input(self.sc, self.told_rate[[i]],
-                                                self.demand[:, [i]])[:, 0]
+        self.pending[:, i] = law_input[:, 0]
 
     def hold(self, off: BoolArray, boundary: bool) -> bool:
         """
@@ -171,12 +171,7 @@ class FleetPlant:
         off = np.asarray(off) | self.stopped
         self.pending[:, off] = 0.0
         self.demand[:, off] = np.nan
-        demand = None
-        if self.stepper.aircraft is not None:
-            demand = np.where(np.isnan(self.demand),
-                              aircraft.turn_demand(self.sc, self.stepper.X, self.pending),
-                              self.demand)
-        held = self.stepper.hold(self.pending, demand)
+        held = self.stepper.hold(self.pending, self.demand)
         if boundary:
             self.recorder.record(self.n, self.stepper.X, held, channels=self.stepper.channels)
             if self.n >= self.recorder.steps:

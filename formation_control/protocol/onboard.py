@@ -15,8 +15,8 @@
 """
 One vehicle's own controller: its view of itself, and its command from what it heard.
 
-The simulator commands the whole fleet with one :class:`control.Controller`; a vehicle node
-commands itself with an :class:`Onboard`, which calls the same controller on the view of the
+The simulator steps the whole fleet at once (:class:`sim.onboard.OnboardStep`); a vehicle node
+commands itself with an :class:`Onboard`, the same step for one vehicle, on the view of the
 vehicles it hears. It commands with the flow it has: told (``flow_source: known``) or its own
 estimate (:class:`estimation.FlowEstimator`, ``estimated``). A measurement that comes on a second
 topic (the local flow, the through-water velocity) is paired with the odometry of the same
@@ -29,13 +29,12 @@ from collections.abc import Sequence
 from typing import Any
 
 from formation_control.core.control import Controller
-from formation_control.core.estimation import FlowEstimator
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
-from formation_control.core.navigation import flow_input, PositionFilter
 from formation_control.core.scenario import Scenario
 from formation_control.protocol.messages import state_from_odom_values, ViewRow
+from formation_control.sim.onboard import OnboardStep
 import numpy as np
 
 
@@ -131,54 +130,49 @@ class Pairing:
 
 class Onboard:
     """
-    The controller of one vehicle of scenario ``sc``.
+    The controller of one vehicle of scenario ``sc``: the onboard step of one vehicle.
+
+    It is :class:`sim.onboard.OnboardStep` of shape (1,), the step the simulator takes for the
+    whole fleet at once, fed what the vehicle measures.
 
     Attributes
     ----------
-    X : (6, 1) float or None
-        The state its next command is computed for: its latest sampled state predicted to the
-        middle of the hold (:meth:`control.Controller.predict`); None before its first odometry.
-    U_held : (2, 1) float
-        The input it holds (its last command), which the prediction and the full law's view
-        read.
+    step : sim.onboard.OnboardStep
+        Its step: the state ``step.X`` (6, 1) its next command is computed for (its latest
+        sampled state predicted to the middle of the hold), the input ``step.U`` (2, 1) it
+        holds (its last command).
+    sampled : (6, 1) float or None
+        Its latest sampled state; None before its first odometry.
     speed_dot : float
-        Its own s' (m/s^2) at ``X``.
-    flow : (1,) complex
-        The flow it commands with (m/s, map frame): the known local flow or its estimate.
-    ahead : (1,) complex
-        That flow carried to ``X`` (:meth:`control.Controller.flow_ahead`): what its view and
-        command use.
-    estimator : estimation.FlowEstimator or None
-        Its flow estimator (``flow_source: estimated``).
+        Its own s' (m/s^2) at the predicted state.
 
     """
 
     def __init__(self, sc: Scenario) -> None:
-        self.ctrl = Controller(sc)
-        self.X: RealArray | None = None
+        self.step = OnboardStep(sc, (1,))
         self.sampled: RealArray | None = None
-        self.U_held: RealArray = np.zeros((2, 1))
         self.speed_dot = 0.0
-        self.flow = np.full(1, complex(sc.flow_c))
-        self.ahead: complex | ComplexArray = self.flow
-        self.estimator = FlowEstimator(sc, 1) if sc.flow_source == 'estimated' else None
-        self.navigator = PositionFilter(sc, self.ctrl.still) \
-            if sc.position_filter == 'kalman' else None
+
+    @property
+    def ctrl(self) -> Controller:
+        """Return its controller."""
+        return self.step.ctrl
+
+    @property
+    def flow(self) -> ComplexArray:
+        """Return the flow it commands with, (1,) complex (m/s, map frame): told or estimated."""
+        return np.asarray(self.step.flow)
 
     @property
     def predicted(self) -> RealArray:
-        """Return :attr:`X`; raises RuntimeError before the first :meth:`observe`."""
-        if self.X is None:
+        """Return the state (6, 1) it commands for; raises RuntimeError before :meth:`observe`."""
+        if self.step.X is None:
             raise RuntimeError('observe a state before commanding')
-        return self.X
+        return self.step.X
 
     def retune(self, sc: Scenario) -> None:
         """Take the gains of ``sc`` (changed at run time); the PI integrator carries on."""
-        integral = self.ctrl.integral
-        self.ctrl = Controller(sc)
-        self.ctrl.integral = integral
-        if self.estimator is not None:
-            self.estimator.retune(sc)
+        self.step.retune(sc)
 
     def observe(self, X: RealArray, flow: complex | None = None, v_ground: complex | None = None,
                 delay: float = 0.0) -> ViewRow:
@@ -200,22 +194,17 @@ class Onboard:
         Returns
         -------
         tuple
-            ``(r, phase, rate, speed)`` of its particle view at ``X`` (complex m, rad,
-            rad/s, m/s).
+            ``(r, phase, rate, speed)`` of its particle view at the predicted state (complex m,
+            rad, rad/s, m/s).
 
         """
+        step = self.step
         self.sampled = sampled = np.asarray(X, float)[:, None]
-        if self.estimator is None:
-            self.flow = np.array(np.broadcast_to(self.ctrl.flow(flow), (1,)))
+        if step.estimator is None:
+            told = np.array(np.broadcast_to(step.ctrl.flow(flow), (1,)))
         else:
-            ground, v_rel = flow_input(self.navigator, sampled, np.full(1, v_ground),
-                                       self.U_held)
-            self.flow = self.estimator.update(sampled, ground, v_rel=v_rel).copy()
-        if self.navigator is not None:
-            sampled = self.navigator.update(sampled, self.U_held, self.flow)
-        self.X = self.ctrl.predict(sampled, self.U_held, self.flow, delay)
-        self.ahead = self.ctrl.flow_ahead(sampled, self.flow, delay)
-        view = self.ctrl.view(self.X, self.U_held[1], self.ahead)
+            told = step.estimate(sampled, np.full(1, v_ground))
+        view = step.observe(sampled, told, delay)
         self.speed_dot = float(view.speed_dot[0])
         return view.r[0], view.phase[0], view.rate[0], view.speed[0]
 
@@ -239,6 +228,5 @@ class Onboard:
             limit.
 
         """
-        U = self.ctrl.command(view, self.predicted, [own], members=members, flow=self.ahead)
-        self.U_held = U.copy()
+        U = self.step.command(view, [own], members)
         return U[:, 0], bool(self.ctrl.saturated(U)[0])

@@ -60,6 +60,7 @@ from formation_control.protocol.node_parameters import check_frames, PLANT
 from formation_control.protocol.onboard import needs_second_sensor
 from formation_control.protocol.plant import Plant
 from formation_control.ros import common, interface as itf, parameters, signed, tracing
+from formation_control.sim.backends import backend_of
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -130,7 +131,7 @@ class PlantNode(Node):
         sc, ids, qos = self.sc, range(1, self.sc.num_vehicles + 1), itf.state_qos_kwargs
         self.odom_pubs = self._per_vehicle(Odometry, 'odom', signed=self.signed, **qos())
         self.odom_wires = [itf.odom_wire(k, self.frames, covariances(sc)) for k in ids]
-        if sc.plant_backend == 'jsbsim':
+        if backend_of(sc).takes_demand:
             self.cmd_subs = [self._subscribe(TwistStamped, k, 'cmd_vel', intake.autopilot_demand(
                 itf.cmd_vel_wire(k, self.frames), k, self.frames.base(k)), self._on_demand)
                 for k in ids]

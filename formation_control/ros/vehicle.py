@@ -39,6 +39,7 @@ from formation_control.protocol.node_parameters import (check_frames, check_vehi
                                                         plant_differences, VEHICLE)
 from formation_control.protocol.vehicle import Vehicle
 from formation_control.ros import common, interface as itf, parameters, signed, tracing
+from formation_control.sim.backends import backend_of
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -106,7 +107,7 @@ class VehicleNode(Node):
         self.cmd_pub = publisher(VehicleCommand, names.topic(k, 'cmd'), **qos())
         self.cmd_wire = itf.cmd_wire(k, sc.model, frames)
         self.cmd_vel_pub = self.last_cmd_vel = None
-        if sc.plant_backend == 'jsbsim':
+        if backend_of(sc).takes_demand:
             self.cmd_vel_pub = publisher(TwistStamped, names.topic(k, 'cmd_vel'), **qos())
             self.cmd_vel_wire = itf.cmd_vel_wire(k, frames)
         self.odometry = common.Decoder(intake.odometry(itf.odom_wire(

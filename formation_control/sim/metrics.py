@@ -28,6 +28,7 @@ from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
 from formation_control.core.models import RIGID_MODELS, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
 from formation_control.core.scenario import practical
+from formation_control.sim.backends import backend_of
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -39,7 +40,6 @@ ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
 SPREAD_TOL = 1e-2        # circular: max |c_k - mean(c)| below this (m)
 RADIUS_TOL = 1e-2        # circular: relative error of the mean radius
-AIRCRAFT_SPREAD_TOL = 0.05   # circular, plant_backend jsbsim: spread below this of the radius
 PHASE_ORDERS = 8         # patterns: |p_m| reported for m = 1..min(floor(N/2), PHASE_ORDERS)
 MOMENT_TOL = 1e-2        # patterns: |p_m| below this, |p_M| within this of 1/M
 SEPARATION_TOL = 0.1     # splay: the smallest distance at least (1 - this) of the chord
@@ -326,7 +326,7 @@ def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
     dict of str to bool, or to ndarray of bool for a batch's snapshot
         Parallel: ``order`` (``|p| > ORDER_TOL``) and ``turn_rate`` (every
         ``|phase rate| < RATE_TOL`` rad/s). Circular: ``centre_spread`` (below SPREAD_TOL m;
-        aircraft below AIRCRAFT_SPREAD_TOL of the radius, docs/aircraft.md)
+        aircraft below backends.AIRCRAFT_SPREAD_TOL of the radius, docs/aircraft.md)
         and ``radius`` (mean radius within RADIUS_TOL of ``1/|omega0|``); with a pattern also
         ``phase_moments`` (:func:`pattern_moments_reached`) and, for a splay, ``separation``
         (the smallest distance at least ``1 - SEPARATION_TOL`` of the chord
@@ -345,9 +345,7 @@ def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
     if sc.formation == 'parallel':
         return {'order': snap.order > ORDER_TOL, 'turn_rate': snap.max_rate < RATE_TOL}
     radius_error = np.abs(snap.radius * abs(sc.omega0) - 1.0)
-    spread_tol = SPREAD_TOL
-    if sc.plant_backend == 'jsbsim':
-        spread_tol = AIRCRAFT_SPREAD_TOL / abs(sc.omega0)
+    spread_tol = backend_of(sc).spread_tol(sc, SPREAD_TOL)
     out: dict[str, Any] = {'centre_spread': snap.spread < spread_tol,
                            'radius': radius_error < RADIUS_TOL}
     if sc.pattern != 'none':

@@ -29,19 +29,19 @@ import json
 from os import PathLike
 from typing import Any, overload
 
-from formation_control.core import aircraft, sensors, stability
+from formation_control.core import sensors, stability
 from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
-from formation_control.core.estimation import FlowEstimator, neighbour_mean
+from formation_control.core.estimation import neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
-from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
-                                           ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
-from formation_control.core.navigation import flow_input, PositionFilter
+from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_THETA, ROW_U,
+                                           ROW_V, ROW_X, ROW_Y, STATE_NAMES)
 from formation_control.core.scenario import initial_state, practical, resolve, Scenario
 from formation_control.core.sensors import Sample, Sensors
-from formation_control.core.world import active, World
 from formation_control.sim import metrics
 from formation_control.sim.allocator import keep_freed_memory
+from formation_control.sim.backends import backend_of
+from formation_control.sim.onboard import OnboardStep
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -160,9 +160,11 @@ class Stepper:
     ----------
     X : ndarray, shape (6, N)
         The fleet's current state.
-    world : world.World or None
-        The true vehicles, actuators and gusts the plant integrates, when any is on
-        (:func:`world.active`); None: the nominal model.
+    backend : backends.PlantBackend
+        What integrates it (:func:`backends.backend_of`): the nominal model, the world (true
+        vehicles, actuators, gusts) or JSBSim aircraft.
+    vehicles : onboard.OnboardStep
+        The vehicles' controllers, all at once.
     U : ndarray, shape (2, N)
         The inputs held over the current period.
     flow_hat : complex or ndarray of complex, shape (N,)
@@ -175,24 +177,21 @@ class Stepper:
     def __init__(self, sc: Scenario, X0: ArrayLike | None = None,
                  seeds: Sequence[int] | None = None) -> None:
         self.sc = sc
-        self.ctrl = Controller(sc)
-        self.X = initial_state(sc) if X0 is None else np.array(X0, float)
-        if self.X.size >= 6 * LARGE_FLEET:
+        X = initial_state(sc) if X0 is None else np.array(X0, float)
+        if X.size >= 6 * LARGE_FLEET:
             keep_freed_memory()
-        self.U = np.zeros((2,) + self.X.shape[1:])
-        self.aircraft: aircraft.Fleet | None = None
-        if sc.plant_backend == 'jsbsim':
-            self.aircraft = aircraft.Fleet(sc, self.X)
-            self.X = self.aircraft.X.copy()
+        self.vehicles = OnboardStep(sc, X.shape[1:])
+        self.backend = backend_of(sc)(sc, X, self.ctrl.plant, seeds)
+        self.X = self.backend.X0
+        self.U = self.vehicles.U
         self.steps = 0
-        self.world = World(sc, self.X.shape[1:], seeds) if active(sc) else None
-        self.sensors = Sensors(sc, self.X.shape[1:], seeds) if sensors.active(sc) else None
-        self.navigator = PositionFilter(sc, self.ctrl.still) \
-            if sc.position_filter == 'kalman' else None
-        self.estimator: FlowEstimator | None = None
-        if sc.flow_source == 'estimated':
-            self.estimator = FlowEstimator(sc, self.X.shape[1:])
+        self.sensors = Sensors(sc, X.shape[1:], seeds) if sensors.active(sc) else None
         self.flow_hat: complex | ComplexArray = self.local_flow()
+
+    @property
+    def ctrl(self) -> Controller:
+        """Return the vehicles' controller (:attr:`vehicles`)."""
+        return self.vehicles.ctrl
 
     @property
     def t(self) -> float:
@@ -205,8 +204,7 @@ class Stepper:
 
     def true_flow(self) -> ComplexArray:
         """Return the flow (N,) complex each vehicle moves in now: the flowfield and its gust."""
-        flow = self.local_flow()
-        return flow if self.world is None else flow + self.world.gust
+        return self.backend.true_flow(self.local_flow())
 
     def sample(self) -> Sample:
         """Return what the vehicles measure now (:meth:`sensors.Sensors.sample`, with sensors)."""
@@ -227,7 +225,7 @@ class Stepper:
         """
         if self.sensors is not None:
             return self.sample().X
-        if self.world is None or not self.world.streams or self.sc.model not in RIGID_MODELS \
+        if not self.backend.gusts or self.sc.model not in RIGID_MODELS \
                 or self.sc.flow_source != 'known':
             return self.X
         X = self.X.copy()
@@ -245,42 +243,34 @@ class Stepper:
         its estimator takes the filter's velocities (:func:`navigation.flow_input`). A known
         uniform flow is the complex number itself (the same for all, and cheapest).
         """
-        field = self.ctrl.plant.flow
-        if self.estimator is None and field.uniform:
+        field, est = self.ctrl.plant.flow, self.vehicles.estimator
+        if est is None and field.uniform:
             return field.value
-        flow = self.local_flow()
-        if self.estimator is None:
-            return flow
-        est = self.estimator
+        if est is None:
+            return self.local_flow()
         near = neighbour_mean(self.sc.comm_graph, est.fhat) if self.sc.flow_consensus else None
         if self.sensors is not None:
             seen = self.sample()
-            X, ground = seen.X, seen.v_ground
-        else:
-            X, ground = self.X, ground_velocity(self.X, self.true_flow())
-        ground, v_rel = flow_input(self.navigator, X, ground, self.U)
-        return est.update(X, ground, near, v_rel).copy()
+            return self.vehicles.estimate(seen.X, seen.v_ground, near)
+        return self.vehicles.estimate(self.X, ground_velocity(self.X, self.true_flow()), near)
 
     def hold(self, U: ArrayLike, demand: ArrayLike | None = None) -> RealArray:
         """
         Hold the inputs ``U`` (2, N) over the next period; return them as held.
 
-        The first-order turn rate is the state omega, so it is written into ``X`` too. Aircraft
-        hold the autopilot ``demand`` (2, N), by default that of ``U``
-        (:func:`aircraft.turn_demand`).
+        The vehicles hold them too. The backend holds them from the state now
+        (:meth:`backends.PlantBackend.hold`): the native first-order turn rate is the state
+        omega, so it is written into ``X`` too; aircraft hold the autopilot ``demand`` (2, N),
+        where NaN or not given that of ``U`` (:func:`aircraft.turn_demand`).
         """
-        self.U = np.array(U, float)
-        if self.aircraft is not None:
-            self.aircraft.hold(aircraft.turn_demand(self.sc, self.X, self.U)
-                               if demand is None else np.asarray(demand, float))
-        elif self.sc.model == 'first_order' and self.world is None:
-            self.X[ROW_OMEGA] = self.U[1]
+        self.U = self.vehicles.U = np.array(U, float)
+        self.backend.hold(self.X, self.U, None if demand is None else np.asarray(demand, float))
         return self.U
 
     @property
     def channels(self) -> dict[str, RealArray]:
         """Return what the backend records beside the state now ({} for the native plant)."""
-        return {} if self.aircraft is None else self.aircraft.channels
+        return self.backend.channels
 
     def command(self) -> RealArray:
         """
@@ -291,34 +281,19 @@ class Stepper:
         state, :meth:`control.Controller.flow_ahead`), as each vehicle node computes its own.
         """
         self.flow_hat = flow = self.vehicles_flow()
-        seen = self.observed()
-        if self.navigator is not None:
-            seen = self.navigator.update(seen, self.U, flow)
-        X = self.ctrl.predict(seen, self.U, flow)
-        ahead = self.ctrl.flow_ahead(seen, flow)
-        view = self.ctrl.view(X, self.U[1], ahead)
-        return self.hold(self.ctrl.command(view, X, flow=ahead))
+        return self.hold(self.vehicles.command(self.vehicles.observe(self.observed(), flow)))
 
     def advance(self, steps: int | None = None) -> RealArray:
         """
         Integrate one control period with the held inputs; return the new state (6, N).
 
         ``steps`` integration steps of ``dt_integration`` instead of a whole period, if given
-        (the real-time plant advances one step per tick). :func:`models.integrate` takes each
-        vehicle on its own numbers, so a fleet of a batch (6, B, N) equals its run alone, bit
-        for bit.
+        (the real-time plant advances one step per tick), by the backend
+        (:meth:`backends.PlantBackend.advance`). :func:`models.integrate` takes each vehicle on
+        its own numbers, so a fleet of a batch (6, B, N) equals its run alone, bit for bit.
         """
-        sc, steps = self.sc, steps or self.sc.substeps
-        if self.aircraft is not None:
-            self.X = self.aircraft.advance(self.t, steps)
-            self.steps += steps
-            return self.X
-        if self.world is not None:
-            for _ in range(steps):
-                self.X = self.world.step(self.X, self.U, self.t)
-                self.steps += 1
-            return self.X
-        self.X = integrate(self.X, self.U, sc.dt_integration, steps, self.ctrl.plant, self.t)
+        steps = steps or self.sc.substeps
+        self.X = self.backend.advance(self.X, self.U, self.steps, steps)
         self.steps += steps
         return self.X
 
@@ -545,7 +520,7 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
     """
     stepper = Stepper(sc, X0, seeds)
     rec = Recorder(sc) if recorder is None else recorder
-    held = isinstance(rec, Outcome) and stepper.X.ndim > 2 and stepper.world is not None
+    held = isinstance(rec, Outcome) and stepper.X.ndim > 2 and stepper.backend.mismatched
     for n in range(rec.steps + 1):
         with np.errstate(over='ignore' if held else 'warn', invalid='ignore' if held else 'warn'):
             U = stepper.command()                  # held: a stopped fleet may run away again

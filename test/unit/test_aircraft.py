@@ -207,10 +207,10 @@ def test_each_aircraft_flies_in_the_flow_at_its_own_place_and_time(flow):
     stepper.command()
     stepper.advance()
     field = stepper.ctrl.plant.flow
-    places = np.array([plane.place() for plane in stepper.aircraft.planes]).T
+    places = np.array([plane.place() for plane in stepper.backend.fleet.planes]).T
     expected = field(stepper.t, places[0], places[1])
     wind = [complex(p.fdm['atmosphere/wind-east-fps'], p.fdm['atmosphere/wind-north-fps'])
-            * aircraft.FT for p in stepper.aircraft.planes]
+            * aircraft.FT for p in stepper.backend.fleet.planes]
     np.testing.assert_allclose(wind, expected, rtol=0, atol=1e-9)
     assert np.ptp(abs(np.asarray(wind))) > 0.01 or flow['flow_model'] == 'time_varying'
     assert abs(wind[0] - sc.flow_c) > 0.01                       # not the background alone

@@ -27,7 +27,7 @@ from formation_control.core import scenario, world
 from formation_control.core.control import Controller
 from formation_control.core.errors import ScenarioError
 from formation_control.core.models import ROW_U, ROW_V
-from formation_control.sim import simulator
+from formation_control.sim import backends, simulator
 import numpy as np
 import pytest
 from runs import CONFIG
@@ -40,9 +40,9 @@ def _rigid(**values):
 def test_the_world_is_off_by_default_and_unit_factors_are_the_nominal_plant():
     """The world takes its RK4 steps one by one (deriv), the nominal plant a period at a time."""
     sc = _rigid(duration=2.0)
-    assert not world.active(sc) and simulator.Stepper(sc).world is None
+    assert not world.active(sc) and type(simulator.Stepper(sc).backend) is backends.Native
     ones = _rigid(duration=2.0, mismatch_m0=[1.0] * sc.num_vehicles)
-    assert world.active(ones)
+    assert world.active(ones) and type(simulator.Stepper(ones).backend) is backends.Imperfect
     np.testing.assert_allclose(simulator.simulate(ones).X, simulator.simulate(sc).X,
                                rtol=0, atol=1e-12)
 
@@ -61,7 +61,7 @@ def test_mismatch_is_drawn_per_vehicle_and_seed_and_the_controller_keeps_the_nom
     np.testing.assert_array_equal(given['h'], 2.0)
     np.testing.assert_array_equal(given['m0'], f['m0'])
     stepper = simulator.Stepper(sc)
-    np.testing.assert_allclose(stepper.world.plant.h, sc.h * f['h'])
+    np.testing.assert_allclose(stepper.backend.world.plant.h, sc.h * f['h'])
     assert Controller(sc).plant.h == sc.h and Controller(sc).plant.m0 == sc.m0
 
 
@@ -183,8 +183,9 @@ def test_a_gust_moves_the_vehicles_and_a_told_rigid_body_reads_it_in_its_water_s
     stepper.advance()
     seen = stepper.observed()
     rel = (seen[ROW_U] - stepper.X[ROW_U]) + 1j * (seen[ROW_V] - stepper.X[ROW_V])
-    np.testing.assert_allclose(rel, stepper.world.gust * np.exp(-1j * stepper.X[2]), atol=1e-12)
-    np.testing.assert_allclose(stepper.true_flow() - stepper.local_flow(), stepper.world.gust)
+    gust = stepper.backend.world.gust
+    np.testing.assert_allclose(rel, gust * np.exp(-1j * stepper.X[2]), atol=1e-12)
+    np.testing.assert_allclose(stepper.true_flow() - stepper.local_flow(), gust)
 
 
 def test_anti_windup_holds_the_pi_integrator_while_the_steering_force_is_on_its_limit():
@@ -240,7 +241,7 @@ def test_an_untold_steady_gust_moves_the_speed_by_the_amplified_error(seed):
         stepper.command()
         stepper.advance()
     X = stepper.X
-    b = (stepper.world.gust * np.exp(-1j * X[2])).real
+    b = (stepper.backend.world.gust * np.exp(-1j * X[2])).real
     predicted = world.speed_under_bias(sc, b)
     assert np.max(abs(predicted - sc.u0)) > 0.03                   # a measurable offset
     np.testing.assert_allclose(X[ROW_U], predicted, rtol=0, atol=2e-3)
