@@ -29,6 +29,7 @@ A new backend is one class here and its entry in the table.
 """
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import ClassVar
 
@@ -43,7 +44,7 @@ AIRCRAFT_SPREAD_TOL = 0.05
 """Circular, jsbsim: the centre spread a converged fleet stays below, as a share of the radius."""
 
 
-class PlantBackend:
+class PlantBackend(ABC):
     """
     What integrates a fleet (6, N) or a batch of fleets (6, B, N) with the inputs held.
 
@@ -88,9 +89,9 @@ class PlantBackend:
         that of ``U``); ignored by the others.
         """
 
+    @abstractmethod
     def advance(self, X: RealArray, U: RealArray, step: int, steps: int) -> RealArray:
         """Return the state ``steps`` integration steps on from ``X`` at step ``step``."""
-        raise NotImplementedError
 
     @property
     def channels(self) -> dict[str, RealArray]:
@@ -132,7 +133,7 @@ class Native(PlantBackend):
         return integrate(X, U, dt, steps, self.plant, step * dt)
 
 
-class Imperfect(PlantBackend):
+class NativeInWorld(PlantBackend):
     """
     The native plant in the world: true vehicles, actuators and gusts (:class:`world.World`).
 
@@ -209,7 +210,7 @@ class JSBSim(PlantBackend):
         return AIRCRAFT_SPREAD_TOL / abs(sc.omega0)
 
 
-BACKENDS: dict[str, type[PlantBackend]] = {'native': Native, 'world': Imperfect,
+BACKENDS: dict[str, type[PlantBackend]] = {'native': Native, 'world': NativeInWorld,
                                            'jsbsim': JSBSim}
 """The plant backends by name."""
 

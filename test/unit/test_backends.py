@@ -27,8 +27,8 @@ from runs import CONFIG
 
 @pytest.mark.parametrize('name, overrides, chosen', [
     ('rigid_circular', [], backends.Native),
-    ('rigid_circular', ['gust_intensity:=0.05'], backends.Imperfect),
-    ('first_order_circular', ['actuator_lag:=0.1'], backends.Imperfect),
+    ('rigid_circular', ['gust_intensity:=0.05'], backends.NativeInWorld),
+    ('first_order_circular', ['actuator_lag:=0.1'], backends.NativeInWorld),
     ('aircraft_circular', [], backends.JSBSim),
 ])
 def test_the_backend_is_chosen_once_by_name_from_the_table(name, overrides, chosen):

@@ -42,7 +42,7 @@ def test_the_world_is_off_by_default_and_unit_factors_are_the_nominal_plant():
     sc = _rigid(duration=2.0)
     assert not world.active(sc) and type(simulator.Stepper(sc).backend) is backends.Native
     ones = _rigid(duration=2.0, mismatch_m0=[1.0] * sc.num_vehicles)
-    assert world.active(ones) and type(simulator.Stepper(ones).backend) is backends.Imperfect
+    assert world.active(ones) and type(simulator.Stepper(ones).backend) is backends.NativeInWorld
     np.testing.assert_allclose(simulator.simulate(ones).X, simulator.simulate(sc).X,
                                rtol=0, atol=1e-12)
 
