@@ -25,7 +25,7 @@ from dataclasses import replace
 import math
 from typing import Any
 
-from formation_control.core import laws
+from formation_control.core import laws, steering
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
@@ -425,6 +425,8 @@ class Controller:
         The formation law over the whole fleet.
     limits : ndarray, shape (2,)
         :func:`command_limits`.
+    law : steering.SteeringLaw
+        The steering law, ``steering.law(sc)``.
     integral : ndarray or None
         The PI integrator of each commanded vehicle (rad/s s), created at the first command.
     rates : bool
@@ -452,6 +454,7 @@ class Controller:
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
         self.full = uses_held_force(sc)
         self.rates = uses_flow_rates(sc)
+        self.law = steering.law(sc)
         self.integral: RealArray | None = None
         self.limits = command_limits(sc)
 
@@ -636,20 +639,14 @@ class Controller:
         Returns
         -------
         ndarray, shape (n,)
-            (rad/s^2): backstepping (3.7), (3.14), (4.3), (4.8), (7.12), (7.25), proportional
-            (5.5), or PI (8.24) ``K_P e + K_I int e`` with ``e = phi - rate``, which advances
-            the integrator by one control period.
+            (rad/s^2): :meth:`steering.SteeringLaw.phase_accel` of the scenario's law
+            (backstepping (3.7), (3.14), (4.3), (4.8), (7.12), (7.25), proportional (5.5), or
+            PI (8.24), which advances the integrator by one control period).
 
         """
-        sc, f = self.sc, self.formation_of(members)
-        if sc.controller == 'backstepping':
-            return laws.backstepping(f, view, sc.kappa, idx)
-        if sc.controller == 'proportional':
-            return laws.proportional(f, view, sc.K_p, idx)
-        err = f.terms(view, idx).phi - view.rate[idx]
-        integral = np.zeros_like(err) if self.integral is None else self.integral
-        self.integral = integral + err * sc.dt_control
-        return sc.K_P * err + sc.K_I * self.integral
+        lam, self.integral = self.law.phase_accel(self.formation_of(members), view, idx, self.sc,
+                                                  self.integral)
+        return lam
 
     def command(self, view: laws.View, X: RealArray, idx: laws.Index = slice(None),
                 members: BoolArray | None = None,
@@ -681,8 +678,8 @@ class Controller:
         """
         sc = self.sc
         U = np.zeros((2,) + X.shape[1:])
-        if sc.controller == 'first_order':
-            w = laws.first_order(self.formation_of(members), view, idx)
+        if self.law.order == 1:
+            w = self.law.phase_rate(self.formation_of(members), view, idx)
             flow = self.flow(flow)
             U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow / self.speed,
                                            self.jet(X, flow))
@@ -697,7 +694,7 @@ class Controller:
             U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow / self.speed,
                                             self.jet(X, flow))
         out = self.saturate(U)
-        if sc.anti_windup and sc.controller == 'pi':
+        if sc.anti_windup and self.law.integrates:
             self._hold_integral(before, U[1] != out[1])
         return out
 

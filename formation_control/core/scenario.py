@@ -40,7 +40,8 @@ from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS
                                            STATE_NAMES)
 from formation_control.core.stability import (formation_rate, hold_fallback, steering_bandwidth,
                                               step_warnings)
-from formation_control.core.world import active, lag_limit, MISMATCH_NAMES
+from formation_control.core.steering import law, LAWS
+from formation_control.core.world import active, MISMATCH_NAMES
 import numpy as np
 import yaml
 
@@ -48,7 +49,7 @@ if TYPE_CHECKING:
     from formation_control.core.graphs import Graph
 
 FORMATIONS = ('parallel', 'circular')
-CONTROLLERS = ('first_order', 'backstepping', 'proportional', 'pi')
+CONTROLLERS = tuple(LAWS)
 LAW_VARIANTS = ('practical', 'full')
 PATTERNS = ('none', 'splay', 'symmetric')
 HOLD_PREDICTIONS = ('midpoint', 'none')
@@ -1057,7 +1058,7 @@ def uses_held_force(sc: Scenario) -> bool:
     The full law (``law_variant: full``) and the PI law (8.24) do (the exact rate and s' of
     :func:`control.rigid_view`); the practical law uses omega.
     """
-    return sc.controller == 'pi' or sc.law_variant == 'full'
+    return law(sc).held_force or sc.law_variant == 'full'
 
 
 def held_force_loop_gain(sc: Scenario) -> float:
@@ -1130,9 +1131,10 @@ def _check_world(sc: Scenario) -> tuple[str, ...]:
         name, why = rates.split(': ', 1)
         _fail(name, getattr(sc, name), why)
     notes = []
-    if sc.actuator_lag and sc.controller != 'first_order':
-        limit = lag_limit(steering_bandwidth(sc), formation_rate(sc), sc.controller, sc.K_I)
-        gain = STEERING_GAINS_TEXT[sc.controller]
+    steer = law(sc)
+    if sc.actuator_lag:
+        limit = steer.lag_limit(steer.bandwidth(sc), formation_rate(sc), sc.K_I)
+        gain = steer.gain
         text = (f'actuator_lag = {sc.actuator_lag:g} s against the steering loop ({gain}, '
                 f'formation rate {formation_rate(sc):.3g} 1/s), stable only for a lag below '
                 f'{limit:.3g} s (docs/errata.md, "Actuator lag")')
@@ -1148,9 +1150,6 @@ def _check_world(sc: Scenario) -> tuple[str, ...]:
                          f'sigma of gust reaches {top:.3g} m/s, beyond the vehicle speed '
                          f'{speed:g} m/s, where the laws need |f| < speed')
     return tuple(notes)
-
-
-STEERING_GAINS_TEXT = {'backstepping': 'kappa', 'proportional': 'K_p', 'pi': 'K_P'}
 
 
 def resolve(params: Mapping[str, Any]) -> Scenario:

@@ -108,58 +108,6 @@ def mismatch_factors(sc: Scenario, seed: int | None = None) -> dict[str, RealArr
     return out
 
 
-def lag_limit(kappa: float, f: float, controller: str, K_I: float = 0.0) -> float:
-    """
-    Return the longest actuator lag the linearised second-order steering loop is stable with.
-
-    Parameters
-    ----------
-    kappa : float
-        Steering gain (1/s): kappa, K_p or K_P.
-    f : float
-        Rate of the formation loop (1/s), :func:`stability.formation_rate`.
-    controller : str
-        ``backstepping``, ``proportional`` or ``pi``.
-    K_I : float
-        The PI law's integral gain (1/s^2).
-
-    Returns
-    -------
-    float
-        The largest tau (s) for which the continuous loop through the lag ``tau a' = u - a``
-        is stable (inf: any): with the phase error ``e'' = a`` and ``phi = -f e``,
-        backstepping ``u = -(kappa + f) e' - kappa f e`` gives ``tau s^3 + s^2 + (kappa + f) s
-        + kappa f``, stable (Routh) for ``tau < 1/kappa + 1/f``; proportional
-        ``u = -kappa e' - kappa f e``, ``tau < 1/f``; PI ``u = -K_P (e' + f e) - K_I (e + f z)``,
-        ``z' = e``: the quartic ``tau s^4 + s^3 + K_P s^2 + (K_P f + K_I) s + K_I f``, by its
-        roots. A first-order loop through a lag (``tau s^2 + s + g``) is stable for any tau.
-
-    """
-    if f <= 0:
-        return np.inf
-    if controller == 'backstepping':
-        return 1.0 / kappa + 1.0 / f
-    if controller == 'proportional':
-        return 1.0 / f
-    if controller != 'pi':
-        return np.inf
-
-    def stable(tau: float) -> bool:
-        roots = np.roots([tau, 1.0, kappa, kappa * f + K_I, K_I * f])
-        return bool(np.all(roots.real < 0))
-
-    high = 1.0 / kappa + 1.0 / f
-    while stable(high):
-        high *= 2.0
-        if high > 1e6:
-            return np.inf
-    low = 0.0
-    for _ in range(60):
-        mid = 0.5 * (low + high)
-        low, high = (mid, high) if stable(mid) else (low, mid)
-    return low
-
-
 def rate_limits(sc: Scenario) -> RealArray:
     """Return the rate limit of each input row (2,) (unit/s; inf: none)."""
     rates = (sc.max_thrust_rate if sc.model in RIGID_MODELS else 0.0, sc.max_steering_rate)
