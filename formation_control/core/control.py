@@ -25,7 +25,7 @@ from dataclasses import replace
 import math
 from typing import Any
 
-from formation_control.core import laws, steering
+from formation_control.core import formations, laws, steering
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
@@ -371,8 +371,8 @@ def law_units(sc: Scenario) -> tuple[float, float]:
     """
     if sc.plant_backend != 'jsbsim':
         return 1.0, 1.0
-    if sc.formation == 'circular':
-        radius = 1.0 / abs(sc.omega0)
+    radius = formations.of(sc).radius(sc)
+    if radius is not None:
         return radius, radius / sc.airspeed
     return sc.airspeed, 1.0
 
@@ -442,15 +442,10 @@ class Controller:
         self.rigid = sc.model in RIGID_MODELS
         self.speed = vehicle_speed(sc) if not self.rigid else 1.0
         coupling = None if sc.all_to_all else sc.comm_graph.coupling()
-        self.formation: laws.Formation
-        if sc.formation == 'parallel':
-            self.formation = laws.Parallel(sc.K, coupling)
-        else:
-            cross = 1.0 / math.prod(law_units(sc)) ** 2
-            self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
-                                           pattern_law(sc), cross)
+        cross = 1.0 / math.prod(law_units(sc)) ** 2
+        self.formation = formations.of(sc).law(sc, coupling, pattern_law(sc), cross)
         self._couplings: dict[bytes, laws.Coupling] = {}
-        self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
+        self.use_heading = (formations.of(sc).steers_heading and sc.flow_source == 'known'
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
         self.full = uses_held_force(sc)
         self.rates = uses_flow_rates(sc)

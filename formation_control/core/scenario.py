@@ -29,10 +29,10 @@ import math
 from os import PathLike
 from pathlib import Path
 import re
-from typing import Any, NoReturn, TYPE_CHECKING
+from typing import Any, TYPE_CHECKING
 
-from formation_control.core import sensors
-from formation_control.core.errors import ScenarioError, UsageError
+from formation_control.core import formations, sensors
+from formation_control.core.errors import refuse as _fail, ScenarioError, UsageError
 from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.geometry import RealArray
@@ -48,7 +48,7 @@ import yaml
 if TYPE_CHECKING:
     from formation_control.core.graphs import Graph
 
-FORMATIONS = ('parallel', 'circular')
+FORMATIONS = tuple(formations.FORMATIONS)
 CONTROLLERS = tuple(LAWS)
 LAW_VARIANTS = ('practical', 'full')
 PATTERNS = ('none', 'splay', 'symmetric')
@@ -122,7 +122,9 @@ class Spec:
 
 def default_K(formation: str) -> float:
     """Return the formation gain K of a scenario that gives none: -1 parallel, 1 circular."""
-    return -1.0 if formation == 'parallel' else 1.0
+    if formation not in formations.FORMATIONS:
+        _fail('formation', formation, f"allowed values: {' | '.join(formations.FORMATIONS)}")
+    return formations.FORMATIONS[formation].default_K
 
 
 def _param(default: object, unit: str, text: str, **spec: Any) -> Any:
@@ -515,10 +517,6 @@ RUNTIME = tuple(name for name, spec in PARAMETERS.items() if spec.runtime)
 _DEFAULTS = Scenario()
 
 
-def _fail(name: str, value: object, allowed: str) -> NoReturn:
-    raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: {allowed}")
-
-
 def _coerce(name: str, value: Any) -> Any:
     default = getattr(_DEFAULTS, name)
     if isinstance(default, bool):
@@ -749,13 +747,7 @@ def _check_structure(sc: Scenario) -> None:
 
 
 def _check_gains(sc: Scenario) -> None:
-    if sc.formation == 'parallel' and not sc.K < 0:
-        _fail('K', sc.K, 'formation parallel needs K < 0 (1.12), (3.7)')
-    if sc.formation == 'circular':
-        if not sc.K > 0:
-            _fail('K', sc.K, 'formation circular needs K > 0 (1.16), (3.14)')
-        if sc.omega0 == 0:
-            _fail('omega0', sc.omega0, 'formation circular needs omega0 != 0 (radius 1/|omega0|)')
+    formations.of(sc).check(sc)
     for name, spec in PARAMETERS.items():
         if (spec.low, spec.high) != (None, None) and name != 'num_vehicles':
             _check_range(sc, name)
@@ -862,10 +854,7 @@ def _slow_flow_note(sc: Scenario) -> str | None:
     flow = flowfield(sc)
     s_min = vehicle_speed(sc) - flow.max_speed
     turn = flow.max_rate() / s_min
-    if sc.formation == 'circular':
-        rate, what = abs(sc.omega0) * s_min, "the circle's own turn rate |omega0| (s - |f|)"
-    else:
-        rate, what = abs(sc.K), 'the parallel gain |K|'
+    rate, what = formations.of(sc).law_rate(sc, s_min)
     if turn <= SLOW_FLOW * rate:
         return None
     period = 2.0 * np.pi * sc.flow_amplitude / (SLOW_FLOW * rate * s_min)
@@ -925,7 +914,7 @@ def _kink_note(sc: Scenario) -> str | None:
     where, share = KINKS[sc.flow_model]
     jump = share * flow.max_gradient()
     s_min = vehicle_speed(sc) - flow.max_speed
-    rate = abs(sc.omega0) * s_min if sc.formation == 'circular' else abs(sc.K)
+    rate, _ = formations.of(sc).law_rate(sc, s_min)
     if jump <= SLOW_FLOW * rate:
         return None
     return (f'flow_model {sc.flow_model}: the gradient of the flow jumps at {where}, so a vehicle '
@@ -938,7 +927,7 @@ def _check_pattern(sc: Scenario) -> None:
     """Refuse a symmetric pattern that cannot exist or that the laws do not reach."""
     if sc.pattern == 'none':
         return
-    if sc.formation != 'circular':
+    if not formations.of(sc).patterns:
         _fail('pattern', sc.pattern, 'a symmetric pattern places vehicles on the circle: it '
               'needs formation circular')
     if sc.flow_c != 0 or sc.flow_model != 'uniform':
@@ -1017,10 +1006,10 @@ def _check_aircraft(sc: Scenario) -> None:
         if not ok:
             _fail(name, getattr(sc, name), f'the limit must admit airspeed = {sc.airspeed} m/s')
     from formation_control.core import aircraft
-    if sc.formation == 'circular':
+    radius = formations.of(sc).radius(sc)
+    if radius is not None:
         bank = aircraft.required_bank(sc)
         if bank >= sc.bank_limit:
-            radius = 1.0 / abs(sc.omega0)
             _fail('omega0', sc.omega0, f'a circle of radius {radius:.4g} m at airspeed '
                   f'{sc.airspeed} m/s in the wind {list(sc.flow)} m/s needs a bank of '
                   f'{math.degrees(bank):.3g} deg (tan(bank) = V^2 / (g R) in still air), '
