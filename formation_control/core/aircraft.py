@@ -79,7 +79,7 @@ from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 G = 9.80665                      # standard gravity (m/s^2)
 FT = 0.3048                      # metres per foot

@@ -31,8 +31,8 @@ from formation_control.core.geometry import BoolArray, ComplexArray, inner, Real
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
-from formation_control.core.scenario import (Scenario, uses_flow_rates, uses_held_force,
-                                             vehicle_speed)
+from formation_control.core.parameters import Scenario
+from formation_control.core.scenario import uses_flow_rates, uses_held_force, vehicle_speed
 import numpy as np
 
 

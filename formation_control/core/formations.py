@@ -31,7 +31,7 @@ from formation_control.core import laws
 from formation_control.core.errors import refuse
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 
 class FormationKind:
@@ -155,6 +155,13 @@ class CircularFormation(FormationKind):
 FORMATIONS: dict[str, FormationKind] = {f.name: f for f in (ParallelFormation(),
                                                             CircularFormation())}
 """The formation table: ``formation`` value -> formation."""
+
+
+def default_K(formation: str) -> float:
+    """Return the formation gain K of a scenario that gives none: -1 parallel, 1 circular."""
+    if formation not in FORMATIONS:
+        refuse('formation', formation, f"allowed values: {' | '.join(FORMATIONS)}")
+    return FORMATIONS[formation].default_K
 
 
 def of(sc: Scenario) -> FormationKind:

@@ -46,7 +46,7 @@ from formation_control.core.world import stream
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 NOISES = ('gnss_x', 'gnss_y', 'heading', 'yaw_rate', 'velocity_x', 'velocity_y', 'water_u',
           'water_v')

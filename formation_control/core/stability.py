@@ -46,7 +46,7 @@ from formation_control.core.steering import law
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 RK4_LIMIT = 2.785
 """Classical RK4 is stable on the negative real axis for ``a dt <= 2.785``."""

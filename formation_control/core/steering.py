@@ -33,7 +33,7 @@ from formation_control.core.geometry import RealArray
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 
 class NoLagLimit(ScenarioError):

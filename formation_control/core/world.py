@@ -43,18 +43,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (deriv, Plant, RIGID_MODELS, ROW_OMEGA, ROW_X,
                                            ROW_Y)
+from formation_control.core.parameters import MISMATCH_NAMES, Scenario
 import numpy as np
 
-if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
-
-MISMATCH_NAMES = ('m0', 'I0', 'h', 'l1', 'thrust', 'steering')
-"""The plant-only factors of model mismatch, in the order they are drawn."""
 TAG = 0x776f726c
 """The first word of every world stream's seed ('worl')."""
 CHANNELS = {'mismatch': 1, 'gust': 2, 'sensors': 3}

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
     from formation_control.core.control import Controller
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)

@@ -28,7 +28,7 @@ from formation_control.core.control import Controller
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
                                            ROW_U, ROW_X, ROW_Y)
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.sim import metrics
 from formation_control.sim.simulator import Run, summary
 import numpy as np

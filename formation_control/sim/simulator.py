@@ -37,7 +37,8 @@ from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
                                            ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
 from formation_control.core.navigation import flow_input, PositionFilter
-from formation_control.core.scenario import initial_state, practical, resolve, Scenario
+from formation_control.core.parameters import Scenario
+from formation_control.core.scenario import initial_state, practical, resolve
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.world import active, World
 from formation_control.sim import metrics

@@ -18,7 +18,7 @@ The formation table (core/formations.py): one object per ``formation``.
 Each formation's default and allowed K, its law object, the radius of its steady motion, the
 rate its laws act at, and the names its convergence is judged by, which sim/metrics defines.
 """
-from formation_control.core import laws, scenario
+from formation_control.core import laws, parameters, scenario
 from formation_control.core.control import Controller
 from formation_control.core.errors import ScenarioError
 from formation_control.core.formations import FORMATIONS, of
@@ -27,7 +27,7 @@ import pytest
 
 
 def test_the_table_holds_every_formation_with_its_default_gain():
-    assert tuple(FORMATIONS) == scenario.FORMATIONS == ('parallel', 'circular')
+    assert tuple(FORMATIONS) == parameters.FORMATIONS == ('parallel', 'circular')
     defaults = {name: f.default_K for name, f in FORMATIONS.items()}
     assert defaults == {'parallel': -1.0, 'circular': 1.0}
     for name, f in FORMATIONS.items():

@@ -19,7 +19,7 @@ Each law's bandwidth is its gain's modulus, its phase acceleration is the law of
 its actuator-lag limit the Routh bound of docs/errata.md; a law without a derived limit raises
 naming itself instead of passing as stable under any lag.
 """
-from formation_control.core import laws, scenario
+from formation_control.core import laws, parameters, scenario
 from formation_control.core.control import Controller
 from formation_control.core.steering import law, LAWS, NoLagLimit, SteeringLaw
 import numpy as np
@@ -27,7 +27,7 @@ import pytest
 
 
 def test_the_table_holds_every_controller_by_its_name():
-    assert tuple(LAWS) == scenario.CONTROLLERS
+    assert tuple(LAWS) == parameters.CONTROLLERS
     assert all(steer.name == name for name, steer in LAWS.items())
     gains = {name: steer.gain for name, steer in LAWS.items()}
     assert gains == {'first_order': 'K', 'backstepping': 'kappa', 'proportional': 'K_p',
