@@ -26,13 +26,13 @@ import math
 from typing import Any
 
 from formation_control.core import formations, laws, steering
+from formation_control.core.flow import uses_flow_rates, vehicle_speed
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
 from formation_control.core.parameters import Scenario
-from formation_control.core.scenario import uses_flow_rates, uses_held_force, vehicle_speed
 import numpy as np
 
 
@@ -431,7 +431,7 @@ class Controller:
         The PI integrator of each commanded vehicle (rad/s s), created at the first command.
     rates : bool
         Whether the laws take the flow's change along each path into account (:meth:`jet`,
-        :func:`scenario.uses_flow_rates`): a known flow that is not uniform and steady.
+        :func:`flow.uses_flow_rates`): a known flow that is not uniform and steady.
 
     """
 
@@ -447,7 +447,7 @@ class Controller:
         self._couplings: dict[bytes, laws.Coupling] = {}
         self.use_heading = (formations.of(sc).steers_heading and sc.flow_source == 'known'
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
-        self.full = uses_held_force(sc)
+        self.full = steering.uses_held_force(sc)
         self.rates = uses_flow_rates(sc)
         self.law = steering.law(sc)
         self.integral: RealArray | None = None

@@ -25,13 +25,12 @@ names of the errors and conditions its convergence is judged by (:mod:`sim.metri
 """
 from __future__ import annotations
 
-from typing import ClassVar, TYPE_CHECKING
+import math
+from typing import ClassVar
 
-from formation_control.core import laws
-from formation_control.core.errors import refuse
-
-if TYPE_CHECKING:
-    from formation_control.core.parameters import Scenario
+from formation_control.core import graphs, laws
+from formation_control.core.errors import refuse as _fail
+from formation_control.core.parameters import Scenario
 
 
 class FormationKind:
@@ -108,7 +107,7 @@ class ParallelFormation(FormationKind):
     def check(self, sc: Scenario) -> None:
         """Refuse ``K >= 0``."""
         if not sc.K < 0:
-            refuse('K', sc.K, 'formation parallel needs K < 0 (1.12), (3.7)')
+            _fail('K', sc.K, 'formation parallel needs K < 0 (1.12), (3.7)')
 
     def law(self, sc: Scenario, coupling: laws.Coupling | None,
             pattern: laws.Moments | laws.Slots | None, cross: float) -> laws.Formation:
@@ -132,10 +131,10 @@ class CircularFormation(FormationKind):
     def check(self, sc: Scenario) -> None:
         """Refuse ``K <= 0`` and ``omega0 = 0``."""
         if not sc.K > 0:
-            refuse('K', sc.K, 'formation circular needs K > 0 (1.16), (3.14)')
+            _fail('K', sc.K, 'formation circular needs K > 0 (1.16), (3.14)')
         if sc.omega0 == 0:
-            refuse('omega0', sc.omega0, 'formation circular needs omega0 != 0 (radius '
-                   '1/|omega0|)')
+            _fail('omega0', sc.omega0, 'formation circular needs omega0 != 0 (radius '
+                  '1/|omega0|)')
 
     def law(self, sc: Scenario, coupling: laws.Coupling | None,
             pattern: laws.Moments | laws.Slots | None, cross: float) -> laws.Formation:
@@ -160,10 +159,68 @@ FORMATIONS: dict[str, FormationKind] = {f.name: f for f in (ParallelFormation(),
 def default_K(formation: str) -> float:
     """Return the formation gain K of a scenario that gives none: -1 parallel, 1 circular."""
     if formation not in FORMATIONS:
-        refuse('formation', formation, f"allowed values: {' | '.join(FORMATIONS)}")
+        _fail('formation', formation, f"allowed values: {' | '.join(FORMATIONS)}")
     return FORMATIONS[formation].default_K
 
 
 def of(sc: Scenario) -> FormationKind:
     """Return the formation of a scenario."""
     return FORMATIONS[sc.formation]
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """Refuse gains the formation's law does not converge with and a pattern that cannot be."""
+    of(sc).check(sc)
+    _check_pattern(sc)
+    return ()
+
+
+def _check_pattern(sc: Scenario) -> None:
+    """Refuse a symmetric pattern that cannot exist or that the laws do not reach."""
+    if sc.pattern == 'none':
+        return
+    if not of(sc).patterns:
+        _fail('pattern', sc.pattern, 'a symmetric pattern places vehicles on the circle: it '
+              'needs formation circular')
+    if sc.flow_c != 0 or sc.flow_model != 'uniform':
+        flow = (f'flow = {list(sc.flow)} m/s' if sc.flow_model == 'uniform' else
+                f'flow_model = {sc.flow_model!r} (flow = {list(sc.flow)} m/s)')
+        _fail('pattern', sc.pattern, f'{flow} is not a zero flow: in a flow no '
+              f'fixed phase pattern exists on a circle (the course rate omega0 s_k varies '
+              f'with the course, so the vehicles move along the circle relative to each '
+              f'other); use flow: [0.0, 0.0] or pattern: none')
+    n, m = sc.num_vehicles, sc.pattern_M
+    if sc.pattern == 'symmetric' and not (2 <= m < n and n % m == 0):
+        _fail('pattern_M', m, f'symmetric needs 2 <= M < num_vehicles = {n} with M dividing '
+              f'num_vehicles (M clusters of N/M); M = N is pattern: splay')
+    if sc.pattern_form == 'moments' and not sc.all_to_all:
+        _fail('pattern_form', sc.pattern_form, 'the moments are fleet means (all-to-all): on a '
+              'limited graph their Laplacian form converges only locally; use slots (or auto)')
+    if sc.pattern_slots and not sc.comm_graph.complete:
+        _check_slot_traps(sc)
+
+
+def _check_slot_traps(sc: Scenario) -> None:
+    """Refuse slots on a graph whose phase potential has stable states other than synchrony."""
+    n = sc.num_vehicles
+    if sc.graph in ('ring', 'circulant'):
+        offsets = (1,) if sc.graph == 'ring' else sc.graph_offsets
+        twisted = graphs.twisted_states(n, offsets)
+        if not twisted:
+            return
+        where = (f'a ring of {n}' if sc.graph == 'ring' else
+                 f'the circulant graph {list(offsets)} on {n}')
+        rule = ' (|q| < N/4)' if sc.graph == 'ring' else ''
+        found = (f'{where} has stable twisted states for slots: psi_k = 2 pi q k / N with '
+                 f"q = {', '.join(map(str, twisted))}{rule}")
+    else:
+        share = graphs.slot_traps(sc.comm_graph)
+        if share == 0:
+            return
+        found = (f'the {sc.graph} graph on {n} has stable slot states other than synchrony: '
+                 f'{share:.0%} of {graphs.TRAP_STARTS} random phase starts end in one')
+    dense = math.ceil(0.75 * (n - 1))
+    _fail('graph', sc.graph, f'{found}, where a slot pattern stops with its slots wrongly filled '
+          f'(a splay in coincident pairs, clusters in the wrong number or order). Use graph: '
+          f'complete (the moment form), a tree (graph: explicit without cycles), or a denser '
+          f'graph (every degree >= {dense} = 3 (N - 1) / 4 synchronises from almost every start)')

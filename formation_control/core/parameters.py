@@ -710,6 +710,65 @@ def check_range(sc: Scenario, name: str) -> None:
         _fail(name, value, f'must be {_bounds(replace(spec, low=None))}')
 
 
+def check(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse values the table does not allow: choices, ranges, list lengths, ids, whole steps.
+
+    Returns
+    -------
+    tuple of str
+        No notes (the features' checks warn).
+
+    Raises
+    ------
+    ScenarioError
+        Naming the parameter and the values it may take; a communication graph that cannot
+        be built (:func:`graphs.build`).
+
+    """
+    for name in CHOICES:
+        check_choice(sc, name)
+    check_range(sc, 'num_vehicles')
+    for name in ('flow', 'c0', 'flow_center', 'geodetic_origin'):
+        if len(getattr(sc, name)) != 2:
+            _fail(name, list(getattr(sc, name)), 'must be a list of 2 numbers [x, y] (m/s or m)')
+    for name in INIT_ARRAYS + MISMATCH_ARRAYS:
+        n = len(getattr(sc, name))
+        if n not in (0, sc.num_vehicles):
+            _fail(name, list(getattr(sc, name)),
+                  f'must have num_vehicles = {sc.num_vehicles} entries (or none: random)')
+    if sc.model in RIGID_MODELS and any(u <= 0 for u in sc.init_u):
+        _fail('init_u', list(sc.init_u), 'rigid bodies start with forward speed u > 0 m/s')
+    bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
+    if bad:
+        _fail('informed', list(sc.informed), f'vehicle ids must lie in 1..{sc.num_vehicles}')
+    for name, kind in (('graph_edges', 'explicit'), ('graph_offsets', 'circulant')):
+        if sc.graph != kind and getattr(sc, name) != getattr(DEFAULTS, name):
+            _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
+                  f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
+    if sc.plant_backend == 'jsbsim' and sc.model not in PARTICLE_MODELS:
+        _fail('model', sc.model, 'plant_backend jsbsim flies the particle laws: model '
+              'first_order or second_order')
+    from formation_control.core.graphs import GraphError
+    try:
+        sc.comm_graph
+    except GraphError as err:
+        raise ScenarioError(str(err)) from None
+    for name, spec in PARAMETERS.items():
+        if (spec.low, spec.high) != (None, None) and name != 'num_vehicles':
+            check_range(sc, name)
+    if sc.dt_integration > sc.dt_control or abs(
+            sc.substeps * sc.dt_integration - sc.dt_control) > 1e-9 * sc.dt_control:
+        _fail('dt_integration', sc.dt_integration,
+              f'must divide dt_control = {sc.dt_control} into a whole number of steps')
+    for name in ('duration', 'record_dt'):
+        periods = getattr(sc, name) / sc.dt_control
+        if periods < 1 - 1e-9 or abs(periods - round(periods)) > 1e-6:
+            _fail(name, getattr(sc, name),
+                  f'must be a whole number (>= 1) of control periods dt_control = {sc.dt_control}')
+    return ()
+
+
 def parse_override(text: str) -> tuple[str, Any]:
     """Parse ``name:=value`` (value in YAML syntax, as ``ros2 run -p`` takes it)."""
     if ':=' not in text:

@@ -21,19 +21,21 @@ rate itself (first order, (1.12), (1.16)) or a phase acceleration: backstepping 
 of it: the gain whose modulus is its steering bandwidth, its phase acceleration, the longest
 actuator lag its linearised loop is stable with (docs/errata.md, "Actuator lag"), whether it
 integrates (anti-windup) and whether it reads the course rate from the model with the held
-force. :data:`LAWS` is the table; :func:`law` picks a scenario's.
+force. :data:`LAWS` is the table; :func:`law` picks a scenario's; :func:`check` refuses a
+rigid-body steering loop that would diverge (tail steering's right-half-plane zero, the full
+law's loop through the held force, the PI law's drag condition).
 """
 from __future__ import annotations
 
-from typing import ClassVar, TYPE_CHECKING
+import math
+from typing import ClassVar
 
 from formation_control.core import laws
-from formation_control.core.errors import ScenarioError
+from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.geometry import RealArray
+from formation_control.core.models import RIGID_MODELS
+from formation_control.core.parameters import Scenario
 import numpy as np
-
-if TYPE_CHECKING:
-    from formation_control.core.parameters import Scenario
 
 
 class NoLagLimit(ScenarioError):
@@ -58,7 +60,7 @@ class SteeringLaw:
         The law keeps an integrator per vehicle (anti-windup applies).
     held_force : bool
         On rigid bodies the law reads the course rate from the model with the held force
-        (:func:`scenario.uses_held_force`).
+        (:func:`uses_held_force`).
 
     """
 
@@ -242,3 +244,90 @@ LAWS: dict[str, SteeringLaw] = {law.name: law for law in (FirstOrder(), Backstep
 def law(sc: Scenario) -> SteeringLaw:
     """Return the steering law of a scenario (its ``controller``)."""
     return LAWS[sc.controller]
+
+
+def rhp_zero(sc: Scenario) -> float:
+    """
+    Return the right-half-plane zero of tail steering, from the force F to the course.
+
+    Parameters
+    ----------
+    sc : Scenario
+        A rigid-body scenario (u0, h, l, I0).
+
+    Returns
+    -------
+    float
+        ``u0 sqrt(h l / I0)`` (rad/s): the side force at the tail first pushes the velocity
+        the wrong way (errata, "Physical parameters").
+
+    """
+    return sc.u0 * math.sqrt(sc.h * sc.l / sc.I0)
+
+
+def uses_held_force(sc: Scenario) -> bool:
+    """
+    Return whether the steering law reads the course rate from the model with the held force.
+
+    The full law (``law_variant: full``) and the PI law (8.24) do (the exact rate and s' of
+    :func:`control.rigid_view`); the practical law uses omega.
+    """
+    return law(sc).held_force or sc.law_variant == 'full'
+
+
+def held_force_loop_gain(sc: Scenario) -> float:
+    """
+    Return the gain of the one-sample loop F -> beta' -> F of tail steering with the full law.
+
+    Parameters
+    ----------
+    sc : Scenario
+        A rigid-body scenario.
+
+    Returns
+    -------
+    float
+        ``bandwidth I0 / (l m0 u0)`` (:meth:`SteeringLaw.bandwidth`). With the full law, beta'
+        (hence psi') contains F/m0 (7.7); computed from the held force it closes a loop
+        through one sample that diverges when this gain nears 1.
+
+    """
+    return law(sc).bandwidth(sc) * sc.I0 / (sc.l * sc.m0 * sc.u0)
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse a law the vehicle model does not fly or a rigid-body loop that would diverge.
+
+    The first-order law goes with first-order vehicles only. Tail steering's right-half-plane
+    zero against the bandwidth, the full law's one-sample loop through the held force and the
+    PI law's drag condition (errata, "Rigid-body practice"). Returns the warnings.
+    """
+    if (sc.model == 'first_order') != (law(sc).order == 1):
+        _fail('controller', sc.controller, "model 'first_order' goes with controller "
+              "'first_order' only, and controller 'first_order' with model 'first_order' only")
+    notes = []
+    if sc.model in ('rigid', 'rigid_cop'):
+        zero, band = rhp_zero(sc), law(sc).bandwidth(sc)
+        if zero < 0.5 * band:
+            raise ScenarioError(
+                f'tail steering has a right-half-plane zero at u0*sqrt(h*l/I0) = {zero:.3g} '
+                f'rad/s, below half the steering bandwidth {band:.3g} rad/s: the law would '
+                f'diverge. Raise u0, h or l, or lower I0 or the gain (parameters u0, h, l, I0)')
+        if zero < band:
+            notes.append(f'right-half-plane zero u0*sqrt(h*l/I0) = {zero:.3g} rad/s lies '
+                         f'below the steering bandwidth {band:.3g} rad/s: expect slow, '
+                         f'oscillating turns')
+        gain = held_force_loop_gain(sc)
+        if uses_held_force(sc) and gain >= 0.8:
+            raise ScenarioError(
+                f'the full law on tail steering closes a one-sample loop through the held force '
+                f'with gain bandwidth*I0/(l*m0*u0) = {gain:.3g}, which must stay below 0.8 '
+                f'(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: '
+                f'practical, or model: rigid_couple')
+    if sc.model in RIGID_MODELS and law(sc).integrates:
+        if not sc.h * sc.u0 / sc.m0 > sc.K_I / sc.K_P:
+            raise ScenarioError(
+                f'PI steering (8.24) needs h*u0/m0 = {sc.h * sc.u0 / sc.m0:.3g} > '
+                f'K_I/K_P = {sc.K_I / sc.K_P:.3g} (parameters h, u0, m0, K_I, K_P)')
+    return tuple(notes)

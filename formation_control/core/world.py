@@ -44,10 +44,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import replace
 
+from formation_control.core.errors import refuse as _fail
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (deriv, Plant, RIGID_MODELS, ROW_OMEGA, ROW_X,
                                            ROW_Y)
-from formation_control.core.parameters import MISMATCH_NAMES, Scenario
+from formation_control.core.parameters import MISMATCH_ARRAYS, MISMATCH_NAMES, Scenario
+from formation_control.core.stability import formation_rate
+from formation_control.core.steering import law
 import numpy as np
 
 TAG = 0x776f726c
@@ -274,3 +277,33 @@ def speed_under_bias(sc: Scenario, b: RealArray) -> RealArray:
     b = np.asarray(b, float)
     c = sc.m0 * sc.K_f
     return (c * (sc.u0 - b) + sc.h * b * b) / (c - 2.0 * sc.h * b)
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse a world no vehicle could have or the loop could bear; return the warnings.
+
+    A mismatch factor must stay positive; an actuator lag is held against the steering law's
+    limit (:meth:`steering.SteeringLaw.lag_limit`: refused from it, warned from half of it).
+    """
+    if sc.mismatch >= 1:
+        _fail('mismatch', sc.mismatch, 'must be < 1: a factor 1 - mismatch <= 0 makes a mass, '
+              'inertia or drag non-positive')
+    for name in MISMATCH_ARRAYS:
+        if name != 'mismatch_l1' and any(v <= 0 for v in getattr(sc, name)):
+            _fail(name, list(getattr(sc, name)), 'every factor must be > 0 (a non-positive '
+                  'mass, inertia, drag or effectiveness)')
+    notes = []
+    steer = law(sc)
+    if sc.actuator_lag:
+        limit = steer.lag_limit(steer.bandwidth(sc), formation_rate(sc), sc.K_I)
+        gain = steer.gain
+        text = (f'actuator_lag = {sc.actuator_lag:g} s against the steering loop ({gain}, '
+                f'formation rate {formation_rate(sc):.3g} 1/s), stable only for a lag below '
+                f'{limit:.3g} s (docs/errata.md, "Actuator lag")')
+        if sc.actuator_lag >= limit:
+            _fail('actuator_lag', sc.actuator_lag, f'{text}: the loop would diverge; lower the '
+                  f'lag or the gains')
+        if sc.actuator_lag > 0.5 * limit:
+            notes.append(f'{text}: past half of it, expect slow, oscillating turns')
+    return tuple(notes)

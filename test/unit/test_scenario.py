@@ -28,8 +28,8 @@ from formation_control.core import parameters, scenario
 from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.core.parameters import (PARAMETER_NAMES, parse_override, read_params,
                                                Scenario)
-from formation_control.core.scenario import (held_force_loop_gain, initial_state, load, resolve,
-                                             rhp_zero)
+from formation_control.core.scenario import initial_state, load, resolve
+from formation_control.core.steering import held_force_loop_gain, rhp_zero
 from formation_control.protocol import node_parameters
 import numpy as np
 import pytest
