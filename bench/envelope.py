@@ -39,7 +39,7 @@ import os
 from pathlib import Path
 import time
 
-from formation_control.core import scenario
+from formation_control.core import parameters
 from formation_control.sim import sweep
 import matplotlib.pyplot as plt
 import numpy as np
@@ -75,7 +75,7 @@ LEVELS = (
 
 def study(name, source, duration, level, seeds, out, workers):
     """Run one study at one sensor level; return its table rows and the merged data."""
-    base = scenario.read_params(scenario.find(name))
+    base = parameters.read_params(parameters.find(name))
     base['duration'] = duration
     sensors = dict(LEVELS)[level]
     if sensors and source == 'estimated':
@@ -187,7 +187,7 @@ NOISE = ['gnss_sigma:=[0.0, 0.1, 0.5, 1.0]', "position_filter:=['none', 'kalman'
 
 def noise_study(seeds, out, workers):
     """GNSS noise x the position filter on rigid_circular (60 s): write docs/envelope_noise.md."""
-    base = scenario.read_params(scenario.find('rigid_circular'))
+    base = parameters.read_params(parameters.find('rigid_circular'))
     base['duration'] = 60.0
     the_plan = sweep.plan(base, NOISE, range(1000, 1000 + seeds), workers=workers)
     path = Path(out) / 'rigid_circular_noise.npz'

@@ -26,7 +26,7 @@ the last 40 s of 50, for bandwidths from 0.1 to 40 1/s, against
 import argparse
 from pathlib import Path
 
-from formation_control.core import estimation, scenario
+from formation_control.core import estimation, parameters, scenario
 from formation_control.sim import simulator
 import matplotlib.pyplot as plt
 import numpy as np
@@ -37,7 +37,7 @@ GAINS = (0.1, 0.3, 1.0, 2.0, 4.0, 8.0, 16.0, 40.0)
 
 def error(gain, seed):
     """Return the measured rms error per axis (m/s) and the scenario."""
-    sc = scenario.load(scenario.find('rigid_parallel_flow'), flow_source='estimated',
+    sc = scenario.load(parameters.find('rigid_parallel_flow'), flow_source='estimated',
                        seed=seed, world_seed=seed, duration=50.0, gust_intensity=0.05,
                        gust_time=5.0, velocity_sigma=0.04, water_sigma=0.03, flow_gain=gain)
     return simulator.rms_flow_error(sc, 10.0), sc

@@ -29,7 +29,7 @@ docs/images/flow_gain_filtered.png.
 import argparse
 from pathlib import Path
 
-from formation_control.core import navigation, scenario
+from formation_control.core import navigation, parameters, scenario
 from formation_control.sim import simulator
 import matplotlib.pyplot as plt
 import numpy as np
@@ -41,7 +41,7 @@ GUSTS = (0.0, 0.05)
 
 def error(gain, seed, gust):
     """Return the measured rms error per axis (m/s) and the scenario."""
-    sc = scenario.load(scenario.find('rigid_parallel_flow'), flow_source='estimated',
+    sc = scenario.load(parameters.find('rigid_parallel_flow'), flow_source='estimated',
                        seed=seed, world_seed=seed, duration=40.0, gust_intensity=gust,
                        gust_time=5.0, velocity_sigma=0.04, water_sigma=0.03, flow_gain=gain,
                        position_filter='kalman')

@@ -37,7 +37,7 @@ import sys
 import tempfile
 import time
 
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.sim import simulator, sweep
 import numpy as np
 
@@ -47,7 +47,7 @@ CLI = Path(sys.executable).parent / 'formation-control'
 
 def base():
     """Return rigid_circular's parameters, for 60 s (the file says 100)."""
-    return dict(scenario.read_params(CONFIG / 'rigid_circular.yaml'), duration=60.0)
+    return dict(parameters.read_params(CONFIG / 'rigid_circular.yaml'), duration=60.0)
 
 
 def timed_sweep(seeds, workers=1, scheduler=None):

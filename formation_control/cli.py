@@ -30,7 +30,7 @@ import signal
 import sys
 import threading
 
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.core.errors import UsageError
 from formation_control.ops import security
 from formation_control.protocol import names, node_parameters
@@ -54,7 +54,7 @@ def _load(args, node_params_allowed=False):
         raise UsageError(
             f"{', '.join(node)}: link and frame parameters apply to the ROS nodes only (use "
             f'swarm)')
-    sc = scenario.load(scenario.find(args.scenario), overrides,
+    sc = scenario.load(parameters.find(args.scenario), overrides,
                        duration=args.duration, seed=args.seed)
     for note in sc.warnings:
         print(f'warning: {note}', file=sys.stderr)
@@ -102,7 +102,7 @@ def cmd_sim(args):
 def cmd_sweep(args):
     import os
     from formation_control.sim import sweep
-    base = scenario.read_params(scenario.find(args.scenario))
+    base = parameters.read_params(parameters.find(args.scenario))
     if args.duration is not None:
         base['duration'] = args.duration
     workers = os.cpu_count() if args.workers is None else args.workers
@@ -277,7 +277,7 @@ def cmd_repair(args):
 
 
 def cmd_params(args):
-    print(scenario.markdown() + node_parameters.markdown(), end='')
+    print(parameters.markdown() + node_parameters.markdown(), end='')
     return 0
 
 

@@ -71,15 +71,15 @@ import math
 import os
 from pathlib import Path
 import re
-from typing import Any, Protocol, TYPE_CHECKING
+from typing import Any, Protocol
 
+from formation_control.core import formations
+from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
+from formation_control.core.parameters import DEFAULTS, MISMATCH_ARRAYS, Scenario
 import numpy as np
-
-if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
 
 G = 9.80665                      # standard gravity (m/s^2)
 FT = 0.3048                      # metres per foot
@@ -535,9 +535,65 @@ def _checked(name: str, altitude: float, airspeed: float,
     return None
 
 
-def check(sc: Scenario) -> None:
+def check_trim(sc: Scenario) -> None:
     """Refuse (AircraftError) an aircraft JSBSim does not have, or one that does not trim."""
     _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
+
+
+NATIVE_WORLD = ('mismatch', *MISMATCH_ARRAYS, 'actuator_lag', 'max_thrust_rate',
+                'max_steering_rate', 'gust_intensity', 'gnss_sigma', 'gnss_rate', 'heading_sigma',
+                'heading_bias', 'yaw_rate_sigma', 'velocity_sigma', 'water_sigma', 'water_bias',
+                'sensor_latency', 'position_filter')
+"""The world of the native plant (issue 30), refused with ``plant_backend: jsbsim``."""
+
+
+JSBSIM_OWNS = ('u0', 'K_f', 'K_P', 'K_I', 'm0', 'I0', 'l', 'h', 'l1', 'max_thrust',
+               'max_steering_force')
+"""The rigid-body parameters, which a JSBSim aircraft's own model (mass, drag, ...) replaces."""
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse a jsbsim scenario the aircraft cannot fly (docs/aircraft.md, "Bad input").
+
+    The native plant's world and rigid-body parameters left out, a tangent plane within
+    +-80 deg of latitude, airspeed limits that admit the airspeed, a circle within the bank
+    limit, and an aircraft JSBSim has and trims (:func:`check_trim`). No warnings; nothing
+    for the native plant.
+    """
+    if sc.plant_backend != 'jsbsim':
+        return ()
+    native = [name for name in NATIVE_WORLD if getattr(sc, name) != getattr(DEFAULTS, name)]
+    if native:
+        _fail(native[0], getattr(sc, native[0]), "with plant_backend jsbsim: the native plant's "
+              'model mismatch, actuators, gusts and sensors are not applied to JSBSim aircraft '
+              '(JSBSim has its own turbulence: turbulence_severity): leave it out')
+    owned = [name for name in JSBSIM_OWNS if getattr(sc, name) != getattr(DEFAULTS, name)]
+    if owned:
+        _fail(owned[0], getattr(sc, owned[0]), f'with plant_backend jsbsim the aircraft model '
+              f'{sc.jsbsim_aircraft!r} owns its mass, inertia, drag and thrust: leave out '
+              f"{', '.join(owned)}")
+    if not -80.0 <= sc.geodetic_origin[0] <= 80.0:
+        _fail('geodetic_origin', list(sc.geodetic_origin), 'the latitude must lie within '
+              '+-80 deg (the map frame is a tangent plane)')
+    for name, ok in (('min_airspeed', sc.min_airspeed <= sc.airspeed),
+                     ('max_airspeed', not sc.max_airspeed or sc.max_airspeed >= sc.airspeed)):
+        if not ok:
+            _fail(name, getattr(sc, name), f'the limit must admit airspeed = {sc.airspeed} m/s')
+    radius = formations.of(sc).radius(sc)
+    if radius is not None:
+        bank = required_bank(sc)
+        if bank >= sc.bank_limit:
+            _fail('omega0', sc.omega0, f'a circle of radius {radius:.4g} m at airspeed '
+                  f'{sc.airspeed} m/s in the wind {list(sc.flow)} m/s needs a bank of '
+                  f'{math.degrees(bank):.3g} deg (tan(bank) = V^2 / (g R) in still air), '
+                  f'beyond bank_limit = {sc.bank_limit} rad = {math.degrees(sc.bank_limit):.3g} '
+                  f'deg: use a larger radius (smaller |omega0|) or a larger bank_limit')
+    try:
+        check_trim(sc)
+    except AircraftError as err:
+        raise ScenarioError(str(err)) from None
+    return ()
 
 
 class Fleet:

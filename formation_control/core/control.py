@@ -25,14 +25,14 @@ from dataclasses import replace
 import math
 from typing import Any
 
-from formation_control.core import laws
+from formation_control.core import formations, laws, steering
+from formation_control.core.flow import uses_flow_rates, vehicle_speed
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
                                            position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y)
-from formation_control.core.scenario import (Scenario, uses_flow_rates, uses_held_force,
-                                             vehicle_speed)
+from formation_control.core.parameters import Scenario
 import numpy as np
 
 
@@ -371,8 +371,8 @@ def law_units(sc: Scenario) -> tuple[float, float]:
     """
     if sc.plant_backend != 'jsbsim':
         return 1.0, 1.0
-    if sc.formation == 'circular':
-        radius = 1.0 / abs(sc.omega0)
+    radius = formations.of(sc).radius(sc)
+    if radius is not None:
         return radius, radius / sc.airspeed
     return sc.airspeed, 1.0
 
@@ -425,11 +425,13 @@ class Controller:
         The formation law over the whole fleet.
     limits : ndarray, shape (2,)
         :func:`command_limits`.
+    law : steering.SteeringLaw
+        The steering law, ``steering.law(sc)``.
     integral : ndarray or None
         The PI integrator of each commanded vehicle (rad/s s), created at the first command.
     rates : bool
         Whether the laws take the flow's change along each path into account (:meth:`jet`,
-        :func:`scenario.uses_flow_rates`): a known flow that is not uniform and steady.
+        :func:`flow.uses_flow_rates`): a known flow that is not uniform and steady.
 
     """
 
@@ -440,18 +442,14 @@ class Controller:
         self.rigid = sc.model in RIGID_MODELS
         self.speed = vehicle_speed(sc) if not self.rigid else 1.0
         coupling = None if sc.all_to_all else sc.comm_graph.coupling()
-        self.formation: laws.Formation
-        if sc.formation == 'parallel':
-            self.formation = laws.Parallel(sc.K, coupling)
-        else:
-            cross = 1.0 / math.prod(law_units(sc)) ** 2
-            self.formation = laws.Circular(sc.K, sc.omega0, sc.c0_c, sc.informed_mask, coupling,
-                                           pattern_law(sc), cross)
+        cross = 1.0 / math.prod(law_units(sc)) ** 2
+        self.formation = formations.of(sc).law(sc, coupling, pattern_law(sc), cross)
         self._couplings: dict[bytes, laws.Coupling] = {}
-        self.use_heading = (sc.formation == 'parallel' and sc.flow_source == 'known'
+        self.use_heading = (formations.of(sc).steers_heading and sc.flow_source == 'known'
                             and self.plant.flow.uniform and self.plant.flow.value == 0)
-        self.full = uses_held_force(sc)
+        self.full = steering.uses_held_force(sc)
         self.rates = uses_flow_rates(sc)
+        self.law = steering.law(sc)
         self.integral: RealArray | None = None
         self.limits = command_limits(sc)
 
@@ -636,20 +634,14 @@ class Controller:
         Returns
         -------
         ndarray, shape (n,)
-            (rad/s^2): backstepping (3.7), (3.14), (4.3), (4.8), (7.12), (7.25), proportional
-            (5.5), or PI (8.24) ``K_P e + K_I int e`` with ``e = phi - rate``, which advances
-            the integrator by one control period.
+            (rad/s^2): :meth:`steering.SteeringLaw.phase_accel` of the scenario's law
+            (backstepping (3.7), (3.14), (4.3), (4.8), (7.12), (7.25), proportional (5.5), or
+            PI (8.24), which advances the integrator by one control period).
 
         """
-        sc, f = self.sc, self.formation_of(members)
-        if sc.controller == 'backstepping':
-            return laws.backstepping(f, view, sc.kappa, idx)
-        if sc.controller == 'proportional':
-            return laws.proportional(f, view, sc.K_p, idx)
-        err = f.terms(view, idx).phi - view.rate[idx]
-        integral = np.zeros_like(err) if self.integral is None else self.integral
-        self.integral = integral + err * sc.dt_control
-        return sc.K_P * err + sc.K_I * self.integral
+        lam, self.integral = self.law.phase_accel(self.formation_of(members), view, idx, self.sc,
+                                                  self.integral)
+        return lam
 
     def command(self, view: laws.View, X: RealArray, idx: laws.Index = slice(None),
                 members: BoolArray | None = None,
@@ -681,8 +673,8 @@ class Controller:
         """
         sc = self.sc
         U = np.zeros((2,) + X.shape[1:])
-        if sc.controller == 'first_order':
-            w = laws.first_order(self.formation_of(members), view, idx)
+        if self.law.order == 1:
+            w = self.law.phase_rate(self.formation_of(members), view, idx)
             flow = self.flow(flow)
             U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow / self.speed,
                                            self.jet(X, flow))
@@ -697,7 +689,7 @@ class Controller:
             U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow / self.speed,
                                             self.jet(X, flow))
         out = self.saturate(U)
-        if sc.anti_windup and sc.controller == 'pi':
+        if sc.anti_windup and self.law.integrates:
             self._hold_integral(before, U[1] != out[1])
         return out
 

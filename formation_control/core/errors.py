@@ -13,6 +13,7 @@
 # limitations under the License.
 
 """The package's errors: one for a scenario parameter, one for any other misuse."""
+from typing import NoReturn
 
 
 class ScenarioError(ValueError):
@@ -21,3 +22,8 @@ class ScenarioError(ValueError):
 
 class UsageError(ValueError):
     """A command, file or argument that is not a scenario parameter is unusable (the reason)."""
+
+
+def refuse(name: str, value: object, allowed: str) -> NoReturn:
+    """Raise the ScenarioError of parameter ``name`` = ``value``, with the values it may take."""
+    raise ScenarioError(f"parameter '{name}' = {value!r} is invalid: {allowed}")

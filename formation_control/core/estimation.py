@@ -44,7 +44,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from formation_control.core.graphs import Graph
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 CLAMP = 0.95
 """Largest ``|fhat|`` as a fraction of the vehicle's speed through the water."""

@@ -51,9 +51,8 @@ from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
-FLOW_MODELS = ('uniform', 'time_varying', 'shear', 'vortex', 'grid')
 Grid = tuple[RealArray, RealArray, ComplexArray]
 """The lines x, y (m) of a gridded flow and the flow at its nodes (m/s), shape (ny, nx)."""
 

@@ -50,7 +50,7 @@ from formation_control.core.geometry import ComplexArray, RealArray
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 ROW_X, ROW_Y, ROW_THETA, ROW_OMEGA, ROW_U, ROW_V = range(6)
 STATE_NAMES = ('x', 'y', 'theta', 'omega', 'u', 'v')

@@ -55,7 +55,7 @@ from formation_control.core.sensors import fix_every
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 
 def position_gain(sc: Scenario) -> tuple[float, float, float]:

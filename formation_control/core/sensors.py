@@ -39,6 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from formation_control.core.errors import refuse
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V,
                                            ROW_X, ROW_Y)
@@ -46,7 +47,7 @@ from formation_control.core.world import stream
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 NOISES = ('gnss_x', 'gnss_y', 'heading', 'yaw_rate', 'velocity_x', 'velocity_y', 'water_u',
           'water_v')
@@ -208,6 +209,15 @@ def check_rates(sc: Scenario) -> str | None:
     if abs(steps - round(steps)) > 1e-6:
         return f'sensor_latency: {sc.sensor_latency:g} s must be a whole number of dt_control'
     return None
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """Refuse a fix rate or a latency the plant's control step cannot give; no warnings."""
+    rates = check_rates(sc)
+    if rates:
+        name, why = rates.split(': ', 1)
+        refuse(name, getattr(sc, name), why)
+    return ()
 
 
 def speed_under_noise(sc: Scenario) -> tuple[float, float]:

@@ -42,10 +42,11 @@ from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import BoolArray, RealArray
 from formation_control.core.graphs import CONNECTIVITY_DENSE_MAX
 from formation_control.core.models import RIGID_MODELS, ROW_OMEGA
+from formation_control.core.steering import law
 import numpy as np
 
 if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 RK4_LIMIT = 2.785
 """Classical RK4 is stable on the negative real axis for ``a dt <= 2.785``."""
@@ -59,18 +60,13 @@ Mode = tuple[str, str, float, str, float, float]
 """A fast mode: name, formula, rate (1/s), step parameter, step (s), limit of rate * step."""
 
 
-STEERING_GAINS = {'first_order': 'K', 'backstepping': 'kappa', 'proportional': 'K_p',
-                  'pi': 'K_P'}
-"""The gain of each controller whose modulus is its steering bandwidth (1/s)."""
-
-
 class DivergenceError(ScenarioError):
     """The integration of a run diverged (non-finite or exploding state)."""
 
 
 def steering_bandwidth(sc: Scenario) -> float:
-    """Return how fast the steering loop acts (1/s): kappa, K_p, K_P or ``|K|`` by controller."""
-    return abs(getattr(sc, STEERING_GAINS[sc.controller]))
+    """Return how fast the steering loop acts (1/s): the bandwidth of the scenario's law."""
+    return law(sc).bandwidth(sc)
 
 
 def hold_limit(hold_prediction: str) -> float:
@@ -181,14 +177,14 @@ def modes(sc: Scenario) -> list[Mode]:
     """
     held = hold_limit(sc.hold_prediction)
     formation = formation_rate(sc)
-    if sc.controller == 'first_order':
+    steer = law(sc)
+    if steer.order == 1:
         formula = '|K|' if formation == abs(sc.K) else '(|K| + K_pattern) lambda_max(L)/nu'
         out = [('steering loop', formula, formation, 'dt_control', sc.dt_control, held)]
     else:
-        name, gain = STEERING_GAINS[sc.controller], steering_bandwidth(sc)
-        limit = cascade_limit(gain, formation, sc.hold_prediction,
-                              sc.controller == 'backstepping')
-        out = [('steering loop', name, gain, 'dt_control', sc.dt_control, limit)]
+        gain = steer.bandwidth(sc)
+        limit = cascade_limit(gain, formation, sc.hold_prediction, steer.feedforward)
+        out = [('steering loop', steer.gain, gain, 'dt_control', sc.dt_control, limit)]
     if sc.model in RIGID_MODELS:
         out += [('surge drag', '2 h u0 / m0', 2.0 * sc.h * sc.u0 / sc.m0, 'dt_integration',
                  sc.dt_integration, RK4_LIMIT),

@@ -43,18 +43,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
+from formation_control.core.errors import refuse as _fail
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (deriv, Plant, RIGID_MODELS, rk4, ROW_OMEGA, ROW_X,
                                            ROW_Y)
+from formation_control.core.parameters import MISMATCH_ARRAYS, MISMATCH_NAMES, Scenario
+from formation_control.core.stability import formation_rate
+from formation_control.core.steering import law
 import numpy as np
 
-if TYPE_CHECKING:
-    from formation_control.core.scenario import Scenario
-
-MISMATCH_NAMES = ('m0', 'I0', 'h', 'l1', 'thrust', 'steering')
-"""The plant-only factors of model mismatch, in the order they are drawn."""
 TAG = 0x776f726c
 """The first word of every world stream's seed ('worl')."""
 CHANNELS = {'mismatch': 1, 'gust': 2, 'sensors': 3}
@@ -106,58 +104,6 @@ def mismatch_factors(sc: Scenario, seed: int | None = None) -> dict[str, RealArr
         given = getattr(sc, f'mismatch_{name}')
         out[name] = np.array(given, float) if given else drawn[:, j]
     return out
-
-
-def lag_limit(kappa: float, f: float, controller: str, K_I: float = 0.0) -> float:
-    """
-    Return the longest actuator lag the linearised second-order steering loop is stable with.
-
-    Parameters
-    ----------
-    kappa : float
-        Steering gain (1/s): kappa, K_p or K_P.
-    f : float
-        Rate of the formation loop (1/s), :func:`stability.formation_rate`.
-    controller : str
-        ``backstepping``, ``proportional`` or ``pi``.
-    K_I : float
-        The PI law's integral gain (1/s^2).
-
-    Returns
-    -------
-    float
-        The largest tau (s) for which the continuous loop through the lag ``tau a' = u - a``
-        is stable (inf: any): with the phase error ``e'' = a`` and ``phi = -f e``,
-        backstepping ``u = -(kappa + f) e' - kappa f e`` gives ``tau s^3 + s^2 + (kappa + f) s
-        + kappa f``, stable (Routh) for ``tau < 1/kappa + 1/f``; proportional
-        ``u = -kappa e' - kappa f e``, ``tau < 1/f``; PI ``u = -K_P (e' + f e) - K_I (e + f z)``,
-        ``z' = e``: the quartic ``tau s^4 + s^3 + K_P s^2 + (K_P f + K_I) s + K_I f``, by its
-        roots. A first-order loop through a lag (``tau s^2 + s + g``) is stable for any tau.
-
-    """
-    if f <= 0:
-        return np.inf
-    if controller == 'backstepping':
-        return 1.0 / kappa + 1.0 / f
-    if controller == 'proportional':
-        return 1.0 / f
-    if controller != 'pi':
-        return np.inf
-
-    def stable(tau: float) -> bool:
-        roots = np.roots([tau, 1.0, kappa, kappa * f + K_I, K_I * f])
-        return bool(np.all(roots.real < 0))
-
-    high = 1.0 / kappa + 1.0 / f
-    while stable(high):
-        high *= 2.0
-        if high > 1e6:
-            return np.inf
-    low = 0.0
-    for _ in range(60):
-        mid = 0.5 * (low + high)
-        low, high = (mid, high) if stable(mid) else (low, mid)
-    return low
 
 
 def rate_limits(sc: Scenario) -> RealArray:
@@ -327,3 +273,33 @@ def speed_under_bias(sc: Scenario, b: RealArray) -> RealArray:
     b = np.asarray(b, float)
     c = sc.m0 * sc.K_f
     return (c * (sc.u0 - b) + sc.h * b * b) / (c - 2.0 * sc.h * b)
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse a world no vehicle could have or the loop could bear; return the warnings.
+
+    A mismatch factor must stay positive; an actuator lag is held against the steering law's
+    limit (:meth:`steering.SteeringLaw.lag_limit`: refused from it, warned from half of it).
+    """
+    if sc.mismatch >= 1:
+        _fail('mismatch', sc.mismatch, 'must be < 1: a factor 1 - mismatch <= 0 makes a mass, '
+              'inertia or drag non-positive')
+    for name in MISMATCH_ARRAYS:
+        if name != 'mismatch_l1' and any(v <= 0 for v in getattr(sc, name)):
+            _fail(name, list(getattr(sc, name)), 'every factor must be > 0 (a non-positive '
+                  'mass, inertia, drag or effectiveness)')
+    notes = []
+    steer = law(sc)
+    if sc.actuator_lag:
+        limit = steer.lag_limit(steer.bandwidth(sc), formation_rate(sc), sc.K_I)
+        gain = steer.gain
+        text = (f'actuator_lag = {sc.actuator_lag:g} s against the steering loop ({gain}, '
+                f'formation rate {formation_rate(sc):.3g} 1/s), stable only for a lag below '
+                f'{limit:.3g} s (docs/errata.md, "Actuator lag")')
+        if sc.actuator_lag >= limit:
+            _fail('actuator_lag', sc.actuator_lag, f'{text}: the loop would diverge; lower the '
+                  f'lag or the gains')
+        if sc.actuator_lag > 0.5 * limit:
+            notes.append(f'{text}: past half of it, expect slow, oscillating turns')
+    return tuple(notes)

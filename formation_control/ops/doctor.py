@@ -25,7 +25,11 @@ from dataclasses import dataclass, field
 import math
 import re
 
-from formation_control.core.scenario import PLANT_ONLY, resolve, ScenarioError
+from formation_control.core.errors import ScenarioError
+
+from formation_control.core.parameters import PLANT_ONLY
+
+from formation_control.core.scenario import resolve
 from formation_control.ops.security import check_environment as check_security
 
 ERROR, WARNING, NOTE = 'error', 'warning', 'note'

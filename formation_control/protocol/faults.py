@@ -31,7 +31,8 @@ import re
 
 from formation_control.core.control import Controller
 from formation_control.core.errors import UsageError
-from formation_control.core.scenario import resolve, Scenario
+from formation_control.core.parameters import Scenario
+from formation_control.core.scenario import resolve
 from formation_control.sim import metrics
 from formation_control.sim.simulator import Run
 

@@ -36,7 +36,7 @@ from typing import Any
 from formation_control.core import stability
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.protocol.messages import odom_values
 from formation_control.sim.simulator import Recorder, Run, Stepper
 import numpy as np

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from formation_control.core.errors import ScenarioError
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.protocol import names
 import yaml
 

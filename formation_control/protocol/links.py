@@ -27,8 +27,9 @@ import itertools
 import math
 from typing import Any, TypeVar
 
+from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import BoolArray
-from formation_control.core.scenario import ScenarioError, Spec
+from formation_control.core.parameters import Spec
 import numpy as np
 
 M = TypeVar('M', bound=Mapping[str, Any])

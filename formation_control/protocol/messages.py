@@ -35,7 +35,7 @@ from typing import Any, Mapping, NamedTuple, Optional, TypeVar
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
                                            ROW_THETA)
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.protocol.cdr import Codec, Definition, HEADER, Layout, TIME
 from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 import numpy as np

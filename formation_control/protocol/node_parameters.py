@@ -15,7 +15,7 @@
 """
 The parameters of the nodes themselves, beside the scenario's: one table per node.
 
-Each entry is ``name -> (default, scenario.Spec)``; the same table declares the node's ROS
+Each entry is ``name -> (default, parameters.Spec)``; the same table declares the node's ROS
 parameters (descriptor with unit and range, read-only) and writes the node section of
 ``docs/parameters.md`` (:func:`markdown`). The offline simulator has none of these.
 """
@@ -26,8 +26,9 @@ import json
 import re
 from typing import Any
 
-from formation_control.core import scenario
-from formation_control.core.scenario import markdown_table, Scenario, ScenarioError, Spec
+from formation_control.core import parameters, scenario
+from formation_control.core.errors import ScenarioError
+from formation_control.core.parameters import markdown_table, Scenario, Spec
 from formation_control.protocol.links import PARAMETERS as LINKS
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
 
@@ -81,7 +82,7 @@ def plant_differences(sc: Scenario, text: str) -> str:
     Return how a vehicle's scenario ``sc`` differs from the plant's (JSON ``text``), or ''.
 
     ``name = mine here, theirs at the plant`` for each parameter of
-    :func:`scenario.differences`, joined by a semicolon. Raises ScenarioError for an unreadable
+    :func:`parameters.differences`, joined by a semicolon. Raises ScenarioError for an unreadable
     plant scenario.
     """
     try:
@@ -89,7 +90,7 @@ def plant_differences(sc: Scenario, text: str) -> str:
     except (ValueError, TypeError) as err:
         raise ScenarioError(str(err)) from None
     return '; '.join(f'{name} = {mine!r} here, {plant!r} at the plant'
-                     for name, mine, plant in scenario.differences(sc, theirs))
+                     for name, mine, plant in parameters.differences(sc, theirs))
 
 
 def check_vehicle(sc: Scenario, vehicle_id: int) -> None:

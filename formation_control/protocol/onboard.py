@@ -32,7 +32,7 @@ from formation_control.core.control import Controller
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import View
 from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.protocol.messages import state_from_odom_values, ViewRow
 from formation_control.sim.onboard import OnboardStep
 import numpy as np

@@ -29,7 +29,7 @@ from typing import Any
 
 from formation_control.core import stability
 from formation_control.core.geometry import BoolArray, IntArray
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.protocol.fleet import FleetPlant
 from formation_control.protocol.intake import Rejection
 from formation_control.protocol.lockstep import (CommandGate, Pacer, REPEATED, sample_slots,

@@ -31,7 +31,7 @@ from typing import Any
 
 from formation_control.core import aircraft
 from formation_control.core.geometry import RealArray
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.protocol import links
 from formation_control.protocol.intake import Rejection, WRONG_FRAME
 from formation_control.protocol.lockstep import REPEATED, STALE

@@ -30,7 +30,8 @@ from formation_control.core import graphs, laws
 from formation_control.core.control import Controller
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
-from formation_control.core.scenario import practical, resolve, RUNTIME, Scenario
+from formation_control.core.parameters import RUNTIME, Scenario
+from formation_control.core.scenario import practical, resolve
 from formation_control.protocol import names
 from formation_control.sim import metrics
 import numpy as np

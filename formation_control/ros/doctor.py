@@ -27,7 +27,9 @@ import os
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from formation_control.core.scenario import PARAMETER_NAMES, resolve, ScenarioError
+from formation_control.core.errors import ScenarioError
+from formation_control.core.parameters import PARAMETER_NAMES
+from formation_control.core.scenario import resolve
 from formation_control.ops import doctor
 from formation_control.protocol import intake, messages, names
 from formation_control.ros import interface as itf

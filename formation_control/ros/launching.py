@@ -25,7 +25,7 @@ import os
 from pathlib import Path
 import tempfile
 
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.core.errors import UsageError
 from formation_control.ops import dds_profile, lifetime, security
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, LAUNCH_LABELS,
@@ -87,7 +87,7 @@ def _scenario(a, recorded=False):
     (:func:`~formation_control.ops.dds_profile.fleet_env`), written beside the parameters.
     """
     overrides = [f'{name}:={a[name]}' for name in ('num_vehicles', 'duration') if a.get(name)]
-    sc = scenario.load(scenario.find(a['scenario']), overrides)
+    sc = scenario.load(parameters.find(a['scenario']), overrides)
     folder = Path(tempfile.mkdtemp(prefix='formation_launch_'))
     files = [write_params(sc, folder / 'scenario.yaml', recorded, a['namespace'] or '/')]
     a['profile'] = {} if a['secure'] else dds_profile.fleet_env(os.environ, folder)

@@ -42,7 +42,8 @@ import json
 import sys
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core.scenario import resolve, ScenarioError
+from formation_control.core.errors import ScenarioError
+from formation_control.core.scenario import resolve
 from formation_control.protocol import intake, messages, names
 from formation_control.protocol.node_parameters import MONITOR
 from formation_control.protocol.watch import WARN, Watch

@@ -15,14 +15,15 @@
 """
 Scenario parameters on a node, declared from the core's parameter table.
 
-Each is declared with a descriptor made from its :class:`scenario.Spec`, validated by the
+Each is declared with a descriptor made from its :class:`parameters.Spec`, validated by the
 core's :func:`scenario.resolve` (one source of truth); gains and references can change at run
-time (:data:`scenario.RUNTIME`).
+time (:data:`parameters.RUNTIME`).
 """
 import copy
 
-from formation_control.core import scenario
-from formation_control.core.scenario import Scenario, ScenarioError
+from formation_control.core import formations, parameters, scenario
+from formation_control.core.errors import ScenarioError
+from formation_control.core.parameters import Scenario
 from formation_control.protocol import links
 from formation_control.protocol.node_parameters import MODES  # noqa: F401 (re-exported)
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -45,7 +46,7 @@ def descriptor(name):
     Parameters
     ----------
     name : str
-        A name of :data:`scenario.PARAMETERS`.
+        A name of :data:`parameters.PARAMETERS`.
 
     Returns
     -------
@@ -56,9 +57,9 @@ def descriptor(name):
         unless the parameter may change at run time.
 
     """
-    spec = scenario.PARAMETERS[name]
-    return _descriptor(spec, getattr(Scenario(), name), scenario.describe(name),
-                       scenario.allowed(name))
+    spec = parameters.PARAMETERS[name]
+    return _descriptor(spec, getattr(Scenario(), name), parameters.describe(name),
+                       parameters.allowed(name))
 
 
 def _descriptor(spec, default, description, constraints=''):
@@ -105,14 +106,14 @@ def declare(node, defaults=Scenario(), runtime=True):
 
     ``runtime=False``: every one is read-only (the plant, which uses no gain).
     """
-    for name in scenario.PARAMETER_NAMES:
+    for name in parameters.PARAMETER_NAMES:
         value = _ros_value(getattr(defaults, name))
         d = descriptor(name)
         if not runtime and not d.read_only:
             d.read_only = True
             d.description += PLANT_NOTE
         if name == 'K':
-            value = scenario.default_K(node.get_parameter('formation').value)
+            value = formations.default_K(node.get_parameter('formation').value)
         if value == []:
             declare_empty(node, name, EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY), d)
         else:
@@ -120,7 +121,7 @@ def declare(node, defaults=Scenario(), runtime=True):
 
 
 def _values(node, changes=()):
-    values = {name: node.get_parameter(name).value for name in scenario.PARAMETER_NAMES}
+    values = {name: node.get_parameter(name).value for name in parameters.PARAMETER_NAMES}
     values.update({p.name: p.value for p in changes if p.name in values})
     return values
 
@@ -132,7 +133,7 @@ def current(node):
 
 def reject_unknown(node, extra=()):
     """Refuse parameter names given to the node (YAML or -p) that it does not know."""
-    known = (set(scenario.PARAMETER_NAMES) | set(links.PARAMETERS) | set(extra)
+    known = (set(parameters.PARAMETER_NAMES) | set(links.PARAMETERS) | set(extra)
              | {'use_sim_time', 'start_type_description_service'})
     unknown = sorted(n for n in node._parameter_overrides
                      if n not in known and not n.startswith('qos_overrides.'))
@@ -212,7 +213,7 @@ def declare_node(node, table, names=None):
     node : rclpy.node.Node
         The node to declare them on.
     table : dict
-        ``name -> (default, scenario.Spec)``.
+        ``name -> (default, parameters.Spec)``.
     names : iterable of str, optional
         The entries to declare (default: all).
 

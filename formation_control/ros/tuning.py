@@ -24,7 +24,7 @@ parameters are read-only); the monitor follows the vehicles through ``/parameter
 import json
 import time
 
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.protocol import names
 from formation_control.ros import interface as itf
 from formation_control.ros.common import Rejections, subscribe_messages
@@ -51,10 +51,10 @@ def parse(assignments):
         name = name.strip()
         if not sep or not name:
             raise scenario.ScenarioError(f'{text!r}: give NAME:=VALUE (e.g. K:=0.5)')
-        if name not in scenario.RUNTIME:
+        if name not in parameters.RUNTIME:
             raise scenario.ScenarioError(
                 f'parameter {name!r} cannot change at run time; run-time parameters: '
-                f"{', '.join(scenario.RUNTIME)}")
+                f"{', '.join(parameters.RUNTIME)}")
         try:
             value = yaml.safe_load(raw)
         except yaml.YAMLError:
@@ -62,7 +62,7 @@ def parse(assignments):
         if value is None or isinstance(value, dict):
             raise scenario.ScenarioError(f'parameter {name!r} = {raw.strip()!r} is invalid: '
                                          f'give a value (YAML, as ros2 param set takes it)')
-        default = getattr(scenario.Scenario(), name)
+        default = getattr(parameters.Scenario(), name)
         if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         out.append(_typed_list(name, raw, value) if isinstance(default, tuple)

@@ -32,7 +32,7 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import ScenarioError
 from formation_control.core.sensors import covariances
 from formation_control.protocol import intake, links, lockstep, messages, names
 from formation_control.protocol.node_parameters import (check_frames, check_vehicle, FRAMES,

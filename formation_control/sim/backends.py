@@ -36,7 +36,7 @@ from typing import ClassVar
 from formation_control.core import aircraft
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import integrate, Plant, ROW_OMEGA
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.core.world import active, World
 import numpy as np
 

@@ -20,10 +20,11 @@ radius, crab angles; the steady states the analysis predicts for rigid bodies.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any, TYPE_CHECKING
 
-from formation_control.core import laws
+from formation_control.core import formations, laws
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
 from formation_control.core.models import RIGID_MODELS, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
@@ -34,7 +35,7 @@ from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
     from formation_control.core.control import Controller
-    from formation_control.core.scenario import Scenario
+    from formation_control.core.parameters import Scenario
 
 ORDER_TOL = 0.999        # parallel: |p| above this
 RATE_TOL = 1e-2          # parallel: |turning rate| below this (rad/s)
@@ -224,12 +225,36 @@ def phase_orders(phase: RealArray) -> tuple[Value, ...]:
 
 def needs_separation(sc: Scenario) -> bool:
     """Return whether :func:`converged` reads the minimum separation (a splay pattern)."""
-    return sc.formation == 'circular' and sc.pattern == 'splay'
+    return formations.of(sc).patterns and sc.pattern == 'splay'
 
 
 BANDS = {'centre_spread': 'band_spread', 'radius_error': 'band_radius',
          'course_spread': 'band_course', 'speed_error': 'band_speed'}
 """Each steady-state error of the band test and the parameter of its band."""
+
+
+def _radius_error(sc: Scenario, snap: Snapshot) -> Value:
+    """Return the relative radius error ``|radius |omega0| - 1|``."""
+    return np.abs(snap.radius * abs(sc.omega0) - 1.0)
+
+
+def _spread_tol(sc: Scenario) -> float:
+    """Return the centre-spread tolerance (m): the backend's (``PlantBackend.spread_tol``)."""
+    return backend_of(sc).spread_tol(sc, SPREAD_TOL)
+
+
+ERRORS: dict[str, Callable[[Scenario, Snapshot], Value]] = {
+    'centre_spread': lambda sc, snap: snap.spread,
+    'radius_error': _radius_error,
+    'course_spread': lambda sc, snap: snap.course_spread}
+"""Each formation error of the band test (:attr:`formations.FormationKind.band_errors`)."""
+
+CONDITIONS: dict[str, Callable[[Scenario, Snapshot], Any]] = {
+    'order': lambda sc, snap: snap.order > ORDER_TOL,
+    'turn_rate': lambda sc, snap: snap.max_rate < RATE_TOL,
+    'centre_spread': lambda sc, snap: snap.spread < _spread_tol(sc),
+    'radius': lambda sc, snap: _radius_error(sc, snap) < RADIUS_TOL}
+"""Each formation condition of the exact test (:attr:`formations.FormationKind.conditions`)."""
 
 
 def steady_errors(sc: Scenario, snap: Snapshot) -> dict[str, Value]:
@@ -240,12 +265,7 @@ def steady_errors(sc: Scenario, snap: Snapshot) -> dict[str, Value]:
     parallel: the course spread ``max_k |arg(e^{i phase_k} / p)|`` (rad); rigid bodies also the
     speed error ``mean_k |u_k - u0|`` (m/s). Floats, or arrays for a batch's snapshot.
     """
-    out: dict[str, Value] = {}
-    if sc.formation == 'circular':
-        out['centre_spread'] = snap.spread
-        out['radius_error'] = np.abs(snap.radius * abs(sc.omega0) - 1.0)
-    else:
-        out['course_spread'] = snap.course_spread
+    out = {name: ERRORS[name](sc, snap) for name in formations.of(sc).band_errors}
     if sc.model in RIGID_MODELS:
         out['speed_error'] = snap.speed_error
     return out
@@ -342,12 +362,7 @@ def conditions(sc: Scenario, snap: Snapshot) -> dict[str, Any]:
             exact = conditions(replace(sc, convergence='exact'), snap)
             bands.update({k: v for k, v in exact.items() if k in ('phase_moments', 'separation')})
         return bands
-    if sc.formation == 'parallel':
-        return {'order': snap.order > ORDER_TOL, 'turn_rate': snap.max_rate < RATE_TOL}
-    radius_error = np.abs(snap.radius * abs(sc.omega0) - 1.0)
-    spread_tol = backend_of(sc).spread_tol(sc, SPREAD_TOL)
-    out: dict[str, Any] = {'centre_spread': snap.spread < spread_tol,
-                           'radius': radius_error < RADIUS_TOL}
+    out = {name: CONDITIONS[name](sc, snap) for name in formations.of(sc).conditions}
     if sc.pattern != 'none':
         out['phase_moments'] = pattern_moments_reached(sc, snap.phase_orders)
     if sc.pattern == 'splay':

@@ -30,7 +30,7 @@ from formation_control.core.estimation import FlowEstimator
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Index, View
 from formation_control.core.navigation import flow_input, PositionFilter
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 import numpy as np
 
 

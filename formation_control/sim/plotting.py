@@ -24,9 +24,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from os import PathLike
 
+from formation_control.core.flow import vehicle_speed
 from formation_control.core.geometry import ComplexArray
 from formation_control.core.models import RIGID_MODELS
-from formation_control.core.scenario import Scenario, vehicle_speed
+from formation_control.core.parameters import Scenario
 from formation_control.sim.report import Series, series
 from formation_control.sim.simulator import Run
 import matplotlib

@@ -23,11 +23,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeAlias
 
+from formation_control.core import formations
 from formation_control.core.control import Controller
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
                                            ROW_U, ROW_X, ROW_Y)
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.sim import metrics
 from formation_control.sim.simulator import Run, summary
 import numpy as np
@@ -131,12 +132,13 @@ def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
     rigid = sc.model in RIGID_MODELS
     still = sc.flow_c == 0
     out = {'potential': (0.0, 'minimum of V'), 'lyapunov': (0.0, '(2.10) V_c -> 0')}
-    if sc.formation == 'parallel':
+    radius = formations.of(sc).radius(sc)
+    if radius is None:
         out['order_parameter'] = (1.0, '(1.11) V = (1 - |p|^2)/2 -> 0')
         out['max_turn_rate'] = (0.0, 'synchronised straight motion')
     else:
         out['centre_spread'] = (0.0, '(1.14) common centre')
-        out['radius'] = (1.0 / abs(sc.omega0), 'radius 1/|omega0|')
+        out['radius'] = (radius, 'radius 1/|omega0|')
         if sc.informed:
             out['centre_x'] = (sc.c0[0], '(7.17) centre -> c0')
             out['centre_y'] = (sc.c0[1], '(7.17) centre -> c0')
@@ -155,9 +157,9 @@ def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
                                  else (0.0, 'the vehicles of a cluster coincide'))
     if rigid:
         out['speed_error'] = (0.0, '(7.1) u -> u0')
-        if sc.formation == 'circular' and still:
+        if radius is not None and still:
             out['crab_angle'] = (metrics.steady_turn(sc)[2], '(7.9)-(7.10) corrected: beta0')
-        if sc.formation == 'parallel':
+        if radius is None:
             out['crab_angle'] = (0.0, 'straight motion: v -> 0')
             crab = float(np.mean(metrics.parallel_flow_crab(sc, X[ROW_THETA])[0]))
             out['crab_angle_inertial'] = (crab, '(8.17) at the final heading' if not still

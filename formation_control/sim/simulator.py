@@ -29,14 +29,15 @@ import json
 from os import PathLike
 from typing import Any, overload
 
-from formation_control.core import sensors, stability
+from formation_control.core import formations, sensors, stability
 from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
 from formation_control.core.estimation import neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_THETA, ROW_U,
                                            ROW_V, ROW_X, ROW_Y, STATE_NAMES)
-from formation_control.core.scenario import initial_state, practical, resolve, Scenario
+from formation_control.core.parameters import Scenario
+from formation_control.core.scenario import initial_state, practical, resolve
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.sim import metrics
 from formation_control.sim.allocator import keep_freed_memory
@@ -630,9 +631,9 @@ def summary(run: Run) -> dict[str, Any]:
                                       'band': getattr(sc, metrics.BANDS[name])}
                                for name, (m, q) in ss.items()}
         out['settle_window'] = float(min(sc.settle_window, run.t[-1] - run.t[0]))
-    if sc.formation == 'circular':
-        out.update(centre_spread=final.spread, radius=final.radius,
-                   radius_target=1.0 / abs(sc.omega0))
+    radius = formations.of(sc).radius(sc)
+    if radius is not None:
+        out.update(centre_spread=final.spread, radius=final.radius, radius_target=radius)
     if sc.model in RIGID_MODELS:
         X = run.X[-1]
         out.update(mean_u=float(X[ROW_U].mean()), mean_v=float(X[ROW_V].mean()))

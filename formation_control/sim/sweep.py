@@ -40,7 +40,7 @@ import sys
 import time
 from typing import Any, TextIO, TypeAlias
 
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.core.models import ROW_THETA, ROW_X, ROW_Y
 from formation_control.sim import simulator
 import numpy as np
@@ -51,8 +51,8 @@ FIXED = {'seed': 'the seeds are the runs: use --seeds',
          'record_dt': 'every run of a sweep has the same time axis'}
 """Parameters that are not swept, and why."""
 PAIRS = ('flow', 'c0')
-SWEEPABLE = tuple(name for name in scenario.PARAMETER_NAMES if name not in FIXED and (
-    name in PAIRS or not isinstance(getattr(scenario.Scenario(), name), tuple)))
+SWEEPABLE = tuple(name for name in parameters.PARAMETER_NAMES if name not in FIXED and (
+    name in PAIRS or not isinstance(getattr(parameters.Scenario(), name), tuple)))
 """Parameters a sweep may vary: every scalar one, and the pairs flow and c0."""
 BATCH_VEHICLES = 2000
 """Vehicles simulated together by default (fleets per batch = this / N): past about a
@@ -101,11 +101,11 @@ def parse_grid(overrides: Iterable[str]) -> tuple[dict[str, Any], dict[str, list
     """
     fixed, axes = {}, {}
     for text in overrides:
-        name, value = scenario.parse_override(text)
+        name, value = parameters.parse_override(text)
         pair = name in PAIRS
         is_axis = isinstance(value, list) and (
             not pair or (bool(value) and all(isinstance(v, list) for v in value)))
-        if name in scenario.PARAMETERS and isinstance(value, list) and not value:
+        if name in parameters.PARAMETERS and isinstance(value, list) and not value:
             raise SweepError(f"grid of '{name}' is empty: give at least one value, "
                              f'{name}:=[v1, v2, ...]')
         if not is_axis:
@@ -113,7 +113,7 @@ def parse_grid(overrides: Iterable[str]) -> tuple[dict[str, Any], dict[str, list
             continue
         if name not in SWEEPABLE:
             why = FIXED.get(name, 'it is a per-vehicle or per-edge list'
-                            if name in scenario.PARAMETERS else 'not a scenario parameter')
+                            if name in parameters.PARAMETERS else 'not a scenario parameter')
             raise SweepError(f"parameter '{name}' cannot be swept ({why}); sweepable: "
                              f"{', '.join(SWEEPABLE)}")
         axes[name] = value

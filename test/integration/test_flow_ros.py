@@ -21,7 +21,7 @@ or estimating it; each vehicle's estimate is in its diagnostics and its formatio
 the plant records it; a vehicle refuses consensus.
 """
 from diagnostic_msgs.msg import DiagnosticArray
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import ScenarioError
 from formation_control.protocol import names
 from formation_control.ros import interface as itf
 from formation_control.sim import simulator

@@ -15,7 +15,7 @@
 """Namespaces, remapping, frames as parameters, run-time gains (in-process nodes)."""
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.core import scenario
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import ScenarioError
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf, tuning
 from formation_control.ros.monitor import MonitorNode

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """Every parameter a node declares is in one table, with the descriptor the table gives."""
-from formation_control.core import scenario
+from formation_control.core import parameters
 from formation_control.protocol import node_parameters
 import pytest
 from rclpy.parameter import Parameter
@@ -26,7 +26,7 @@ TABLES = {'plant': node_parameters.PLANT, 'vehicle_2': node_parameters.VEHICLE,
 
 
 def _own(node):
-    return {name for name in node._parameters if name not in scenario.PARAMETERS
+    return {name for name in node._parameters if name not in parameters.PARAMETERS
             and name not in ROS_OWN and not name.startswith('qos_overrides.')}
 
 
@@ -52,6 +52,6 @@ def test_node_parameters_are_the_table_and_read_only(nodes, make):
             assert value == (list(default) if isinstance(default, tuple) else default), name
     unset = [name for name, p in node._parameters.items() if p.type_ == Parameter.Type.NOT_SET]
     assert not unset, f'declared without a value (ros2 param dump answers nothing): {unset}'
-    runtime = [name for name in scenario.RUNTIME
+    runtime = [name for name in parameters.RUNTIME
                if node.has_parameter(name) and not node.describe_parameter(name).read_only]
-    assert runtime == (list(scenario.RUNTIME) if make == 'vehicle' else [])   # plant: read-only
+    assert runtime == (list(parameters.RUNTIME) if make == 'vehicle' else [])   # plant: read-only

@@ -32,7 +32,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.bags import reader as bagfile
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.protocol import messages, node_parameters
 from formation_control.protocol.fleet_plan import auto_per_process, cores
 from formation_control.ros import interface as itf
@@ -208,7 +208,7 @@ def _check_dump(tmp_path, rc, text):
     values = _flat(params)
     expected = set(table) - {'vehicle_ids'} | {'use_sim_time'}
     if node_cls is not MonitorNode:
-        expected |= set(scenario.PARAMETER_NAMES)
+        expected |= set(parameters.PARAMETER_NAMES)
     assert expected <= set(values), expected - set(values)
     if node_cls is VehicleNode:
         assert (values['kappa'], values['K_f']) == (3.0, 2.0)           # formation-control set

@@ -25,8 +25,9 @@ import re
 
 from formation_control.core import scenario
 from formation_control.core.control import Controller
+from formation_control.core.errors import ScenarioError
 from formation_control.core.laws import View
-from formation_control.core.scenario import initial_state, ScenarioError
+from formation_control.core.scenario import initial_state
 from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from formation_control_msgs.msg import FormationState, VehicleCommand

@@ -24,9 +24,10 @@ from dataclasses import replace
 import math
 import time
 
-from formation_control.core import aircraft, scenario
+from formation_control.core import aircraft, parameters, scenario
 from formation_control.core.control import Controller, law_units
-from formation_control.core.scenario import initial_state, resolve, ScenarioError
+from formation_control.core.errors import ScenarioError
+from formation_control.core.scenario import initial_state, resolve
 from formation_control.protocol.plant import Plant
 from formation_control.sim import metrics, simulator
 import numpy as np
@@ -35,8 +36,8 @@ from runs import CONFIG
 
 pytest.importorskip('jsbsim')
 
-CIRCLE = scenario.read_params(CONFIG / 'aircraft_circular.yaml')
-PARALLEL = scenario.read_params(CONFIG / 'aircraft_parallel.yaml')
+CIRCLE = parameters.read_params(CONFIG / 'aircraft_circular.yaml')
+PARALLEL = parameters.read_params(CONFIG / 'aircraft_parallel.yaml')
 
 
 def circle(**changes):

@@ -20,7 +20,7 @@ every sample of the last window (a census of seeds and gusts, both ways); the re
 and 95th percentile are those of the window's samples; the exact test is kept with the world
 off; the sweep and the monitor's latch give the same verdict.
 """
-from formation_control.core import scenario
+from formation_control.core import parameters, scenario
 from formation_control.core.control import Controller
 from formation_control.protocol.watch import Latch
 from formation_control.sim import metrics, simulator, sweep
@@ -112,7 +112,7 @@ def test_the_monitor_latch_waits_the_window_in_band_mode():
 
 @pytest.mark.slow
 def test_the_sweep_gives_the_summary_verdict_and_steady_state_errors():
-    params = scenario.read_params(CONFIG / 'rigid_circular.yaml')
+    params = parameters.read_params(CONFIG / 'rigid_circular.yaml')
     params.update(duration=30.0, gust_intensity=0.05, gust_time=3.0, settle_window=8.0)
     rows = sweep.run_batch(params, [1, 2])
     for b, seed in enumerate((1, 2)):

@@ -23,8 +23,9 @@ from dataclasses import replace
 
 from formation_control.core import graphs, laws
 from formation_control.core.control import Controller
+from formation_control.core.errors import ScenarioError
 from formation_control.core.models import rk4_step
-from formation_control.core.scenario import load, resolve, ScenarioError
+from formation_control.core.scenario import load, resolve
 from formation_control.sim import metrics, simulator
 from formation_control.sim.simulator import Stepper
 import numpy as np

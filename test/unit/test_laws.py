@@ -23,7 +23,8 @@ from formation_control.core import laws
 from formation_control.core.control import (body_accel_from_inertial, Controller,
                                             particle_speed_terms)
 from formation_control.core.models import deriv, integrate, Plant, rk4_step, ROW_OMEGA, ROW_THETA
-from formation_control.core.scenario import initial_state, resolve, Scenario
+from formation_control.core.parameters import Scenario
+from formation_control.core.scenario import initial_state, resolve
 from formation_control.sim.simulator import Stepper
 import numpy as np
 import pytest

@@ -17,7 +17,8 @@ The floors of the package: every import goes down or stays level, and none goes 
 
 The floors, lowest first: ``core`` (the maths), ``sim`` (offline study), ``protocol`` (the
 pure rules of the nodes), ``view``, ``bags``, ``ops``, ``ros`` (the nodes), ``swarm``, ``cli``.
-Every import is counted, those inside functions too, so a circle cannot hide in one.
+Every import is counted, those inside functions and those for the type checker alone
+(``if TYPE_CHECKING:``) too, so a circle cannot hide in either.
 """
 import ast
 from pathlib import Path
@@ -30,7 +31,7 @@ PURE = ('core', 'sim', 'protocol')
 ROS_PREFIXES = ('rclpy', 'rcl_interfaces', 'rosidl', 'geometry_msgs', 'nav_msgs', 'std_msgs',
                 'sensor_msgs', 'builtin_interfaces', 'rosgraph_msgs', 'visualization_msgs',
                 'diagnostic_msgs')
-"""ament_index_python is left out: it is pure Python, and ``scenario.find`` asks it for the
+"""ament_index_python is left out: it is pure Python, and ``parameters.find`` asks it for the
 installed share directory only when a scenario is not a path (test_core_imports checks that a
 simulation loads none of these, nor it)."""
 
@@ -44,26 +45,15 @@ def modules(package=PACKAGE):
     return found
 
 
-def _runtime_nodes(tree):
-    """Yield the nodes of a module but those under ``if TYPE_CHECKING:`` (never run)."""
-    todo = [tree]
-    while todo:
-        node = todo.pop()
-        yield node
-        if isinstance(node, ast.If) and getattr(node.test, 'id', None) == 'TYPE_CHECKING':
-            todo.extend(node.orelse)
-        else:
-            todo.extend(ast.iter_child_nodes(node))
-
-
 def imports(path, known):
     """
     Return the names a module imports: modules of the package, other packages by name.
 
-    Imports for the type checker alone (``if TYPE_CHECKING:``) are left out: they never run.
+    Imports for the type checker alone (``if TYPE_CHECKING:``) count: a type the floor below
+    needs from the floor above is a circle all the same.
     """
     out = set()
-    for node in _runtime_nodes(ast.parse(path.read_text())):
+    for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
             out.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module:
@@ -158,7 +148,7 @@ def test_the_checks_see_a_climb_and_a_circle(tmp_path):
     assert 'rclpy' in imports(known['formation_control.sim.c'], known)
 
 
-def test_an_import_for_the_type_checker_alone_is_no_edge(tmp_path):
+def test_an_import_for_the_type_checker_alone_is_an_edge(tmp_path):
     pkg = tmp_path / 'formation_control'
     (pkg / 'core').mkdir(parents=True)
     (pkg / 'core' / 'a.py').write_text(
@@ -166,8 +156,9 @@ def test_an_import_for_the_type_checker_alone_is_no_edge(tmp_path):
         '    from formation_control.core import b\nelse:\n    import numpy\n')
     (pkg / 'core' / 'b.py').write_text('from formation_control.core import a\n')
     edges, known = graph(pkg)
-    assert circles(edges) == []
-    assert imports(known['formation_control.core.a'], known) == {'typing', 'numpy'}
+    assert circles(edges) == [['formation_control.core.a', 'formation_control.core.b']]
+    assert imports(known['formation_control.core.a'], known) == {
+        'typing', 'numpy', 'formation_control.core.b'}
 
 
 @pytest.mark.parametrize('name', FLOORS[:-2])

@@ -15,7 +15,7 @@
 """Liveness, injected faults and the law over a live subset of the fleet (no ROS)."""
 from formation_control.core import scenario
 from formation_control.core.control import Controller
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import ScenarioError
 from formation_control.protocol import links
 import numpy as np
 import pytest

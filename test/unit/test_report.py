@@ -22,7 +22,7 @@ from dataclasses import replace
 
 from formation_control.core import scenario
 from formation_control.core.control import Controller
-from formation_control.core.scenario import ScenarioError
+from formation_control.core.errors import ScenarioError
 from formation_control.sim import metrics, report
 import numpy as np
 import pytest

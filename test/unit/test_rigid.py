@@ -21,7 +21,7 @@ measured bounds where a law is only practically stable.
 from dataclasses import replace
 
 from formation_control.core import _rk4, models
-from formation_control.core.scenario import Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.sim import metrics
 import numpy as np
 import pytest

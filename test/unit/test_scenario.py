@@ -24,11 +24,12 @@ import math
 from pathlib import Path
 import re
 
-from formation_control.core import scenario
-from formation_control.core.errors import UsageError
-from formation_control.core.scenario import (held_force_loop_gain, initial_state, load,
-                                             PARAMETER_NAMES, parse_override, read_params, resolve,
-                                             rhp_zero, Scenario, ScenarioError)
+from formation_control.core import parameters, scenario
+from formation_control.core.errors import ScenarioError, UsageError
+from formation_control.core.parameters import (PARAMETER_NAMES, parse_override, read_params,
+                                               Scenario)
+from formation_control.core.scenario import initial_state, load, resolve
+from formation_control.core.steering import held_force_loop_gain, rhp_zero
 from formation_control.protocol import node_parameters
 import numpy as np
 import pytest
@@ -436,25 +437,26 @@ def test_particles_keep_unit_speed_whatever_init_u():
 def test_parameter_doc_is_the_generated_table():
     """docs/parameters.md is what ``formation-control params`` prints (it cannot drift)."""
     doc = Path(__file__).resolve().parents[2] / 'docs' / 'parameters.md'
-    generated = scenario.markdown() + node_parameters.markdown()
+    generated = parameters.markdown() + node_parameters.markdown()
     assert doc.read_text(encoding='utf-8') == generated, (
         'docs/parameters.md is stale: run formation-control params > docs/parameters.md')
 
 
 def test_every_parameter_is_in_the_table_with_a_description():
-    assert list(scenario.PARAMETERS) == list(PARAMETER_NAMES)
+    assert list(parameters.PARAMETERS) == list(PARAMETER_NAMES)
     assert {f.name for f in fields(Scenario)} == set(PARAMETER_NAMES) | {'warnings'}
     for name in PARAMETER_NAMES:
-        assert scenario.PARAMETERS[name].text and scenario.describe(name), name
-        assert f'| `{name}` |' in scenario.markdown()
+        assert parameters.PARAMETERS[name].text and parameters.describe(name), name
+        assert f'| `{name}` |' in parameters.markdown()
 
 
-@pytest.mark.parametrize('name', [n for n, s in scenario.PARAMETERS.items() if s.low is not None])
+@pytest.mark.parametrize('name', [n for n, s in parameters.PARAMETERS.items()
+                                  if s.low is not None])
 def test_each_range_of_the_table_is_enforced(name):
     """A value just outside the documented range is refused with that range in the message."""
-    spec = scenario.PARAMETERS[name]
+    spec = parameters.PARAMETERS[name]
     value = spec.low if spec.above else spec.low - 1
-    base = RIGID if spec.models == scenario.RIGID_MODELS else {}
+    base = RIGID if spec.models == parameters.RIGID_MODELS else {}
     _refused(rf"parameter '{name}' = .* is invalid: must be {'>' if spec.above else '>='} "
              rf'{spec.low:g}', **base, **{name: value})
     resolve(dict(base, **{name: getattr(Scenario(), name)}))

@@ -24,7 +24,7 @@ import os
 from pathlib import Path
 
 from formation_control import cli
-from formation_control.core import models, scenario
+from formation_control.core import models, parameters, scenario
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
 from formation_control.sim import simulator, sweep
 import numpy as np
@@ -36,7 +36,7 @@ SEEDS = 4
 
 
 def rigid_base():
-    return scenario.read_params(CONFIG / 'rigid_circular.yaml')
+    return parameters.read_params(CONFIG / 'rigid_circular.yaml')
 
 
 def run_cli(args, capsys):

@@ -27,6 +27,7 @@ from formation_control.core import scenario, world
 from formation_control.core.control import Controller
 from formation_control.core.errors import ScenarioError
 from formation_control.core.models import ROW_U, ROW_V
+from formation_control.core.steering import LAWS
 from formation_control.sim import backends, simulator
 import numpy as np
 import pytest
@@ -124,16 +125,6 @@ def test_the_actuator_lags_and_its_rate_is_limited():
     np.testing.assert_allclose(rate[-1], (5.0 - out[-2, 0]) * (1 - np.exp(-0.025)) / 0.005)
 
 
-def test_the_lag_limit_is_the_routh_bound_of_each_law():
-    assert world.lag_limit(5.0, 1.0, 'backstepping') == pytest.approx(1.2)
-    assert world.lag_limit(5.0, 1.0, 'proportional') == pytest.approx(1.0)
-    tau = world.lag_limit(10.0, 1.0, 'pi', 15.0)
-    for t, stable in ((0.99 * tau, True), (1.01 * tau, False)):
-        roots = np.roots([t, 1.0, 10.0, 10.0 + 15.0, 15.0])
-        assert np.all(roots.real < 0) == stable
-    assert world.lag_limit(5.0, 1.0, 'first_order') == np.inf
-
-
 def _misalignment(sc):
     e = np.exp(1j * simulator.simulate(sc).X[:, 2])
     return 1.0 - abs(e.mean(axis=1))
@@ -150,7 +141,7 @@ def test_a_lag_below_the_limit_settles_and_past_it_the_phases_keep_oscillating()
     """
     sc = scenario.load(CONFIG / 'particle_parallel.yaml', duration=80.0, kappa=2.0,
                        num_vehicles=4)
-    limit = world.lag_limit(2.0, 1.0, 'backstepping')
+    limit = LAWS['backstepping'].lag_limit(2.0, 1.0)
     below = _misalignment(replace(sc, actuator_lag=0.8 * limit))
     past = _misalignment(replace(sc, actuator_lag=1.2 * limit))
     assert below[-1] < 1e-3 and below[-1] < 0.1 * below[len(below) // 4]

@@ -1,0 +1,43 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The parameter table (core/parameters.py) is a leaf, and names what the features implement.
+
+It imports no physics module (type-only imports included); the values its choices allow are
+exactly the names of the vehicle models, formations and steering laws the features implement.
+"""
+from formation_control.core import formations, models, parameters, steering
+from test_layers import graph
+
+
+def test_the_table_imports_no_physics_module():
+    edges, _ = graph()
+    inside = {m.rsplit('.', 1)[-1] for m in edges['formation_control.core.parameters']}
+    assert inside <= {'errors', 'geometry', 'graphs'}
+    assert 'formation_control.core.parameters' not in edges['formation_control.core.graphs']
+
+
+def test_the_choices_are_what_the_features_implement():
+    assert parameters.MODELS == models.MODELS
+    assert parameters.RIGID_MODELS == models.RIGID_MODELS
+    assert parameters.PARTICLE_MODELS == models.PARTICLE_MODELS
+    assert parameters.STATE_NAMES == models.STATE_NAMES
+    assert parameters.FORMATIONS == tuple(formations.FORMATIONS)
+    assert parameters.CONTROLLERS == tuple(steering.LAWS)
+
+
+def test_the_documented_default_of_K_is_each_formations():
+    shown = ', '.join(f'{f.default_K} {name}' for name, f in formations.FORMATIONS.items())
+    assert parameters.PARAMETERS['K'].shown_default == shown
