@@ -156,13 +156,13 @@ def cmd_swarm(args):
         raise UsageError(f'--restart-dead {args.restart_dead:g} is invalid: a delay '
                          f'in fleet seconds, >= 0')
     try:
-        run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
-                                   monitor=not args.no_monitor, node_params=_split(args.param)[1],
-                                   per_process=args.vehicles_per_process,
-                                   monitor_params=_live_view(args.foxglove, args.namespace),
-                                   namespace=args.namespace, fault_script=args.fault,
-                                   restart_dead=args.restart_dead, secure=args.secure,
-                                   stop=stop)
+        options = swarm.SwarmOptions(
+            real_time_factor=args.real_time_factor, monitor=not args.no_monitor,
+            node_params=tuple(_split(args.param)[1]),
+            monitor_params=tuple(_live_view(args.foxglove, args.namespace)),
+            restart_dead=args.restart_dead, secure=args.secure, stop=stop)
+        run, out = swarm.run_swarm(sc, options, args.mode, args.vehicles_per_process,
+                                   args.namespace, args.bag, args.fault, args.timeout)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -199,8 +199,8 @@ def _live_view(port, namespace='/'):
     """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
     if port is None:
         return []
-    prefix = names.namespace_prefix(namespace)
-    layout = 'formation-control layout' + (f' --namespace {prefix[:-1]}' if prefix != '/' else '')
+    ns = names.namespace_of(namespace)
+    layout = 'formation-control layout' + (f' --namespace {ns}' if ns != '/' else '')
     print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app, Foxglove Studio '
           f'or Lichtblick (layout: {layout}, --format classic for Studio and Lichtblick)',
           file=sys.stderr)
@@ -283,7 +283,7 @@ def cmd_params(args):
 
 def cmd_play(args):
     from formation_control.bags.playback import Bag, BagError, CLOCK_TOPIC
-    args.namespace = names.namespace_prefix(args.namespace).rstrip('/') or '/'
+    args.namespace = names.namespace_of(args.namespace)
     try:
         if not args.rate > 0:
             raise BagError(f'--rate {args.rate} is invalid: must be > 0')

@@ -24,6 +24,7 @@ from pathlib import Path
 import struct
 
 from formation_control.bags.repair import unclosed
+from formation_control.protocol import names
 from rosbags.rosbag2 import Reader, ReaderError
 
 CLOCK_TOPIC = 'clock'
@@ -43,9 +44,7 @@ def resolve_name(name, namespace='/'):
     A bag records resolved names: an absolute name stays as it is, a relative one is prefixed
     with the namespace (``vehicle_1/odom`` in ``/fleet_a``: ``/fleet_a/vehicle_1/odom``).
     """
-    if name.startswith('/'):
-        return name
-    return '/' + '/'.join(part for part in (*namespace.split('/'), name) if part)
+    return names.resolve(namespace, name)
 
 
 @dataclass(frozen=True)
