@@ -612,7 +612,7 @@ MARKDOWN_HEAD = """\
 
 <!-- Generated from the table in formation_control/core/scenario.py by
      `formation-control params > docs/parameters.md`; do not edit by hand:
-     test/test_scenario.py checks that this file equals the generated text. -->
+     test/unit/test_scenario.py checks that this file equals the generated text. -->
 
 A scenario is a ROS 2 parameter file (`/**: ros__parameters: ...`). The same names configure
 the offline simulator (`formation-control sim FILE -p name:=value`), the plant and every
