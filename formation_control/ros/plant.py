@@ -212,7 +212,7 @@ class PlantNode(Node):
             self.trace.indexed('odom_sent', i, ns)
 
     def _on_cmd(self, k, got):
-        self.trace('cmd_in', k, got[0])
+        self.trace.note('cmd_in', k, got[0])
         self._held(self.plant.command(k, *got))
 
     def _on_demand(self, k, got):
@@ -244,7 +244,7 @@ class PlantNode(Node):
         if due is not None:
             which, ns, step = due
             if step:
-                self.trace('step', 0, ns)
+                self.trace.note('step', 0, ns)
                 msg = Clock()
                 messages.set_time(msg.clock, ns)
                 self.clock_pub.publish(msg)

@@ -25,8 +25,8 @@ and time spent runnable but waiting for a core (``/proc/self/schedstat``: the ma
 thread, and the sum over its threads). CLOCK_MONOTONIC is
 one clock for every process of a host, so the times of two processes subtract:
 ``bench/fleet_trace.py`` reads them. Unset (the default), a node's trace is :data:`NULL`, a
-:class:`NullTrace`: the node calls it all the same, and each event costs one call that does
-nothing (no allocation).
+:class:`NullTrace`: the node notes each event all the same, at the cost of one method call
+that does nothing (no allocation).
 """
 import os
 import resource
@@ -58,7 +58,7 @@ class Trace:
         return np.array([usage.ru_utime + usage.ru_stime, usage.ru_nvcsw, usage.ru_nivcsw,
                          time.monotonic()])
 
-    def __call__(self, event, vehicle, ns, at=None):
+    def note(self, event, vehicle, ns, at=None):
         """
         Note ``event`` (a name of :data:`EVENTS`) of ``vehicle`` for the step stamped ns.
 
@@ -71,11 +71,11 @@ class Trace:
 
     def indexed(self, event, i, ns):
         """Note ``event`` of the vehicle of index i (0-based: vehicle i + 1)."""
-        self(event, i + 1, ns)
+        self.note(event, i + 1, ns)
 
     def since(self, event, vehicle, ns, perf_ns):
         """Note ``event``, which happened at :func:`time.perf_counter_ns` ``perf_ns``."""
-        self(event, vehicle, ns, at=self.clock() - (time.perf_counter_ns() - perf_ns))
+        self.note(event, vehicle, ns, at=self.clock() - (time.perf_counter_ns() - perf_ns))
 
     def save(self):
         """Write the events and the process's CPU and scheduling figures."""
@@ -96,7 +96,7 @@ class NullTrace:
     def clock(self):
         return 0
 
-    def __call__(self, event, vehicle, ns, at=None):
+    def note(self, event, vehicle, ns, at=None):
         pass
 
     def indexed(self, event, i, ns):

@@ -178,7 +178,7 @@ class VehicleNode(Node):
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
-        self.trace('state_sent', self.k, got.stamp)
+        self.trace.note('state_sent', self.k, got.stamp)
         if self.mode == 'lockstep':
             self._try_command()
 
@@ -193,7 +193,7 @@ class VehicleNode(Node):
             self._heard(accepted)
 
     def _on_state(self, j, state):
-        self.trace('state_in', j, state.stamp)
+        self.trace.note('state_in', j, state.stamp)
         self._heard(self.me.heard(j, state))
 
     def _heard(self, accepted):
@@ -206,13 +206,13 @@ class VehicleNode(Node):
         if due is None:
             return
         ns, u, first = due
-        self.trace('law_start', self.k, ns, at=start)
-        self.trace('law_end', self.k, ns)
+        self.trace.note('law_start', self.k, ns, at=start)
+        self.trace.note('law_end', self.k, ns)
         if first:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
-        self.trace('cmd_sent', self.k, ns)
+        self.trace.note('cmd_sent', self.k, ns)
         if self.cmd_vel_pub is not None:
             self._publish_cmd_vel(ns, u)
         if self.mode == 'realtime':

@@ -26,7 +26,7 @@ def test_a_node_traces_nothing_unless_asked(monkeypatch, tmp_path):
     monkeypatch.setenv(tracing.ENV, '')
     trace = tracing.of_node('vehicle_1')
     assert trace is tracing.NULL
-    trace('odom_in', 1, 20)
+    trace.note('odom_in', 1, 20)
     trace.indexed('odom_pub', 0, 20)
     trace.since('odom_in', 1, 20, tracing.time.perf_counter_ns())
     assert trace.clock() == 0 and trace.save() is None
@@ -35,8 +35,7 @@ def test_a_node_traces_nothing_unless_asked(monkeypatch, tmp_path):
 
 def test_the_null_trace_has_the_interface_of_a_trace():
     public = {name for name in vars(tracing.Trace) if not name.startswith('_')}
-    assert public <= set(dir(tracing.NullTrace)) and callable(tracing.NULL)
-    assert 'clock' in dir(tracing.NULL)
+    assert public | {'clock'} <= set(dir(tracing.NullTrace))
 
 
 def test_the_events_noted_are_written_in_order_on_one_clock(monkeypatch, tmp_path):
@@ -44,7 +43,7 @@ def test_the_events_noted_are_written_in_order_on_one_clock(monkeypatch, tmp_pat
     trace = tracing.of_node('vehicle_3')
     before = tracing.time.monotonic_ns()
     for event in ('law_start', 'law_end', 'cmd_sent'):
-        trace(event, 3, 20_000_000)
+        trace.note(event, 3, 20_000_000)
     trace.indexed('state_in', 2, 20_000_000)
     trace.since('odom_in', 3, 20_000_000, tracing.time.perf_counter_ns())
     trace.save()
