@@ -127,7 +127,7 @@ class Vehicle:
         return self.known.commanded_ns == self.known.odom_ns
 
     def encode(self, state: FormationState) -> bytes:
-        """Return the bytes of its own :class:`FormationState` (:attr:`wire`)."""
+        """Return the bytes of its own :class:`FormationState`, in the layout of its ``wire``."""
         return self.wire.encode(state)
 
     def measured_delay(self, seconds: float) -> None:
