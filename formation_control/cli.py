@@ -156,13 +156,13 @@ def cmd_swarm(args):
         raise UsageError(f'--restart-dead {args.restart_dead:g} is invalid: a delay '
                          f'in fleet seconds, >= 0')
     try:
-        run, out = swarm.run_swarm(sc, args.mode, args.bag, args.real_time_factor, args.timeout,
-                                   monitor=not args.no_monitor, node_params=_split(args.param)[1],
-                                   per_process=args.vehicles_per_process,
-                                   monitor_params=_live_view(args.foxglove, args.namespace),
-                                   namespace=args.namespace, fault_script=args.fault,
-                                   restart_dead=args.restart_dead, secure=args.secure,
-                                   stop=stop)
+        options = swarm.SwarmOptions(
+            real_time_factor=args.real_time_factor, monitor=not args.no_monitor,
+            node_params=tuple(_split(args.param)[1]),
+            monitor_params=tuple(_live_view(args.foxglove, args.namespace)),
+            restart_dead=args.restart_dead, secure=args.secure, stop=stop)
+        run, out = swarm.run_swarm(sc, options, args.mode, args.vehicles_per_process,
+                                   args.namespace, args.bag, args.fault, args.timeout)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
         return 0
@@ -199,8 +199,8 @@ def _live_view(port, namespace='/'):
     """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
     if port is None:
         return []
-    prefix = names.namespace_prefix(namespace)
-    layout = 'formation-control layout' + (f' --namespace {prefix[:-1]}' if prefix != '/' else '')
+    ns = names.namespace_of(namespace)
+    layout = 'formation-control layout' + (f' --namespace {ns}' if ns != '/' else '')
     print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app, Foxglove Studio '
           f'or Lichtblick (layout: {layout}, --format classic for Studio and Lichtblick)',
           file=sys.stderr)
@@ -283,7 +283,7 @@ def cmd_params(args):
 
 def cmd_play(args):
     from formation_control.bags.playback import Bag, BagError, CLOCK_TOPIC
-    args.namespace = names.namespace_prefix(args.namespace).rstrip('/') or '/'
+    args.namespace = names.namespace_of(args.namespace)
     try:
         if not args.rate > 0:
             raise BagError(f'--rate {args.rate} is invalid: must be > 0')
@@ -375,12 +375,13 @@ def _namespace(parser, text):
     parser.add_argument('--namespace', default='/', metavar='NS', help=text)
 
 
-def build_parser():
-    parser = argparse.ArgumentParser(prog='formation-control', description=__doc__)
-    sub = parser.add_subparsers(dest='command', required=True)
+def _sim_parser(sub):
     sim = sub.add_parser('sim', help='run a scenario in the offline simulator')
     _scenario_arguments(sim)
     sim.set_defaults(func=cmd_sim)
+
+
+def _sweep_parser(sub):
     sweep = sub.add_parser('sweep', help='Monte-Carlo study: a grid of parameter values x '
                            'seeds, in batches on local workers or a Dask cluster')
     sweep.add_argument('scenario', help='scenario YAML (ROS 2 parameter file) or config name')
@@ -403,6 +404,9 @@ def build_parser():
     sweep.add_argument('--resume', action='store_true',
                        help='continue the sweep whose batches are in OUT.parts/')
     sweep.set_defaults(func=cmd_sweep)
+
+
+def _swarm_parser(sub):
     swarm = sub.add_parser('swarm', help='run a scenario as ROS 2 processes, one per vehicle')
     _scenario_arguments(swarm)
     swarm.add_argument('--mode', choices=('lockstep', 'realtime'), default='lockstep')
@@ -433,6 +437,9 @@ def build_parser():
                        help='run every process as its member of the TLS fleet made by '
                             '`formation-control secure DIR` (docs/security.md)')
     swarm.set_defaults(func=cmd_swarm)
+
+
+def _secure_parser(sub):
     sec = sub.add_parser('secure', help='make a fleet only its members can join: a CA, a key '
                                         'and certificate per member, Fast DDS TLS profiles '
                                         '(docs/security.md)')
@@ -458,6 +465,9 @@ def build_parser():
                      help='members do not sign their control topics (any member may then pose '
                           'as another; docs/security.md): for comparison')
     sec.set_defaults(func=cmd_secure)
+
+
+def _set_parser(sub):
     tune = sub.add_parser('set', help='set run-time parameters (gains) on every vehicle of a '
                                       'running fleet')
     tune.add_argument('assignments', nargs='+', metavar='NAME:=VALUE',
@@ -466,14 +476,23 @@ def build_parser():
     tune.add_argument('--timeout', type=float, default=10.0,
                       help='seconds to wait for the fleet (default 10)')
     tune.set_defaults(func=cmd_set)
+
+
+def _plot_parser(sub):
     plot = sub.add_parser('plot', help='draw the figures of a run (.npz or bag)')
     plot.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
     plot.add_argument('--out', required=True, help='PNG file to write')
     plot.set_defaults(func=cmd_plot)
+
+
+def _report_parser(sub):
     rep = sub.add_parser('report', help='convergence and steady state of a run (.npz or bag)')
     rep.add_argument('source', help='a run .npz (sim --out, swarm --out) or a bag directory')
     rep.add_argument('--summary', help='write the figures to this .json')
     rep.set_defaults(func=cmd_report)
+
+
+def _repair_parser(sub):
     fix = sub.add_parser('repair', help='make a bag its recorder did not close readable again '
                                         '(summary, index, metadata.yaml); says what was kept')
     fix.add_argument('bag', help='the bag directory (one .mcap, metadata.yaml or none)')
@@ -481,9 +500,15 @@ def build_parser():
                      help='write the repaired bag to this new directory and leave BAG as it '
                           'is (default: in place, the original kept as BAG.unrepaired)')
     fix.set_defaults(func=cmd_repair)
+
+
+def _params_parser(sub):
     params = sub.add_parser('params', help='print the table of scenario parameters (Markdown, '
                                            'docs/parameters.md)')
     params.set_defaults(func=cmd_params)
+
+
+def _play_parser(sub):
     play = sub.add_parser('play', help='republish a rosbag2 bag with its recorded QoS, like '
                                        '`ros2 bag play`',
                           epilog='Arguments after --ros-args go to the player node (e.g. '
@@ -503,6 +528,9 @@ def build_parser():
     play.add_argument('--wait-for-subscribers', action='store_true',
                       help='hold the start until every replayed topic has a subscriber')
     play.set_defaults(func=cmd_play)
+
+
+def _doctor_parser(sub):
     doc = sub.add_parser('doctor', help='join the domain and report what keeps a fleet from '
                                         'working (exit 1 if anything)')
     _namespace(doc, "the fleet's namespace: its plant, vehicles and topics (default /)")
@@ -511,6 +539,9 @@ def build_parser():
     doc.add_argument('--discover', type=float, default=5.0,
                      help="seconds to wait for the plant's scenario (default 5)")
     doc.set_defaults(func=cmd_doctor)
+
+
+def _layout_parser(sub):
     lay = sub.add_parser('layout', help='print the Foxglove layout of a fleet (JSON, '
                                         'foxglove/formation_control[.classic].json)')
     _namespace(lay, "the fleet's namespace: the topics are its absolute names (default /)")
@@ -521,6 +552,19 @@ def build_parser():
                           'Studio 1.x and Lichtblick (configById and a mosaic layout)')
     lay.add_argument('--out', help='write it to this file instead')
     lay.set_defaults(func=cmd_layout)
+
+
+SUBCOMMANDS = (_sim_parser, _sweep_parser, _swarm_parser, _secure_parser, _set_parser,
+               _plot_parser, _report_parser, _repair_parser, _params_parser, _play_parser,
+               _doctor_parser, _layout_parser)
+"""The parser of each subcommand, in the order of the help."""
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(prog='formation-control', description=__doc__)
+    sub = parser.add_subparsers(dest='command', required=True)
+    for add in SUBCOMMANDS:
+        add(sub)
     return parser
 
 

@@ -18,6 +18,8 @@
 The processes are the plant, one ``vehicle`` process per vehicle and the ``monitor`` (the
 executables ``ros2 run`` starts).
 """
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 import os
 from pathlib import Path
 import shutil
@@ -25,6 +27,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 from formation_control.ops import dds_profile, lifetime, security, signing
@@ -87,6 +90,52 @@ def _at(t):
     return 't = ?' if t is None else f't = {t:.2f} s'
 
 
+@dataclass(frozen=True)
+class SwarmOptions:
+    """
+    How the processes of a fleet run, beside its :class:`FleetPlan` (what they are).
+
+    Attributes
+    ----------
+    real_time_factor : float
+        The plant's pacing in real time (fleet seconds per wall second).
+    workdir : str or Path, optional
+        Where the logs and the plant's record go (None: a new temporary directory).
+    monitor : bool
+        Run the ``monitor`` process.
+    node_params : tuple of str
+        ``name:=value`` for every node that takes the fleet's file.
+    monitor_params : tuple of str
+        ``name:=value`` for the monitor only (``foxglove_port``).
+    place : callable, optional
+        ``place(name)``: the command prefix that starts process ``name`` (``plant``,
+        ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``.
+        With one, the discovery check of a local fleet is left out.
+    env : mapping, optional
+        The environment of every process (None: this process's).
+    restart_dead : float, optional
+        Fleet seconds after which a vehicle or monitor process that died by itself is started
+        again (None: never).
+    secure : str or Path, optional
+        The directory of a TLS fleet (:mod:`formation_control.ops.security`): each process
+        runs as its member (the plan made with ``secure=True``).
+    stop : threading.Event, optional
+        Set, it ends the run as KeyboardInterrupt, every process stopped.
+
+    """
+
+    real_time_factor: float = 1.0
+    workdir: str | Path | None = None
+    monitor: bool = True
+    node_params: tuple[str, ...] = ()
+    monitor_params: tuple[str, ...] = ()
+    place: Callable[[str], list[str]] | None = None
+    env: Mapping[str, str] | None = None
+    restart_dead: float | None = None
+    secure: str | Path | None = None
+    stop: threading.Event | None = None
+
+
 class Swarm:
     """
     The processes of one run; use as a context manager so they are always stopped.
@@ -95,57 +144,69 @@ class Swarm:
     exit code, cause) and the others carry on; with ``restart_dead`` (fleet seconds) a process
     that died by itself is started again that long after. Scripted faults act on the processes
     through :meth:`apply`.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+    plan : FleetPlan
+        The fleet's processes: its mode, namespace, vehicles per process, whether a bag records
+        it (the plant waits for the start) and whether it is a TLS fleet.
+    options : SwarmOptions
+        How they run.
+
     """
 
-    def __init__(self, sc, mode='lockstep', real_time_factor=1.0, workdir=None,
-                 wait_for_start=False, monitor=True, node_params=(), per_process=1, place=None,
-                 env=None, monitor_params=(), restart_dead=None, namespace='/', secure=None,
-                 stop=None, process_faults=False):
-        plan = FleetPlan(sc.num_vehicles, mode, per_process, namespace, secure is not None,
-                         wait_for_start, process_faults=process_faults)
-        self.sc, self.mode = sc, mode
-        self.place = place or (lambda name: [])
-        self.stop = stop
-        self.dir = Path(workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
+    def __init__(self, sc, plan, options=SwarmOptions()):
+        self.sc, self.mode, self.options = sc, plan.mode, options
+        self.place = options.place or (lambda name: [])
+        self.stop = options.stop
+        self.dir = Path(options.workdir or tempfile.mkdtemp(prefix='formation_swarm_'))
         self.dir.mkdir(parents=True, exist_ok=True)
         self.record = self.dir / 'run.npz'
-        params = write_params(sc, self.dir / 'scenario.yaml', wait_for_start, namespace)
+        params = write_params(sc, self.dir / 'scenario.yaml', plan.recorded, plan.prefix)
         self.prefix = prefix = plan.prefix
-        remap = ['-r', f'__ns:={prefix.rstrip("/")}'] if prefix != '/' else []
+        remap = ['-r', f'__ns:={names.namespace_of(prefix)}'] if prefix != '/' else []
         fleet = ['--params-file', params, *ros_arguments(plan.common),
-                 *(a for p in node_params for a in ('-p', p))]
-        world = dict(p.split(':=', 1) for p in node_params
+                 *(a for p in options.node_params for a in ('-p', p))]
+        world = dict(p.split(':=', 1) for p in options.node_params
                      if p.startswith(('world_frame:=', 'base_frame:=')))
         processes = [plan.plant(record_path=self.record,
-                                real_time_factor=float(real_time_factor)), *plan.vehicles()]
-        if monitor:
+                                real_time_factor=float(options.real_time_factor)),
+                     *plan.vehicles()]
+        if options.monitor:
             processes.append(plan.monitor(**world))
         self.commands = [
             [executable(p.executable), '--ros-args', *remap, *(fleet if p.fleet else []),
              *(['-r', ':='.join(plan.clock)] if p.clock else []), *ros_arguments(p.parameters),
-             *(a for m in monitor_params for a in ('-p', m) if p.name == 'monitor')]
+             *(a for m in options.monitor_params for a in ('-p', m) if p.name == 'monitor')]
             for p in processes]
         self.logs = [f'{p.name}.log' for p in processes]
         self.members = [p.vehicles for p in processes]
         self.names = [p.name for p in processes]
-        base = os.environ if env is None else env
-        if place is None:
-            check_discovery(len(processes) + 1, sc.num_vehicles, plan.per_process,
-                            SWARM_LABELS[0], base)
-        if secure is None:
-            profile = dds_profile.fleet_env(base, self.dir)
-            env = {**base, **profile} if profile else env
-        self.envs = {name: env if secure is None else security.member_env(secure, name, base)
-                     for name in self.names}
-        refused = [signing.check_member(e) for e in self.envs.values()] if secure else []
-        if any(refused):
-            raise security.SecurityError(next(filter(None, refused)))
+        self.envs = self._environments(plan, len(processes))
         self.process_of = {k: i for i, group in enumerate(self.members) for k in group}
         self.procs, self.state, self.cause = [], [], {}
         self.group = 0
-        self.restart_dead, self.restarts = restart_dead, []
+        self.restart_dead, self.restarts = options.restart_dead, []
         self.t = None
         self.lost, self.faults, self.survivors = [], [], None
+
+    def _environments(self, plan, count):
+        """Return the environment of each process (its member's, in a TLS fleet), checked."""
+        env, secure = self.options.env, self.options.secure
+        base = os.environ if env is None else env
+        if self.options.place is None:
+            check_discovery(count + 1, self.sc.num_vehicles, plan.per_process, SWARM_LABELS[0],
+                            base)
+        if secure is None:
+            profile = dds_profile.fleet_env(base, self.dir)
+            env = {**base, **profile} if profile else env
+            return dict.fromkeys(self.names, env)
+        envs = {name: security.member_env(secure, name, base) for name in self.names}
+        refused = [signing.check_member(e) for e in envs.values()]
+        if any(refused):
+            raise security.SecurityError(next(filter(None, refused)))
+        return envs
 
     def __enter__(self):
         try:
@@ -472,33 +533,27 @@ class Supervisor:
             raise failed
 
 
-def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None, workdir=None,
-              monitor=True, node_params=(), per_process=1, place=None, env=None,
-              monitor_params=(), fault_script=(), restart_dead=None, namespace='/',
-              secure=None, stop=None):
+def run_swarm(sc, options=SwarmOptions(), mode='lockstep', per_process=1, namespace='/',
+              bag=None, fault_script=(), timeout=None):
     """
     Run a fleet as processes in ``namespace``; return (run, summary). Every process is stopped.
 
-    ``monitor_params`` (``name:=value``) go to the monitor only (``foxglove_port``).
-    ``place(name)`` gives the command prefix that starts process ``name`` (``plant``,
-    ``vehicle_3``, ``vehicles_1-4``, ``monitor``) elsewhere, e.g. ``ip netns exec host``;
-    ``env`` replaces the environment of every process. ``per_process``: vehicle nodes per
-    process, or ``'auto'`` (:func:`~formation_control.protocol.fleet_plan.auto_per_process`).
-    ``fault_script`` lists the faults
-    (:func:`faults.schedule`), ``restart_dead`` the fleet seconds after which a vehicle or
-    monitor process that died by itself is started again (None: never). ``secure`` is the
-    directory of a TLS fleet (:mod:`formation_control.ops.security`): each process runs as its
-    member, and this process as member ``swarm`` (its environment is changed: call it before
-    this process has made a DDS participant). ``stop`` (a threading.Event) set ends the run
-    as KeyboardInterrupt, every process stopped.
+    ``options`` say how its processes run (:class:`SwarmOptions`). ``per_process``: vehicle
+    nodes per process, or ``'auto'``
+    (:func:`~formation_control.protocol.fleet_plan.auto_per_process`). ``bag``: a new bag
+    directory the fleet is recorded into. ``fault_script`` lists the faults
+    (:func:`faults.schedule`). In a TLS fleet (``options.secure``) this process runs as member
+    ``swarm`` (its environment is changed: call it before this process has made a DDS
+    participant).
     """
     timeout = timeout or 60.0 + 20.0 * sc.duration
     schedule = faults.schedule(fault_script, sc)
     if bag is not None and Path(bag).exists():
         raise FileExistsError(f'bag directory {bag} exists already')
-    swarm = Swarm(sc, mode, real_time_factor, workdir, bag is not None, monitor, node_params,
-                  per_process, place, env, monitor_params, restart_dead, namespace, secure, stop,
-                  schedule.acts_on_processes)
+    secure = options.secure
+    swarm = Swarm(sc, FleetPlan(sc.num_vehicles, mode, per_process, namespace, secure is not None,
+                                bag is not None, process_faults=schedule.acts_on_processes),
+                  options)
     print(f"swarm: logs and the plant's record {swarm.record} in {swarm.dir}", file=sys.stderr,
           flush=True)
     if secure is not None:
@@ -506,7 +561,7 @@ def run_swarm(sc, mode='lockstep', bag=None, real_time_factor=1.0, timeout=None,
         for name in security.UNSET:
             os.environ.pop(name, None)
     with dds_profile.given(None if secure else swarm.dir):
-        supervisor = Supervisor(sc.num_vehicles, mode, bag, monitor, namespace)
+        supervisor = Supervisor(sc.num_vehicles, mode, bag, options.monitor, namespace)
     try:
         with swarm:
             wait_plant(swarm, timeout, supervisor, schedule)

@@ -19,11 +19,14 @@ Pure (``rosbags``, no ROS): the node (:mod:`formation_control.ros.player`) publi
 :class:`Bag` yields when :class:`Schedule` says it is due. Any rosbag2 bag (metadata version
 4..9, sqlite3 or MCAP storage) is read, not only the package's own.
 """
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 import struct
+from typing import Any
 
 from formation_control.bags.repair import unclosed
+from formation_control.protocol import names
 from rosbags.rosbag2 import Reader, ReaderError
 
 CLOCK_TOPIC = 'clock'
@@ -36,16 +39,14 @@ class BagError(ValueError):
     """A bag that cannot be replayed: missing, not a bag, truncated or corrupt."""
 
 
-def resolve_name(name, namespace='/'):
+def resolve_name(name: str, namespace: str = '/') -> str:
     """
     Return the absolute name a bag holds of a topic ``name`` given in ``namespace``.
 
     A bag records resolved names: an absolute name stays as it is, a relative one is prefixed
     with the namespace (``vehicle_1/odom`` in ``/fleet_a``: ``/fleet_a/vehicle_1/odom``).
     """
-    if name.startswith('/'):
-        return name
-    return '/' + '/'.join(part for part in (*namespace.split('/'), name) if part)
+    return names.resolve(namespace, name)
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ class ReplayQos:
     depth: int
 
 
-def replay_qos(offered):
+def replay_qos(offered: Sequence[Any]) -> ReplayQos:
     """
     Return the QoS to replay a topic with, from the profiles its recorded publishers offered.
 
@@ -92,7 +93,7 @@ class Topic:
     qos: ReplayQos
 
 
-def _corrupt(path, err):
+def _corrupt(path: str | Path, err: BaseException) -> BagError:
     return BagError(f'{path}: the bag is truncated or corrupt ({type(err).__name__}: {err}); a '
                     f'bag whose recorder was killed: `formation-control repair {path}`')
 
@@ -111,10 +112,11 @@ class Bag:
 
     """
 
-    def __init__(self, path, topics=None, skip=(), namespace='/'):
+    def __init__(self, path: str | Path, topics: Iterable[str] | None = None,
+                 skip: Iterable[str] = (), namespace: str = '/') -> None:
         self.path = Path(path)
-        topics = None if topics is None else {resolve_name(t, namespace) for t in topics}
-        skip = {resolve_name(t, namespace) for t in skip}
+        wanted_names = None if topics is None else {resolve_name(t, namespace) for t in topics}
+        skipped = {resolve_name(t, namespace) for t in skip}
         if not (self.path / 'metadata.yaml').is_file():
             raise BagError(unclosed(path) or f'{path}: not a rosbag2 bag (a directory with '
                            f'metadata.yaml)')
@@ -126,16 +128,16 @@ class Bag:
         except (ReaderError, OSError, ValueError, KeyError, MemoryError) as err:
             raise _corrupt(path, err) from None
         names = {c.topic for c in conns}
-        missing = sorted(set(topics or ()) - names)
+        missing = sorted(set(wanted_names or ()) - names)
         if missing:
             raise BagError(f'{path}: no topic {", ".join(missing)} in the bag (it has: '
                            f'{", ".join(sorted(names))})')
-        wanted = (topics or names) - skip
+        wanted = (wanted_names or names) - skipped
         self.connections = [c for c in conns if c.topic in wanted]
         self.topics = self._topics()
 
-    def _topics(self):
-        by_name = {}
+    def _topics(self) -> list[Topic]:
+        by_name: dict[str, list[Any]] = {}
         for c in self.connections:
             by_name.setdefault(c.topic, []).append(c)
         out = []
@@ -148,7 +150,7 @@ class Bag:
             out.append(Topic(name, types.pop(), replay_qos(offered)))
         return out
 
-    def messages(self):
+    def messages(self) -> Iterator[tuple[str, int, bytes]]:
         """
         Yield (topic, recorded time in ns, CDR bytes) of the selected topics in time order.
 
@@ -185,13 +187,13 @@ class Schedule:
 
     """
 
-    def __init__(self, start, rate, wall0):
+    def __init__(self, start: int, rate: float, wall0: float) -> None:
         self.start, self.rate, self.wall0 = start, rate, wall0
 
-    def due(self, ns):
+    def due(self, ns: int) -> float:
         """Return the wall time (s) at which the message recorded at ``ns`` is published."""
         return self.wall0 + (ns - self.start) * 1e-9 / self.rate
 
-    def now(self, wall):
+    def now(self, wall: float) -> int:
         """Return the recorded time (ns) that plays at wall time ``wall`` (s): the clock."""
         return self.start + int(round((wall - self.wall0) * self.rate * 1e9))

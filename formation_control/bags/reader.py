@@ -27,13 +27,17 @@ fits is left out, and so is an odometry or command with a non-finite value (what
 refuse, :mod:`formation_control.protocol.intake`); :func:`read_run` counts them.
 """
 from collections import Counter, defaultdict
+from collections.abc import Collection, Iterator
 import json
+from pathlib import Path
+from typing import Any, NoReturn
 
 from formation_control.bags import schemas
 from formation_control.core.errors import UsageError
 from formation_control.core.flowfields import Flowfield
+from formation_control.core.geometry import RealArray
 from formation_control.core.models import ROW_OMEGA
-from formation_control.core.scenario import resolve
+from formation_control.core.scenario import resolve, Scenario
 from formation_control.protocol import names
 from formation_control.protocol.messages import (input_from_cmd, INTERFACE_VERSION,
                                                  METRIC_DOC, stamp_ns, state_from_odom)
@@ -45,7 +49,8 @@ LEGACY = {'sensor_msgs/msg/JointState', 'geometry_msgs/msg/WrenchStamped'}
 """The stand-ins of interface version 0 for the formation states, commands and metrics."""
 
 
-def messages(path, topics, skipped=None):
+def messages(path: str | Path, topics: Collection[str],
+             skipped: Counter[str] | None = None) -> Iterator[tuple[str, Any]]:
     """
     Yield (topic, message) for ``topics`` in a bag, in recorded order.
 
@@ -79,7 +84,7 @@ def messages(path, topics, skipped=None):
             yield conn.topic, msg
 
 
-def _refuse(path, topic, version, why):
+def _refuse(path: str | Path, topic: str, version: int, why: str) -> NoReturn:
     raise UsageError(f'{path}: written by formation_control of interface version {version} '
                      f'({topic}: {why}); this formation_control reads formation_control_msgs '
                      f'interface version {INTERFACE_VERSION} (version 0: before '
@@ -87,11 +92,11 @@ def _refuse(path, topic, version, why):
                      f'with the formation_control that wrote it')
 
 
-def _stamp(msg):
+def _stamp(msg: Any) -> int:
     return stamp_ns(msg.header.stamp)
 
 
-def fleet_prefix(path):
+def fleet_prefix(path: str | Path) -> str:
     """Return the namespace of the fleet a bag holds, as a topic prefix ('/', '/fleet_a/')."""
     with Reader(path) as reader:
         for conn in reader.connections:
@@ -101,14 +106,14 @@ def fleet_prefix(path):
                      f'publishes it; record that topic)')
 
 
-def _scenario(path, prefix):
+def _scenario(path: str | Path, prefix: str) -> Scenario:
     for _, msg in messages(path, [prefix + names.SCENARIO_TOPIC]):
         return resolve(json.loads(msg.data))
     raise UsageError(f'{path}: the bag has no {names.SCENARIO_TOPIC} message (the plant '
                      f'publishes it; record that topic)')
 
 
-def read_run(path):
+def read_run(path: str | Path) -> Run:
     """
     Return the run a bag holds, sampled like the plant's record.
 
@@ -135,10 +140,10 @@ def read_run(path):
     n = sc.num_vehicles
     index = {prefix + names.topic(k, 'odom'): k - 1 for k in range(1, n + 1)}
     cmd_index = {prefix + names.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
-    odom = defaultdict(dict)
-    cmds = [[] for _ in range(n)]
+    odom: defaultdict[int, dict[int, RealArray]] = defaultdict(dict)
+    cmds: list[list[tuple[int, tuple[float, float]]]] = [[] for _ in range(n)]
     field = Flowfield(sc)
-    skipped = Counter()
+    skipped: Counter[str] = Counter()
     for topic, msg in messages(path, set(index) | set(cmd_index), skipped):
         if topic in index:
             pos = msg.pose.pose.position
@@ -170,7 +175,7 @@ def read_run(path):
     return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)})
 
 
-def _finite(value, topic, skipped):
+def _finite(value: Any, topic: str, skipped: Counter[str]) -> bool:
     """Return whether ``value`` is finite; count it in ``skipped`` under ``topic`` if not."""
     if np.all(np.isfinite(value)):
         return True
@@ -178,7 +183,7 @@ def _finite(value, topic, skipped):
     return False
 
 
-def metrics(path):
+def metrics(path: str | Path) -> tuple[RealArray, dict[str, RealArray]]:
     """
     ``formation/metrics`` of a bag: (t (M,) s from the first step, {name: (M,) array}).
 
@@ -193,7 +198,8 @@ def metrics(path):
                if rows and not np.all(np.isnan(values[:, i]))}
 
 
-def diagnostics(path):
+def diagnostics(path: str | Path) -> list[
+        tuple[float, list[tuple[str, int, str, dict[str, str]]]]]:
     """``/diagnostics`` of a bag: a list of (stamp s, [(name, level, message, {key: value})])."""
     out = []
     for _, msg in messages(path, ['/diagnostics']):

@@ -24,6 +24,7 @@ malformed, and writes them to a new bag with its summary, index and ``metadata.y
 schema and channel as recorded, whatever the message types. It says what was kept: each
 topic's message count, the time span, and the bytes dropped at the tail.
 """
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 import io
 import os
@@ -31,6 +32,7 @@ from pathlib import Path
 import shutil
 import struct
 import tempfile
+from typing import Any, BinaryIO
 
 from formation_control.core.errors import UsageError
 from rosbags.rosbag2 import StoragePlugin, Writer
@@ -58,13 +60,14 @@ class Kept:
     last: int | None = None
 
     @property
-    def dropped(self):
+    def dropped(self) -> int:
         """Bytes after the last whole record (0 for a file that ends cleanly)."""
         return self.size - self.end
 
-    def lines(self):
+    def lines(self) -> list[str]:
         """Return the report: the topics and counts, the time span, the bytes dropped."""
-        span = 0.0 if self.first is None else (self.last - self.first) * 1e-9
+        span = 0.0 if self.first is None or self.last is None else (
+            (self.last - self.first) * 1e-9)
         out = [f'kept {sum(self.counts.values())} messages on {len(self.counts)} topics, '
                f'{span:.3f} s from the first to the last',
                *(f'  {topic}: {n}' for topic, n in sorted(self.counts.items()))]
@@ -73,19 +76,19 @@ class Kept:
         return out
 
 
-def _string(rec):
+def _string(rec: BinaryIO) -> str:
     (size,) = struct.unpack('<I', _exact(rec, 4))
     return _exact(rec, size).decode()
 
 
-def _exact(rec, size):
+def _exact(rec: BinaryIO, size: int) -> bytes:
     data = rec.read(size)
     if len(data) != size:
         raise Truncated(f'a field of {size} bytes has {len(data)}')
     return data
 
 
-def _records(bio, end):
+def _records(bio: BinaryIO, end: int) -> Iterator[tuple[int, bytes]]:
     """Yield (opcode, body) of the records of ``bio`` up to ``end``; Truncated past it."""
     while bio.tell() < end:
         head = bio.read(9)
@@ -98,7 +101,7 @@ def _records(bio, end):
         yield op, bio.read(length)
 
 
-def _chunk_records(body):
+def _chunk_records(body: bytes) -> Iterator[tuple[int, bytes]]:
     rec = io.BytesIO(body)
     _, _, size, crc = struct.unpack('<QQQI', _exact(rec, 28))
     compression = _string(rec)
@@ -117,12 +120,13 @@ class Scan:
     Iterate :meth:`messages` once; :attr:`kept` then says how far it got.
     """
 
-    def __init__(self, path):
+    def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self.schemas, self.channels = {}, {}
+        self.schemas: dict[int, tuple[str, str, str]] = {}
+        self.channels: dict[int, tuple[str, int, str, bytes]] = {}
         self.kept = Kept(self.path.stat().st_size)
 
-    def messages(self):
+    def messages(self) -> Iterator[tuple[int, int, bytes]]:
         """Yield (channel id, log time ns, data) of every whole message record, in file order."""
         with open(self.path, 'rb') as bio:
             if bio.read(len(MAGIC)) != MAGIC:
@@ -132,13 +136,14 @@ class Scan:
                     if op in (DATA_END, FOOTER):
                         self.kept.end = self.kept.size
                         return
-                    inner = _chunk_records(body) if op == CHUNK else [(op, body)]
+                    inner: Iterable[tuple[int, bytes]] = (
+                        _chunk_records(body) if op == CHUNK else [(op, body)])
                     yield from (m for o, b in list(inner) if (m := self._take(o, b)))
                     self.kept.end = bio.tell()
             except Truncated as cut:
                 self.kept.reason = f'cut short: {cut}'
 
-    def _take(self, op, body):
+    def _take(self, op: int, body: bytes) -> tuple[int, int, bytes] | None:
         rec = io.BytesIO(body)
         if op == SCHEMA:
             (key,) = struct.unpack('<H', _exact(rec, 2))
@@ -156,7 +161,7 @@ class Scan:
         return None
 
 
-def finish_chunk(writer):
+def finish_chunk(writer: Any) -> None:
     """
     Write the pending messages of a rosbags MCAP ``writer`` out as a finished chunk.
 
@@ -171,11 +176,11 @@ def finish_chunk(writer):
     storage.bio.flush()
 
 
-def _digest(store, msgtype, msgdef, encoding):
+def _digest(store: Any, msgtype: str, msgdef: str, encoding: str) -> str:
     """Return the RIHS01 type hash of ``msgtype`` from its recorded definition."""
     if msgtype not in store.fielddefs:
         if encoding == 'ros2idl':
-            types = {}
+            types: dict[str, Any] = {}
             for part in msgdef.split(IDL_SEPARATOR)[1:]:
                 types.update(get_types_from_idl(part.split('\n', 1)[1]))
         else:
@@ -184,12 +189,13 @@ def _digest(store, msgtype, msgdef, encoding):
     return store.hash_rihs01(msgtype)
 
 
-def _copy(scan, out):
+def _copy(scan: Scan, out: Path) -> Kept:
     """Write the messages of ``scan`` to a new bag at ``out``; return what was kept."""
     store = get_typestore(Stores.ROS2_JAZZY)
     writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.open()
-    conns, kept = {}, scan.kept
+    conns: dict[int, Any] = {}
+    kept = scan.kept
     try:
         for channel, stamp, data in scan.messages():
             if channel not in conns:
@@ -208,7 +214,7 @@ def _copy(scan, out):
     return kept
 
 
-def repair(bag, out=None):
+def repair(bag: str | Path, out: str | Path | None = None) -> Kept:
     """
     Rebuild bag ``bag`` (a directory holding one ``.mcap``) from a streaming read.
 
@@ -255,7 +261,7 @@ def repair(bag, out=None):
     return kept
 
 
-def unclosed(path):
+def unclosed(path: str | Path) -> str | None:
     """Return why ``path`` is a bag its recorder did not close, and the remedy; else None."""
     path = Path(path)
     if path.is_dir() and not (path / 'metadata.yaml').exists() and any(path.glob('*.mcap')):

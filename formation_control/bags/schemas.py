@@ -20,7 +20,9 @@ that each connection of the bag carries the definition (an MCAP schema that any 
 decodes); a reader registers the definitions the bag itself carries (:func:`bag_definitions`),
 so that reading needs no formation_control_msgs installed.
 """
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 from rosbags.interfaces import MessageDefinitionFormat
 from rosbags.typesys import get_types_from_msg, get_typestore, Stores
@@ -28,10 +30,10 @@ from rosbags.typesys import get_types_from_msg, get_typestore, Stores
 MSGS = 'formation_control_msgs'
 
 
-def typestore(definitions=()):
+def typestore(definitions: Iterable[tuple[str, str]] = ()) -> Any:
     """Return Jazzy's typestore with ``definitions`` ((type name, ``.msg`` text)) added."""
     store = get_typestore(Stores.ROS2_JAZZY)
-    types = {}
+    types: dict[str, Any] = {}
     for name, text in definitions:
         if name not in store.types:
             types.update(get_types_from_msg(text, name))
@@ -39,14 +41,14 @@ def typestore(definitions=()):
     return store
 
 
-def msg_files(share):
+def msg_files(share: str | Path) -> list[tuple[str, str]]:
     """Return (type name, text) of each ``.msg`` file of a package's share directory."""
     package = Path(share).name
     return [(f'{package}/msg/{path.stem}', path.read_text())
             for path in sorted(Path(share, 'msg').glob('*.msg'))]
 
 
-def bag_definitions(connections):
+def bag_definitions(connections: Iterable[Any]) -> list[tuple[str, str]]:
     """Return (type name, text) of each ``ros2msg`` definition the ``connections`` carry."""
     return [(c.msgtype, c.msgdef.data) for c in connections
             if c.msgdef is not None and c.msgdef.data

@@ -31,6 +31,7 @@ from formation_control.core.parameters import PLANT_ONLY
 
 from formation_control.core.scenario import resolve
 from formation_control.ops.security import check_environment as check_security
+from formation_control.protocol.names import namespace_prefix, SCENARIO_TOPIC, status_prefix
 
 ERROR, WARNING, NOTE = 'error', 'warning', 'note'
 DISCOVERY_RANGES = ('OFF', 'LOCALHOST', 'SUBNET', 'SYSTEM_DEFAULT')
@@ -48,12 +49,10 @@ def clocked_node(status_name, namespace):
     None for a status of another kind or of a fleet in another namespace (in a namespace, a
     status name starts with it: ``fleet_a/formation_control/plant``).
     """
-    prefix = namespace.strip('/')
-    if prefix:
-        if not status_name.startswith(prefix + '/'):
-            return None
-        status_name = status_name[len(prefix) + 1:]
-    match = CLOCKED.match(status_name)
+    prefix = status_prefix(namespace)
+    if not status_name.startswith(prefix):
+        return None
+    match = CLOCKED.match(status_name[len(prefix):])
     return match[1] if match else None
 
 
@@ -171,7 +170,7 @@ def check_environment(env):
 
 
 def _short(name, namespace):
-    prefix = namespace.rstrip('/') + '/'
+    prefix = namespace_prefix(namespace)
     return name[len(prefix):] if name.startswith(prefix) else None
 
 
@@ -188,7 +187,7 @@ def vehicle_ids(facts):
 
 def check_fleet(facts):
     """Check for the plant's scenario and one vehicle node per id 1..N, no other, none twice."""
-    where = facts.namespace.rstrip('/') + '/formation/scenario'
+    where = namespace_prefix(facts.namespace) + SCENARIO_TOPIC
     if facts.scenario is None:
         return [Finding(ERROR, 'fleet', f'no scenario on {where}: no plant runs in this '
                         f'namespace on ROS_DOMAIN_ID={facts.env.get("ROS_DOMAIN_ID", "0")}, or '

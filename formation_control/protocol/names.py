@@ -55,6 +55,16 @@ def namespace_of(namespace: str) -> str:
     return namespace_prefix(namespace).rstrip('/') or '/'
 
 
+def status_prefix(namespace: str) -> str:
+    """
+    Return the prefix of a /diagnostics status name in ``namespace``.
+
+    ``/diagnostics`` is shared by every fleet of a domain, so in a namespace each status name
+    starts with it: ``''``, ``'/'`` -> ``''``; ``'/fleet_a'`` -> ``'fleet_a/'``.
+    """
+    return namespace_prefix(namespace)[1:]
+
+
 def resolve(namespace: str, name: str) -> str:
     """Return the absolute name of a relative ``name`` in ``namespace`` (absolute kept)."""
     return name if name.startswith('/') else namespace_prefix(namespace) + name

@@ -25,7 +25,7 @@ back as an :class:`intake.Rejection`.
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 import math
 from typing import Any
 
@@ -95,6 +95,44 @@ class Vehicle:
         """Take the run-time parameters of ``sc``."""
         self.sc = sc
         self.onboard.retune(sc)
+
+    @property
+    def liveness_timeout(self) -> float:
+        """Return the wall seconds of silence after which a neighbour is gone."""
+        return float(self.known.liveness.timeout)
+
+    @property
+    def faults_active(self) -> bool:
+        """Return whether injected faults may hold what it hears (then call :meth:`deliver`)."""
+        return self.inbox.faults.active
+
+    @property
+    def cut(self) -> list[int]:
+        """Return the ids of the neighbours whose links are cut, sorted."""
+        return sorted(self.inbox.faults.cut)
+
+    def cut_links(self, ids: Iterable[int]) -> list[int]:
+        """Cut the links from the neighbours ``ids``, restoring the others; return :attr:`cut`."""
+        self.inbox.faults.cut = set(ids)
+        return self.cut
+
+    @property
+    def odom_ns(self) -> int:
+        """Return the stamp (ns) of its last odometry, -1 before the first."""
+        return self.known.odom_ns
+
+    @property
+    def answered(self) -> bool:
+        """Return whether its last odometry has been commanded (a step asked again is)."""
+        return self.known.commanded_ns == self.known.odom_ns
+
+    def encode(self, state: FormationState) -> bytes:
+        """Return the bytes of its own :class:`FormationState`, in the layout of its ``wire``."""
+        return self.wire.encode(state)
+
+    def measured_delay(self, seconds: float) -> None:
+        """Take one measured delay (s) of the node, odometry in -> command out (real time)."""
+        self.delay.add(seconds)
 
     def flow_heard(self, ns: int, flow: complex, frame: str) -> Answer:
         """Take the known flow (complex m/s) of stamp ns in ``frame``; see :meth:`odometry`."""
@@ -166,6 +204,15 @@ class Vehicle:
             return False
         return self.accept(j, state)
 
+    def deliver(self) -> Iterator[bool | Rejection]:
+        """
+        Put in the table, one by one, the states the faults held whose time has come.
+
+        Yields what :meth:`accept` makes of each, in the order they fall due.
+        """
+        for j, state in self.inbox.due():
+            yield self.accept(j, state)
+
     def accept(self, j: int, state: FormationState) -> bool | Rejection:
         """Put neighbour j's state in the table; see :meth:`heard`."""
         if not self.known.hear(j, state.stamp, state.row, state.hears_vehicle(self.k)):
@@ -216,7 +263,7 @@ class Vehicle:
         known = self.known
         if known.odom_ns < 0:
             return 'odometry' if now - born > limit else None
-        if known.commanded_ns != known.odom_ns:
+        if not self.answered:
             waited = now - known.since
             if not known.lockstep or waited <= limit:
                 return None

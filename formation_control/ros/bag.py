@@ -47,7 +47,7 @@ FLUSH_PERIOD = 1.0
 
 def fleet_topics(n, namespace='/'):
     """Return (topic, ROS type name, QoS) of every topic of a fleet of n in ``namespace``."""
-    prefix = namespace.rstrip('/') + '/'
+    prefix = names.namespace_prefix(namespace)
     topics = [(prefix + names.CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (prefix + names.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
               (prefix + names.METRICS_TOPIC, FORMATION_METRICS, itf.STREAM_QOS),

@@ -182,10 +182,9 @@ def publish_diagnostics(node, publisher, statuses):
     starts with it (``fleet_a/formation_control/vehicle_1``).
     """
     statuses = list(statuses)
-    namespace = node.get_namespace().strip('/')
-    if namespace:
-        for s in statuses:
-            s.name = f'{namespace}/{s.name}'
+    prefix = names.status_prefix(node.get_namespace())
+    for s in statuses:
+        s.name = prefix + s.name
     msg = DiagnosticArray(status=statuses)
     msg.header.stamp = node.get_clock().now().to_msg()
     publisher.publish(msg)

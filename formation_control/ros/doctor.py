@@ -48,7 +48,7 @@ NAME = 'formation_doctor'
 
 
 def _fq(name, namespace):
-    return namespace.rstrip('/') + '/' + name
+    return names.resolve(namespace, name)
 
 
 def _python(value):
@@ -112,7 +112,7 @@ class Gatherer:
 
     def _endpoints(self):
         """Return the endpoints of the fleet's topics: those in its namespace, /diagnostics."""
-        ns = self.node.get_namespace().rstrip('/') + '/'
+        ns = names.namespace_prefix(self.node.get_namespace())
         out = []
         for topic, _ in self.node.get_topic_names_and_types():
             if not (topic.startswith(ns) or topic == names.DIAGNOSTICS_TOPIC):

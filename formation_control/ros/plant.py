@@ -123,8 +123,7 @@ class PlantNode(Node):
         """Keep the record so far when stopped before the end (Ctrl-C, SIGTERM, the swarm gone)."""
         if self.p['record_path'] and not self.ended:
             self._save({**self.plant.progress(), 'complete': False})
-        if self.trace is not None:
-            self.trace.save()
+        self.trace.save()
         return super().destroy_node()
 
     def _create_topics(self):
@@ -209,15 +208,12 @@ class PlantNode(Node):
                 self.water_pubs[i].publish(itf.water_velocity_msg(i + 1, ns, water,
                                                                   self.frames))
             data = self.odom_wires[i].encode(ns, values)
-            if self.trace is not None:
-                self.trace('odom_pub', i + 1, ns)
+            self.trace.indexed('odom_pub', i, ns)
             self.odom_pubs[i].publish(data)
-            if self.trace is not None:
-                self.trace('odom_sent', i + 1, ns)
+            self.trace.indexed('odom_sent', i, ns)
 
     def _on_cmd(self, k, got):
-        if self.trace is not None:
-            self.trace('cmd_in', k, got[0])
+        self.trace.note('cmd_in', k, got[0])
         self._held(self.plant.command(k, *got))
 
     def _on_demand(self, k, got):
@@ -249,8 +245,7 @@ class PlantNode(Node):
         if due is not None:
             which, ns, step = due
             if step:
-                if self.trace is not None:
-                    self.trace('step', 0, ns)
+                self.trace.note('step', 0, ns)
                 msg = Clock()
                 messages.set_time(msg.clock, ns)
                 self.clock_pub.publish(msg)

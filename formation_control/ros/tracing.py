@@ -24,8 +24,9 @@ arrival at a neighbour, a command's arrival at the plant) and writes them to
 and time spent runnable but waiting for a core (``/proc/self/schedstat``: the main
 thread, and the sum over its threads). CLOCK_MONOTONIC is
 one clock for every process of a host, so the times of two processes subtract:
-``bench/fleet_trace.py`` reads them. Unset (the default), a node's :data:`trace` is None and
-the hot path pays one attribute test per event.
+``bench/fleet_trace.py`` reads them. Unset (the default), a node's trace is :data:`NULL`, a
+:class:`NullTrace`: the node notes each event all the same, at the cost of one method call
+that does nothing (no allocation).
 """
 import os
 import resource
@@ -57,7 +58,7 @@ class Trace:
         return np.array([usage.ru_utime + usage.ru_stime, usage.ru_nvcsw, usage.ru_nivcsw,
                          time.monotonic()])
 
-    def __call__(self, event, vehicle, ns, at=None):
+    def note(self, event, vehicle, ns, at=None):
         """
         Note ``event`` (a name of :data:`EVENTS`) of ``vehicle`` for the step stamped ns.
 
@@ -67,6 +68,14 @@ class Trace:
         if self.first is None:
             self.first = self.last
         self.rows.append((CODE[event], vehicle, ns, self.clock() if at is None else at))
+
+    def indexed(self, event, i, ns):
+        """Note ``event`` of the vehicle of index i (0-based: vehicle i + 1)."""
+        self.note(event, i + 1, ns)
+
+    def since(self, event, vehicle, ns, perf_ns):
+        """Note ``event``, which happened at :func:`time.perf_counter_ns` ``perf_ns``."""
+        self.note(event, vehicle, ns, at=self.clock() - (time.perf_counter_ns() - perf_ns))
 
     def save(self):
         """Write the events and the process's CPU and scheduling figures."""
@@ -81,6 +90,29 @@ class Trace:
                       for t in os.listdir('/proc/self/task')), np.zeros(3, np.int64))]))
 
 
+class NullTrace:
+    """A :class:`Trace` that notes nothing and writes nothing: tracing is off."""
+
+    def clock(self):
+        return 0
+
+    def note(self, event, vehicle, ns, at=None):
+        pass
+
+    def indexed(self, event, i, ns):
+        pass
+
+    def since(self, event, vehicle, ns, perf_ns):
+        pass
+
+    def save(self):
+        pass
+
+
+NULL = NullTrace()
+"""The trace of a node when ``FORMATION_CONTROL_TRACE`` is unset."""
+
+
 def _schedstat(path):
     """Return ns on a core, ns runnable waiting for one, time slices, of a task; -1 unknown."""
     try:
@@ -91,9 +123,9 @@ def _schedstat(path):
 
 
 def of_node(name):
-    """Return the :class:`Trace` of node ``name`` when ``FORMATION_CONTROL_TRACE`` is set."""
+    """Return the :class:`Trace` of node ``name`` if ``FORMATION_CONTROL_TRACE`` is set; NULL."""
     directory = os.environ.get(ENV)
     if not directory:
-        return None
+        return NULL
     os.makedirs(directory, exist_ok=True)
     return Trace(directory, name)

@@ -118,7 +118,7 @@ class FleetTuner:
         """Return the scenario the plant announced; raise ScenarioError without one."""
         if not self.spin_until(lambda: self.announced, timeout):
             raise scenario.ScenarioError(
-                f'no fleet in namespace {self.prefix.rstrip("/") or "/"}: nothing on '
+                f'no fleet in namespace {names.namespace_of(self.prefix)}: nothing on '
                 f'{self.prefix}{names.SCENARIO_TOPIC} within {timeout:g} s (start one, or give '
                 f'--namespace)')
         return scenario.resolve(json.loads(self.announced[-1]))

@@ -87,9 +87,9 @@ class VehicleNode(Node):
             sc.num_vehicles, k)))
         self.add_post_set_parameters_callback(self._apply_parameters)
         if self.mode == 'lockstep':
-            self.create_timer(min(0.05, self.me.known.liveness.timeout / 4), self._try_command,
+            self.create_timer(min(0.05, self.me.liveness_timeout / 4), self._try_command,
                               clock=self.wall)
-        if self.me.inbox.faults.active:
+        if self.me.faults_active:
             self.create_timer(0.002, self._deliver, clock=self.wall)
         self.create_timer(1.0, self._publish_diagnostics, clock=self.wall)
         self.get_logger().info(f'vehicle {k}/{sc.num_vehicles}: {sc.model} {sc.formation} '
@@ -137,8 +137,7 @@ class VehicleNode(Node):
     def _apply_parameters(self, params):
         for p in params:
             if p.name == 'cut_links':
-                self.me.inbox.faults.cut = set(p.value or ())
-                self.get_logger().warn(f'links cut: {sorted(self.me.inbox.faults.cut)}')
+                self.get_logger().warn(f'links cut: {self.me.cut_links(p.value or ())}')
         self.me.retune(parameters.current(self))
 
     def _on_scenario(self, msg):
@@ -155,17 +154,14 @@ class VehicleNode(Node):
 
     def destroy_node(self):
         """Write the trace of the hot path, if asked (:mod:`formation_control.ros.tracing`)."""
-        if self.trace is not None:
-            self.trace.save()
+        self.trace.save()
         return super().destroy_node()
 
     def _on_odom(self, data):
         self.odom_in = time.perf_counter_ns()
         got = self.odometry(data)
         if got is not None:
-            if self.trace is not None:
-                self.trace('odom_in', self.k, got[0], at=self.trace.clock() - (
-                    time.perf_counter_ns() - self.odom_in))
+            self.trace.since('odom_in', self.k, got[0], self.odom_in)
             self._measured(self.me.odometry(*got))
 
     def _measured(self, got):
@@ -174,17 +170,16 @@ class VehicleNode(Node):
             return
         if got is lockstep.REPEATED:
             self.state_pub.publish(self.last_state)
-            if self.me.known.commanded_ns == self.me.known.odom_ns:
+            if self.me.answered:
                 self.cmd_pub.publish(self.last_cmd)
                 if self.cmd_vel_pub is not None:
                     self.cmd_vel_pub.publish(self.last_cmd_vel)
             return
-        self.last_state = self.me.wire.encode(got)
+        self.last_state = self.me.encode(got)
         if self.mode == 'realtime':                       # the plant first, the neighbours next
             self._try_command()
         self.state_pub.publish(self.last_state)
-        if self.trace is not None:
-            self.trace('state_sent', self.k, got.stamp)
+        self.trace.note('state_sent', self.k, got.stamp)
         if self.mode == 'lockstep':
             self._try_command()
 
@@ -195,12 +190,11 @@ class VehicleNode(Node):
         return False
 
     def _deliver(self):
-        for j, state in self.me.inbox.due():
-            self._heard(self.me.accept(j, state))
+        for accepted in self.me.deliver():
+            self._heard(accepted)
 
     def _on_state(self, j, state):
-        if self.trace is not None:
-            self.trace('state_in', j, state.stamp)
+        self.trace.note('state_in', j, state.stamp)
         self._heard(self.me.heard(j, state))
 
     def _heard(self, accepted):
@@ -208,27 +202,24 @@ class VehicleNode(Node):
             self._try_command()
 
     def _try_command(self):
-        if self.trace is not None:
-            start = self.trace.clock()
+        start = self.trace.clock()
         due = self.me.command()
         if due is None:
             return
         ns, u, first = due
-        if self.trace is not None:
-            self.trace('law_start', self.k, ns, at=start)
-            self.trace('law_end', self.k, ns)
+        self.trace.note('law_start', self.k, ns, at=start)
+        self.trace.note('law_end', self.k, ns)
         if first:
             self.get_logger().info(f'first command, for t = {ns * 1e-9:.3f} s')
         self.last_cmd = self.cmd_wire.encode(ns, messages.cmd_values(u, self.sc.model))
         self.cmd_pub.publish(self.last_cmd)
-        if self.trace is not None:
-            self.trace('cmd_sent', self.k, ns)
+        self.trace.note('cmd_sent', self.k, ns)
         if self.cmd_vel_pub is not None:
             self._publish_cmd_vel(ns, u)
         if self.mode == 'realtime':
             own = time.perf_counter_ns() - self.odom_in
             self.latency.add(own, self.get_clock().now().nanoseconds - ns)
-            self.me.delay.add(1e-9 * own)
+            self.me.measured_delay(1e-9 * own)
 
     def _publish_cmd_vel(self, ns, u):
         """Publish an aircraft's autopilot demand: airspeed and turn rate, in its base frame."""
@@ -244,12 +235,12 @@ class VehicleNode(Node):
         elif isinstance(stalled, float):
             topic, matched = self._odometry_publishers()
             self.get_logger().warn(f'no odometry for {stalled:.1f} s since the command for t = '
-                                   f'{self.me.known.odom_ns * 1e-9:.3f} s: the plant waits for '
+                                   f'{self.me.odom_ns * 1e-9:.3f} s: the plant waits for '
                                    f'another vehicle or has ended, or this vehicle no longer '
                                    f'hears it ({topic}: {matched} publishers matched)',
                                    throttle_duration_sec=5.0)
         elif stalled is not None:
-            self.get_logger().warn(f'step t = {self.me.known.odom_ns * 1e-9:.3f} s: waiting '
+            self.get_logger().warn(f'step t = {self.me.odom_ns * 1e-9:.3f} s: waiting '
                                    f'{stalled[0]:.1f} s for the states of vehicles {stalled[1]}',
                                    throttle_duration_sec=5.0)
         gone, text, values = self.me.status(self.reject.counts)

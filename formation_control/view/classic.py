@@ -23,13 +23,18 @@ under an id ``<kind>!<name>`` (the kind names the panel type: ``3D``, ``Plot``,
 a binary mosaic tree of ``{direction, first, second, splitPercentage}`` whose leaves are panel
 ids. :func:`classic` converts the one into the other; the panel settings are kept as they are.
 """
+from collections.abc import Sequence
+from typing import Any
+
+Json = dict[str, Any]
+"""A JSON object, as a dict."""
 
 KINDS = {'ThreeDee': '3D', 'Plot': 'Plot', 'DiagnosticsSummary': 'DiagnosticSummary',
          'RawMessages': 'RawMessages', 'Table': 'Table'}
 """The classic panel kind of each Foxglove ``panelType``."""
 
 
-def classic(layout):
+def classic(layout: Json) -> Json:
     """
     Return the classic layout of a Foxglove layout (both as JSON-ready dicts).
 
@@ -39,19 +44,19 @@ def classic(layout):
         For a panel type without a classic kind in :data:`KINDS`.
 
     """
-    config_by_id = {}
+    config_by_id: Json = {}
     return {'configById': config_by_id, 'globalVariables': {}, 'userNodes': {},
             'playbackConfig': {'speed': 1.0},
             'layout': _node(layout['content'], config_by_id)}
 
 
-def _node(node, config_by_id):
+def _node(node: Json, config_by_id: Json) -> Json | str:
     if node['type'] == 'panel':
         return _panel(node, config_by_id)
     return _split(node['direction'], node['items'], config_by_id)
 
 
-def _panel(panel, config_by_id):
+def _panel(panel: Json, config_by_id: Json) -> str:
     kind = KINDS.get(panel['panelType'])
     if kind is None:
         raise ValueError(f"panelType {panel['panelType']!r}: no classic panel kind (one of "
@@ -61,7 +66,7 @@ def _panel(panel, config_by_id):
     return ident
 
 
-def _split(direction, items, config_by_id):
+def _split(direction: str, items: Sequence[Json], config_by_id: Json) -> Json | str:
     """Nest the items of a split: the first, then the rest, by their proportions."""
     first = _node(items[0]['content'], config_by_id)
     if len(items) == 1:

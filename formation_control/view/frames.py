@@ -27,6 +27,7 @@ import math
 from typing import NamedTuple
 
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
+from formation_control.view.picture import Picture
 
 MAP_FRAME = 'map'
 
@@ -36,28 +37,30 @@ class Transform(NamedTuple):
 
     parent: str
     child: str
-    translation: tuple
-    rotation: tuple
+    translation: tuple[float, float, float]
+    rotation: tuple[float, float, float, float]
     """(x, y, z, w)."""
 
 
-def planar(parent, child, z, angle):
+def planar(parent: str, child: str, z: complex, angle: float) -> Transform:
     """Return the Transform of a planar pose: position ``z`` (complex, m), yaw ``angle``."""
     return Transform(parent, child, (float(z.real), float(z.imag), 0.0),
                      (0.0, 0.0, math.sin(0.5 * angle), math.cos(0.5 * angle)))
 
 
-def static_transforms(world=WORLD_FRAME):
+def static_transforms(world: str = WORLD_FRAME) -> list[Transform]:
     """Return the Transforms that never change: ``map`` to the world frame, if they differ."""
     return [] if world == MAP_FRAME else [planar(MAP_FRAME, world, 0j, 0.0)]
 
 
-def vehicle_transforms(picture, world=WORLD_FRAME, base=BASE_FRAME):
+def vehicle_transforms(picture: Picture, world: str = WORLD_FRAME,
+                       base: str = BASE_FRAME) -> list[Transform]:
     """Return the Transforms of a Picture's vehicles: each base frame in the world frame."""
     return [planar(world, base_frame(base, k + 1), z, float(theta))
             for k, (z, theta) in enumerate(zip(picture.positions, picture.headings))]
 
 
-def fleet_transforms(picture, world=WORLD_FRAME, base=BASE_FRAME):
+def fleet_transforms(picture: Picture, world: str = WORLD_FRAME,
+                     base: str = BASE_FRAME) -> list[Transform]:
     """Return the Transforms of a Picture: ``map`` to the world frame, the world to each base."""
     return static_transforms(world) + vehicle_transforms(picture, world, base)

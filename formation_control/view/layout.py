@@ -29,6 +29,7 @@ formation_control_msgs/FormationMetrics a bag holds, so the same layout plots bo
 are the absolute names a fleet's namespace gives (``formation-control layout --namespace
 /fleet_a``: ``/fleet_a/formation/metrics``).
 """
+from collections.abc import Sequence
 import json
 
 from formation_control.core.errors import UsageError
@@ -47,7 +48,8 @@ PLOTS = (('order_parameter', '|p| (order parameter)', 0.0, 1.0),
 """(metric, title, y min, y max) of each plot: metrics of :data:`interface.METRIC_DOC`."""
 
 
-def _plot(metrics, metric, title, low, high):
+def _plot(metrics: str, metric: str, title: str, low: float,
+          high: float | None) -> fl.PlotPanel:
     series = fl.PlotSeries(value=f'{metrics}.{metric}', label=metric, enabled=True,
                            timestamp_method='receiveTime')
     return fl.PlotPanel(title=title, config=fl.PlotConfig(
@@ -55,7 +57,7 @@ def _plot(metrics, metric, title, low, high):
         x_axis_val='timestamp'))
 
 
-def _scene_panel(prefix, frame):
+def _scene_panel(prefix: str, frame: str) -> fl.ThreeDeePanel:
     camera = fl.ThreeDeeCameraState(perspective=False, distance=10.0, phi=0.0, theta_offset=0.0,
                                     target=(0.0, 0.0, 0.0))
     frames = fl.BaseRendererSceneSettings(transforms=fl.BaseRendererTransforms(
@@ -69,12 +71,12 @@ def _scene_panel(prefix, frame):
         layers={'grid': fl.BaseRendererGridLayerSettings()}))
 
 
-def _column(items):
+def _column(items: Sequence[fl.PlotPanel | fl.DiagnosticsSummaryPanel]) -> fl.SplitContainer:
     return fl.SplitContainer(direction='column', items=[
         fl.SplitItem(proportion=1, content=item) for item in items])
 
 
-def layout(namespace='/', world_frame=WORLD_FRAME):
+def layout(namespace: str = '/', world_frame: str = WORLD_FRAME) -> fl.Layout:
     """Build the Foxglove layout of the fleet in ``namespace``: a ``foxglove.layouts.Layout``."""
     prefix = names.namespace_prefix(namespace)
     plots = [_plot(prefix + names.METRICS_TOPIC, *spec) for spec in PLOTS]
@@ -86,7 +88,8 @@ def layout(namespace='/', world_frame=WORLD_FRAME):
         fl.SplitItem(proportion=2, content=_column(plots + [diagnostics]))]))
 
 
-def layout_json(namespace='/', world_frame=WORLD_FRAME, fmt='foxglove'):
+def layout_json(namespace: str = '/', world_frame: str = WORLD_FRAME,
+                fmt: str = 'foxglove') -> str:
     """
     Return the layout as indented JSON in the format ``fmt``, one of :data:`FILES`.
 

@@ -21,8 +21,10 @@ and colours (:mod:`formation_control.view.palette`): each vehicle's heading arro
 ground-velocity arrow in a flow (m/s drawn as m), its trail, the live links, the circle
 centres c_k and the prescribed centre c0.
 """
-from typing import NamedTuple, Optional
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any, NamedTuple, Optional
 
+from formation_control.core.geometry import ComplexArray
 from formation_control.core.models import position, ROW_THETA
 import numpy as np
 
@@ -70,19 +72,22 @@ class Picture(NamedTuple):
     positions: np.ndarray
     headings: np.ndarray
     ground_velocity: Optional[np.ndarray]
-    trails: object
-    edges: object
+    trails: Sequence[Sequence[complex]]
+    edges: Any
     centres: Optional[np.ndarray] = None
     target: Optional[complex] = None
 
 
-def of_states(ns, X, ground_velocity, trails, edges, centres=None, target=None):
+def of_states(ns: int, X: Any, ground_velocity: Optional[np.ndarray],
+              trails: Sequence[Sequence[complex]], edges: Any,
+              centres: Optional[np.ndarray] = None, target: Optional[complex] = None) -> Picture:
     """Return the :class:`Picture` of the states ``X`` (6, N) (rows of :mod:`models`)."""
     return Picture(ns, position(X), np.asarray(X[ROW_THETA], float), ground_velocity, trails,
                    edges, centres, target)
 
 
-def vehicles(picture):
+def vehicles(picture: Picture) -> Iterator[
+        tuple[int, complex, float, complex | None, Sequence[complex]]]:
     """Yield each vehicle's (k, position, heading, ground velocity or None, trail)."""
     for i, z in enumerate(picture.positions):
         ground = picture.ground_velocity
@@ -90,18 +95,19 @@ def vehicles(picture):
                None if ground is None else complex(ground[i]), picture.trails[i])
 
 
-def link_points(positions, edges):
+def link_points(positions: Sequence[complex] | ComplexArray,
+                edges: Any) -> list[complex]:
     """Return the ends of each live link, in pairs: [r_i, r_j, ...] (complex, m)."""
     return [complex(positions[i]) for edge in edges for i in edge]
 
 
-def label_position(positions):
+def label_position(positions: Sequence[complex] | ComplexArray) -> complex:
     """Return where the metrics text stands (complex, m)."""
     r = np.asarray(positions)
     return complex(r.real.mean(), r.imag.max() + LABEL_HEIGHT)
 
 
-def metrics_text(values):
+def metrics_text(values: Mapping[str, float]) -> str:
     """Return the lines of the metrics text of a sample ({name: value})."""
     return '\n'.join(f'{label} = {values[name]:.4f}' for name, label in METRICS_SHOWN
                      if name in values and np.isfinite(values[name]))

@@ -23,7 +23,9 @@ One entity per vehicle (``vehicle_k``: heading arrow, ground-velocity arrow, tra
 of the graph).
 """
 import cmath
+from collections.abc import Mapping, Sequence
 import math
+from typing import Any
 
 from formation_control.protocol.messages import stamp_parts
 from formation_control.protocol.names import WORLD_FRAME
@@ -39,29 +41,32 @@ HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
         palette.LINK, palette.LABEL))
 
 
-def stamp(ns):
+def stamp(ns: int) -> Timestamp:
     """Return the foxglove Timestamp of a time in ns."""
     return Timestamp(*stamp_parts(ns))
 
 
-def _pose(z, angle=0.0):
+def _pose(z: complex, angle: float = 0.0) -> Pose:
     return Pose(position=Vector3(x=float(z.real), y=float(z.imag), z=0.0),
                 orientation=Quaternion(x=0.0, y=0.0, z=math.sin(0.5 * angle),
                                        w=math.cos(0.5 * angle)))
 
 
-def _point(z):
+def _point(z: complex) -> Point3:
     return Point3(x=float(z.real), y=float(z.imag), z=0.0)
 
 
-def _arrow(z, angle, length, color, width):
+def _arrow(z: complex, angle: float, length: float, color: Color,
+           width: float) -> ArrowPrimitive:
     head = min(0.15, 0.3 * length)
     return ArrowPrimitive(pose=_pose(z, angle), shaft_length=length - head,
                           shaft_diameter=width, head_length=head, head_diameter=2.5 * width,
                           color=color)
 
 
-def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=WORLD_FRAME):
+def vehicle_entity(ns: int, k: int, position: complex, heading: float,
+                   ground_velocity: complex | None, trail: Sequence[complex],
+                   frame: str = WORLD_FRAME) -> SceneEntity:
     """
     Return the SceneEntity ``vehicle_k``.
 
@@ -97,7 +102,8 @@ def vehicle_entity(ns, k, position, heading, ground_velocity, trail, frame=WORLD
                        metadata=[KeyValuePair(key='vehicle_id', value=str(k))])
 
 
-def centres_entity(ns, centres, target=None, frame=WORLD_FRAME):
+def centres_entity(ns: int, centres: Sequence[complex], target: complex | None = None,
+                   frame: str = WORLD_FRAME) -> SceneEntity:
     """Return the SceneEntity ``centres``: c_k as spheres, c0 (None: none) as a flat disc."""
     size = Vector3(x=picture.CENTRE_SIZE, y=picture.CENTRE_SIZE, z=picture.CENTRE_SIZE)
     spheres = [SpherePrimitive(pose=_pose(c), size=size, color=CENTRE) for c in centres]
@@ -111,7 +117,8 @@ def centres_entity(ns, centres, target=None, frame=WORLD_FRAME):
                        cylinders=cylinders)
 
 
-def links_entity(ns, positions, edges, frame=WORLD_FRAME):
+def links_entity(ns: int, positions: Sequence[complex], edges: Any,
+                 frame: str = WORLD_FRAME) -> SceneEntity:
     """Return the SceneEntity ``links``: one segment per live link (edges (L, 2), 0-based)."""
     points = [_point(z) for z in picture.link_points(positions, edges)]
     line = LinePrimitive(type=LinePrimitiveLineType.LineList, pose=_pose(0j),
@@ -119,8 +126,9 @@ def links_entity(ns, positions, edges, frame=WORLD_FRAME):
     return SceneEntity(timestamp=stamp(ns), frame_id=frame, id='links', lines=[line])
 
 
-def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres=None,
-                target=None, frame=WORLD_FRAME):
+def fleet_scene(ns: int, positions: Any, headings: Any, ground_velocity: Any,
+                trails: Sequence[Sequence[complex]], edges: Any, centres: Any = None,
+                target: complex | None = None, frame: str = WORLD_FRAME) -> SceneUpdate:
     """
     Return the SceneUpdate of a fleet: every vehicle, its live links, the circle centres.
 
@@ -158,7 +166,7 @@ def fleet_scene(ns, positions, headings, ground_velocity, trails, edges, centres
     return SceneUpdate(entities=entities)
 
 
-def metrics_schema(doc):
+def metrics_schema(doc: Mapping[str, str]) -> dict[str, Any]:
     """
     Return the JSON schema of the metrics messages; ``doc``: {metric name: description}.
 
@@ -173,7 +181,7 @@ def metrics_schema(doc):
     return {'type': 'object', 'title': 'formation_control.Metrics', 'properties': properties}
 
 
-def metrics_message(ns, values):
+def metrics_message(ns: int, values: Mapping[str, float]) -> dict[str, Any]:
     """
     Return a metrics sample as JSON: ``timestamp`` (sec, nsec) and each finite metric by name.
 
@@ -181,6 +189,6 @@ def metrics_message(ns, values):
     fleet) is left out, so every field present is a number, as the schema says.
     """
     sec, nsec = stamp_parts(ns)
-    out = {'timestamp': {'sec': sec, 'nsec': nsec}}
+    out: dict[str, Any] = {'timestamp': {'sec': sec, 'nsec': nsec}}
     out.update({name: float(v) for name, v in values.items() if math.isfinite(v)})
     return out

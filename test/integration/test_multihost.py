@@ -28,8 +28,9 @@ import threading
 import time
 
 from formation_control.core import scenario
+from formation_control.protocol.fleet_plan import FleetPlan
 from formation_control.sim import simulator
-from formation_control.swarm import run_swarm, stop, Swarm, wait_plant
+from formation_control.swarm import run_swarm, stop, Swarm, SwarmOptions, wait_plant
 from hosts import Hosts, HostsUnavailable
 import numpy as np
 import pytest
@@ -93,8 +94,8 @@ def test_fleet_across_hosts_equals_the_offline_run(hosts):
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=4.0')
     with domains(1) as (did,):
         try:
-            run, out = run_swarm(sc, place=placer(hosts), env=fleet_env(did), timeout=120,
-                                 node_params=EXACT)
+            run, out = run_swarm(sc, SwarmOptions(place=placer(hosts), env=fleet_env(did),
+                                                  node_params=tuple(EXACT)), timeout=120)
         finally:
             shm_clean(fleet_env(did))
     assert_equals_simulator(run, sc)
@@ -135,7 +136,8 @@ def test_link_cut_mid_run_and_the_formation_recovers(hosts):
     with domains(1) as (did,):
         env = fleet_env(did)
         try:
-            with Swarm(sc, 'realtime', monitor=False, place=placer(hosts), env=env) as swarm:
+            with Swarm(sc, FleetPlan(sc.num_vehicles, 'realtime'),
+                       SwarmOptions(monitor=False, place=placer(hosts), env=env)) as swarm:
                 first_commands(swarm, sc.num_vehicles, 60)
                 hosts.link(cut_host, up=False)
                 try:
@@ -171,8 +173,9 @@ def test_two_fleets_on_two_domains_never_hear_each_other(hosts):
 
     def fly(i, did):
         try:
-            results[i] = run_swarm(fleets[i], monitor=False, place=placer(hosts),
-                                   env=fleet_env(did), timeout=120, node_params=EXACT)
+            results[i] = run_swarm(fleets[i], SwarmOptions(
+                monitor=False, place=placer(hosts), env=fleet_env(did),
+                node_params=tuple(EXACT)), timeout=120)
         except Exception as err:
             results[i] = err
 
@@ -222,7 +225,9 @@ def test_discovery_server_without_multicast(hosts):
     sc = load('rigid_parallel', 'num_vehicles:=6', 'duration:=4.0')
     with domains(1) as (did,):
         try:
-            with Swarm(sc, monitor=False, place=placer(hosts), env=fleet_env(did)) as alone:
+            with Swarm(sc, FleetPlan(sc.num_vehicles),
+                       SwarmOptions(monitor=False, place=placer(hosts),
+                                    env=fleet_env(did))) as alone:
                 end = time.monotonic() + 60
                 while not all(unmatched_reports(alone, k) >= 2 for k in range(1, 7)):
                     alone.check()
@@ -233,8 +238,9 @@ def test_discovery_server_without_multicast(hosts):
             server = discovery_server(hosts, did)
             try:
                 env = fleet_env(did, ROS_DISCOVERY_SERVER=f'{hosts.address(0)}:{DISCOVERY_PORT}')
-                run, out = run_swarm(sc, monitor=False, place=placer(hosts), env=env,
-                                     timeout=120, node_params=EXACT)
+                run, out = run_swarm(sc, SwarmOptions(monitor=False, place=placer(hosts),
+                                                      env=env, node_params=tuple(EXACT)),
+                                     timeout=120)
             finally:
                 stop([server])
         finally:

@@ -135,10 +135,11 @@ def test_a_swarm_in_a_namespace_with_its_own_frames_is_recorded_there(ros, tmp_p
     """A swarm in a namespace: its topics, clock and bag are under /fleet_s."""
     from formation_control.bags import reader as bagfile
     from formation_control.sim import simulator
-    from formation_control.swarm import run_swarm
+    from formation_control.swarm import run_swarm, SwarmOptions
     sc = scenario.load(PARTICLE, ['num_vehicles:=2'], duration=1.0)
-    run, out = run_swarm(sc, bag=tmp_path / 'bag', workdir=tmp_path / 'logs', env=ros.env,
-                         namespace='fleet_s', node_params=['world_frame:=odom'])
+    options = SwarmOptions(workdir=tmp_path / 'logs', env=ros.env,
+                           node_params=('world_frame:=odom',))
+    run, out = run_swarm(sc, options, namespace='fleet_s', bag=tmp_path / 'bag')
     np.testing.assert_allclose(run.X, simulator.simulate(sc).X, atol=1e-6)
     assert bagfile.fleet_prefix(tmp_path / 'bag') == '/fleet_s/'
     np.testing.assert_allclose(bagfile.read_run(tmp_path / 'bag').X[-1], run.X[-1], atol=1e-9)

@@ -604,12 +604,15 @@ def test_formation_states_best_effort_through_qos_overrides(ros, tmp_path):
     """
     from rclpy.qos import ReliabilityPolicy
 
-    from formation_control.swarm import Swarm, wait_plant
+    from formation_control.protocol.fleet_plan import FleetPlan
+    from formation_control.swarm import Swarm, SwarmOptions, wait_plant
     sc = scenario.load(RIGID, ['num_vehicles:=4', 'duration:=12.0'])
     overrides = [f'qos_overrides./vehicle_{k}/formation_state.{end}.{policy}:={value}'
                  for k in range(1, 5) for end in ('publisher', 'subscription')
                  for policy, value in (('reliability', 'best_effort'), ('depth', 1))]
-    with Swarm(sc, 'realtime', workdir=tmp_path, monitor=False, node_params=overrides) as swarm:
+    with Swarm(sc, FleetPlan(sc.num_vehicles, 'realtime'),
+               SwarmOptions(workdir=tmp_path, monitor=False,
+                            node_params=tuple(overrides))) as swarm:
         def offered():
             return ros.probe.node.get_publishers_info_by_topic('/vehicle_3/formation_state')
         assert ros.probe.spin_until(lambda: offered(), timeout=30)

@@ -30,8 +30,9 @@ import sys
 
 from formation_control.bags import reader as bagfile
 from formation_control.ops import security
+from formation_control.protocol.fleet_plan import FleetPlan
 from formation_control.sim import simulator
-from formation_control.swarm import Swarm, wait_plant
+from formation_control.swarm import Swarm, SwarmOptions, wait_plant
 from hosts import Hosts, HostsUnavailable
 import numpy as np
 import pytest
@@ -142,8 +143,9 @@ def _guarded_run(hosts, tmp_path, sc, profiles):
         procs['plain'] = start(hosts, 0, probe + ['--inject'],
                                dict(base, ROS_AUTOMATIC_DISCOVERY_RANGE='SUBNET'))
         try:
-            with Swarm(sc, place=placer(hosts), env=base, node_params=EXACT,
-                       secure=tmp_path / 'fleet') as swarm:
+            with Swarm(sc, FleetPlan(sc.num_vehicles, secure=True),
+                       SwarmOptions(place=placer(hosts), env=base, node_params=tuple(EXACT),
+                                    secure=tmp_path / 'fleet')) as swarm:
                 wait_plant(swarm, 90)
         except TimeoutError as err:
             if not never_joined(str(err)):

@@ -26,7 +26,8 @@ import sys
 import threading
 
 from formation_control.ops import security, signing
-from formation_control.swarm import Swarm, wait_plant
+from formation_control.protocol.fleet_plan import FleetPlan
+from formation_control.swarm import Swarm, SwarmOptions, wait_plant
 import pytest
 from rosutil import domains
 from test_multihost import assert_equals_simulator, dropped_lines, EXACT, load, placer
@@ -91,8 +92,9 @@ def test_a_member_posing_as_another_is_ignored_and_counted(hosts, tmp_path):
         base.update(ROS_DOMAIN_ID=str(did), PYTHONUNBUFFERED='1')
         impostor = start_impostor(hosts, tmp_path, fleet, base, sc.model, statuses)
         try:
-            with Swarm(sc, place=placer(hosts), env=base, node_params=EXACT,
-                       secure=tmp_path / 'fleet', wait_for_start=True) as swarm:
+            with Swarm(sc, FleetPlan(sc.num_vehicles, secure=True, recorded=True),
+                       SwarmOptions(place=placer(hosts), env=base, node_params=tuple(EXACT),
+                                    secure=tmp_path / 'fleet')) as swarm:
                 wait_plant(swarm, 180)
                 seen = report(impostor)
         finally:
@@ -158,8 +160,9 @@ def _revoked_run(one_host, tmp_path):
     security.write_fleet(tmp_path / 'fleet', security.roster(3))
     with domains(1) as (did,):
         env = dict(os.environ, ROS_DOMAIN_ID=str(did), PYTHONUNBUFFERED='1')
-        with Swarm(sc, mode='realtime', place=lambda name: one_host.prefix(0), env=env,
-                   secure=tmp_path / 'fleet') as swarm:
+        with Swarm(sc, FleetPlan(sc.num_vehicles, 'realtime', secure=True),
+                   SwarmOptions(place=lambda name: one_host.prefix(0), env=env,
+                                secure=tmp_path / 'fleet')) as swarm:
             ended = threading.Event()
             revoker = threading.Thread(target=revoke_once_running, args=(
                 swarm.dir / 'plant.log', tmp_path / 'fleet', ended))

@@ -284,9 +284,11 @@ def test_swarm_notes_dead_processes_restarts_them_and_applies_process_faults(tmp
     """The bookkeeping of :class:`Swarm` on stand-in processes (no ROS): fleet time is set."""
     import sys
 
-    from formation_control.swarm import Swarm
+    from formation_control.protocol.fleet_plan import FleetPlan
+    from formation_control.swarm import Swarm, SwarmOptions
     sc = resolve({'num_vehicles': 3})
-    swarm = Swarm(sc, workdir=tmp_path, monitor=False, restart_dead=0.5)
+    swarm = Swarm(sc, FleetPlan(3), SwarmOptions(workdir=tmp_path, monitor=False,
+                                                 restart_dead=0.5))
     sleeper = [sys.executable, '-c', 'import time; time.sleep(60)']
     swarm.commands = [sleeper, [sys.executable, '-c', 'import sys; sys.exit(3)'], sleeper,
                       sleeper]
