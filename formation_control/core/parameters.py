@@ -430,7 +430,7 @@ class Scenario:
 
     @cached_property
     def comm_graph(self) -> Graph:
-        """Return the communication graph (:func:`graphs.build`; validated by :func:`resolve`)."""
+        """Return the communication graph (:func:`graphs.build`; validated by :func:`check`)."""
         from formation_control.core import graphs
         return graphs.build(self.num_vehicles, self.graph, self.graph_offsets, self.graph_degree,
                             self.graph_seed, self.graph_edges, self.graph_nu)
