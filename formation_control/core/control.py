@@ -391,7 +391,7 @@ def pattern_law(sc: Scenario) -> laws.Moments | laws.Slots | None:
     laws.Moments or laws.Slots or None
         Moments with ``K_m = pattern_gain`` (m = 1..floor(N/2) splay, m < M symmetric) and
         ``K_M = -pattern_gain_M``; or slots with gain pattern_gain and the offsets
-        :attr:`scenario.Scenario.pattern_offsets`; None without a pattern.
+        :attr:`parameters.Scenario.pattern_offsets`; None without a pattern.
 
     """
     if sc.pattern == 'none':

@@ -93,7 +93,7 @@ class Spec:
         What it is, with the thesis' symbol and equation.
     low, high : float or None
         Range of a number, ``low <= value <= high`` (None: unbounded on that side); checked by
-        :func:`resolve`, and the range of the ROS parameter descriptor.
+        :func:`scenario.resolve`, and the range of the ROS parameter descriptor.
     above : bool
         The lower end is excluded: ``value > low``.
     zero : str
@@ -103,7 +103,7 @@ class Spec:
     choices : tuple of str
         The allowed values of a string.
     rule : str
-        Further conditions, in words (checked by :func:`resolve` in code).
+        Further conditions, in words (checked by :func:`scenario.resolve` in code).
     runtime : bool
         A running node accepts a new value (validated with the whole scenario); otherwise the
         parameter is read-only.
@@ -143,7 +143,7 @@ class Scenario:
 
     Each field is declared with its default and its :class:`Spec` (unit, meaning, allowed
     values, whether a running node accepts a change): this is the one parameter table, which
-    :data:`PARAMETERS` collects. It drives the validation of :func:`resolve`, the ROS parameter
+    :data:`PARAMETERS` collects. It drives the validation of :func:`check`, the ROS parameter
     descriptors (``ros/parameters.py``) and ``docs/parameters.md`` (:func:`markdown`,
     ``formation-control params``).
     """
@@ -430,7 +430,7 @@ class Scenario:
 
     @cached_property
     def comm_graph(self) -> Graph:
-        """Return the communication graph (:func:`graphs.build`; validated by :func:`resolve`)."""
+        """Return the communication graph (:func:`graphs.build`; validated by :func:`check`)."""
         from formation_control.core import graphs
         return graphs.build(self.num_vehicles, self.graph, self.graph_offsets, self.graph_degree,
                             self.graph_seed, self.graph_edges, self.graph_nu)
@@ -516,6 +516,7 @@ DEFAULTS = Scenario()
 
 
 def coerce(name: str, value: Any) -> Any:
+    """Return ``value`` as the type of parameter ``name``'s default, or refuse it naming both."""
     default = getattr(DEFAULTS, name)
     if isinstance(default, bool):
         if not isinstance(value, bool):
@@ -558,6 +559,7 @@ def _coerce_int_item(name: str, v: Any, value: Any) -> int:
 
 
 def check_choice(sc: Scenario, name: str) -> None:
+    """Refuse a value of parameter ``name`` outside its choices, listing them."""
     if getattr(sc, name) not in CHOICES[name]:
         _fail(name, getattr(sc, name), f"allowed values: {' | '.join(CHOICES[name])}")
 

@@ -57,7 +57,7 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     ----------
     params : dict
         Parameter name -> value, as a parameter file or ROS gives them (lists for pairs and
-        arrays); names left out take the defaults of :data:`PARAMETERS`, K that of the
+        arrays); names left out take the defaults of :data:`parameters.PARAMETERS`, K that of the
         formation (-1 parallel, 1 circular).
 
     Returns

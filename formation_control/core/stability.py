@@ -64,11 +64,6 @@ class DivergenceError(ScenarioError):
     """The integration of a run diverged (non-finite or exploding state)."""
 
 
-def steering_bandwidth(sc: Scenario) -> float:
-    """Return how fast the steering loop acts (1/s): the bandwidth of the scenario's law."""
-    return law(sc).bandwidth(sc)
-
-
 def hold_limit(hold_prediction: str) -> float:
     """Return the limit of ``g dt_control`` of a held loop under the given hold_prediction."""
     return MIDPOINT_LIMIT if hold_prediction == 'midpoint' else HOLD_LIMIT

@@ -58,7 +58,7 @@ PARAMETERS = {
                            'down; swarm --fault cut:I-J@T1..T2 sets it at run time)',
                            rule='ids in 1..num_vehicles other than its own', runtime=True)),
 }
-"""name -> (default, :class:`scenario.Spec`): node parameters of the links (not scenario
+"""name -> (default, :class:`parameters.Spec`): node parameters of the links (not scenario
 parameters: the offline simulator has no links)."""
 
 

@@ -16,9 +16,14 @@
 The parameter table (core/parameters.py) is a leaf, and names what the features implement.
 
 It imports no physics module (type-only imports included); the values its choices allow are
-exactly the names of the vehicle models, formations and steering laws the features implement.
+exactly the names of the vehicle models, formations and steering laws the features implement;
+:func:`scenario.resolve` runs the table's check first, then every feature's.
 """
-from formation_control.core import formations, models, parameters, steering
+import importlib
+import pkgutil
+
+from formation_control import core
+from formation_control.core import formations, models, parameters, scenario, steering
 from test_layers import graph
 
 
@@ -41,3 +46,11 @@ def test_the_choices_are_what_the_features_implement():
 def test_the_documented_default_of_K_is_each_formations():
     shown = ', '.join(f'{f.default_K} {name}' for name, f in formations.FORMATIONS.items())
     assert parameters.PARAMETERS['K'].shown_default == shown
+
+
+def test_resolve_runs_the_check_of_every_feature_that_has_one():
+    names = (m.name for m in pkgutil.iter_modules(core.__path__))
+    found = {name for name in names if callable(getattr(
+        importlib.import_module(f'formation_control.core.{name}'), 'check', None))}
+    assert found == {c.__module__.rsplit('.', 1)[-1] for c in scenario.CHECKS}
+    assert scenario.CHECKS[0] is parameters.check
