@@ -36,10 +36,11 @@ from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import FLOW_MODELS, Flowfield, FlowfieldError
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import (MODELS, PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V,
-                                           STATE_NAMES)
+from formation_control.core.models import ROW_U, ROW_V, STATE_NAMES
 from formation_control.core.stability import (formation_rate, hold_fallback, steering_bandwidth,
                                               step_warnings)
+from formation_control.core.vehicles import (MODEL_NAMES, reading, rigid_names, vehicle_model,
+                                             VEHICLE_MODELS)
 from formation_control.core.world import active, lag_limit, MISMATCH_NAMES
 import numpy as np
 import yaml
@@ -112,7 +113,7 @@ class Spec:
     high: float | None = None
     above: bool = False
     zero: str = ''
-    models: tuple[str, ...] = MODELS
+    models: tuple[str, ...] = MODEL_NAMES
     choices: tuple[str, ...] = ()
     rule: str = ''
     runtime: bool = False
@@ -130,7 +131,17 @@ def _param(default: object, unit: str, text: str, **spec: Any) -> Any:
 
 
 _POSITIVE = {'low': 0.0, 'above': True}
-_RIGID_POSITIVE = dict(_POSITIVE, models=RIGID_MODELS)
+_RIGID_POSITIVE = dict(_POSITIVE, models=rigid_names())
+_MODELS_TEXT = '; '.join(
+    f"{kind} {', '.join(m.text for m in VEHICLE_MODELS.values() if m.particle == particle)}"
+    for kind, particle in (('particles', True), ('rigid bodies', False)))
+
+
+def _read_by(name: str) -> dict[str, Any]:
+    """Return the Spec keywords of a vehicle parameter > 0 for the models that read it."""
+    return dict(_POSITIVE, models=reading(name))
+
+
 _LIMIT = {'low': 0.0, 'zero': 'no limit', 'runtime': True}
 _ENTRIES = 'num_vehicles entries, or none'
 
@@ -149,9 +160,8 @@ class Scenario:
 
     # Chapters 1-5: the fleet and the particle laws
     num_vehicles: int = _param(16, '', 'number of vehicles N, numbered 1..N', low=1)
-    model: str = _param(
-        'second_order', '', 'vehicle model: particles first_order (1.1), second_order (1.3); '
-        'rigid bodies rigid (6.15), rigid_couple (8.22), rigid_cop (A.3)', choices=MODELS)
+    model: str = _param('second_order', '', f'vehicle model: {_MODELS_TEXT}',
+                        choices=MODEL_NAMES)
     formation: str = _param('parallel', '', 'formation: parallel (1.12) or circular (1.16)',
                             choices=FORMATIONS)
     controller: str = _param(
@@ -215,13 +225,12 @@ class Scenario:
     K_P: float = _param(10.0, '1/s', 'PI steering proportional gain K_P (8.24)', runtime=True,
                         **_RIGID_POSITIVE)
     K_I: float = _param(15.0, '1/s^2', 'PI steering integral gain K_I (8.24)', runtime=True,
-                        low=0.0, models=RIGID_MODELS)
-    m0: float = _param(1.0, 'kg', 'mass m0 (6.15)', **_RIGID_POSITIVE)
-    I0: float = _param(0.1, 'kg m^2', 'yaw moment of inertia I0 (6.15)', **_RIGID_POSITIVE)
+                        low=0.0, models=rigid_names())
+    m0: float = _param(1.0, 'kg', 'mass m0 (6.15)', **_read_by('m0'))
+    I0: float = _param(0.1, 'kg m^2', 'yaw moment of inertia I0 (6.15)', **_read_by('I0'))
     l: float = _param(0.5, 'm', 'arm l of the steering force behind the centre of mass (6.14)',
-                      **_RIGID_POSITIVE)
-    h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)',
-                      **_RIGID_POSITIVE)
+                      **_read_by('l'))
+    h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)', **_read_by('h'))
     l1: float = _param(0.0, 'm', 'centre of pressure l1 ahead of the centre of mass, rigid_cop '
                        '(A.1)')
     # Real flight dynamics: JSBSim aircraft (core/aircraft.py, docs/aircraft.md)
@@ -361,7 +370,7 @@ class Scenario:
                                  rule="below the steering loop's limit (refused from it, "
                                  'warned from half of it)')
     max_thrust_rate: float = _param(0.0, 'N/s', 'rate limit of the applied thrust, rigid bodies',
-                                    low=0.0, zero='no limit', models=RIGID_MODELS)
+                                    low=0.0, zero='no limit', models=rigid_names())
     max_steering_rate: float = _param(0.0, 'N/s', 'rate limit of the applied steering input: N/s '
                                       'rigid bodies, rad/s^3 second_order, rad/s^2 first_order',
                                       low=0.0, zero='no limit')
@@ -588,8 +597,8 @@ def allowed(name: str) -> str:
     parts = [' | '.join(spec.choices)] if spec.choices else []
     bounds = _bounds(spec)
     if bounds:
-        where = 'rigid bodies' if spec.models == RIGID_MODELS else ', '.join(spec.models)
-        parts.append(bounds if spec.models == MODELS else f'{bounds} for {where}')
+        where = 'rigid bodies' if spec.models == rigid_names() else ', '.join(spec.models)
+        parts.append(bounds if spec.models == MODEL_NAMES else f'{bounds} for {where}')
     if spec.rule:
         parts.append(spec.rule)
     return '; '.join(parts)
@@ -717,7 +726,7 @@ def _check_structure(sc: Scenario) -> None:
     for name in CHOICES:
         _choice(sc, name)
     _check_range(sc, 'num_vehicles')
-    if (sc.model == 'first_order') != (sc.controller == 'first_order'):
+    if vehicle_model(sc.model).first_order != (sc.controller == 'first_order'):
         _fail('controller', sc.controller, "model 'first_order' goes with controller "
               "'first_order' only, and controller 'first_order' with model 'first_order' only")
     for name in ('flow', 'c0', 'flow_center', 'geodetic_origin'):
@@ -728,7 +737,7 @@ def _check_structure(sc: Scenario) -> None:
         if n not in (0, sc.num_vehicles):
             _fail(name, list(getattr(sc, name)),
                   f'must have num_vehicles = {sc.num_vehicles} entries (or none: random)')
-    if sc.model in RIGID_MODELS and any(u <= 0 for u in sc.init_u):
+    if vehicle_model(sc.model).rigid and any(u <= 0 for u in sc.init_u):
         _fail('init_u', list(sc.init_u), 'rigid bodies start with forward speed u > 0 m/s')
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
@@ -737,7 +746,7 @@ def _check_structure(sc: Scenario) -> None:
         if sc.graph != kind and getattr(sc, name) != getattr(_DEFAULTS, name):
             _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
                   f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
-    if sc.plant_backend == 'jsbsim' and sc.model not in PARTICLE_MODELS:
+    if sc.plant_backend == 'jsbsim' and not vehicle_model(sc.model).particle:
         _fail('model', sc.model, 'plant_backend jsbsim flies the particle laws: model '
               'first_order or second_order')
     from formation_control.core.graphs import GraphError
@@ -788,9 +797,10 @@ def _check_flow(sc: Scenario) -> None:
     if sc.plant_backend == 'jsbsim' and speed >= sc.airspeed:
         _fail(where, value, f'aircraft need {what} < airspeed = {sc.airspeed} m/s (the wind '
               f'must not blow them backwards)')
-    if sc.plant_backend == 'native' and sc.model in PARTICLE_MODELS and speed >= 1:
+    model = vehicle_model(sc.model)
+    if sc.plant_backend == 'native' and model.particle and speed >= 1:
         _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
-    if sc.model in RIGID_MODELS and speed >= sc.u0:
+    if model.rigid and speed >= sc.u0:
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
     strength = {'time_varying': 'flow_amplitude', 'shear': 'flow_shear',
                 'vortex': 'flow_circulation'}.get(sc.flow_model)
@@ -809,7 +819,7 @@ def vehicle_speed(sc: Scenario) -> float:
     """Return the vehicles' speed relative to the flow (m/s): 1 particles, u0 rigid, airspeed."""
     if sc.plant_backend == 'jsbsim':
         return sc.airspeed
-    return sc.u0 if sc.model in RIGID_MODELS else 1.0
+    return vehicle_model(sc.model).speed(sc.u0)
 
 
 SLOW_FLOW = 0.1
@@ -828,7 +838,7 @@ def uses_flow_rates(sc: Scenario) -> bool:
     """
     return (sc.flow_source == 'known' and sc.flow_model != 'uniform'
             and sc.plant_backend != 'jsbsim'
-            and (sc.model not in RIGID_MODELS or uses_held_force(sc)))
+            and (not vehicle_model(sc.model).rigid or uses_held_force(sc)))
 
 
 def _steady_view_why(sc: Scenario) -> str:
@@ -1084,7 +1094,8 @@ def _check_physics(sc: Scenario) -> tuple[str, ...]:
     """Check the conditions the rigid-body laws need (errata); return the warnings."""
     notes = [note for note in (_slow_flow_note(sc), _uniform_view_note(sc), _kink_note(sc))
              if note]
-    if sc.model in ('rigid', 'rigid_cop'):
+    model = vehicle_model(sc.model)
+    if model.tail_steering:
         zero, band = rhp_zero(sc), steering_bandwidth(sc)
         if zero < 0.5 * band:
             raise ScenarioError(
@@ -1102,7 +1113,7 @@ def _check_physics(sc: Scenario) -> tuple[str, ...]:
                 f'with gain bandwidth*I0/(l*m0*u0) = {gain:.3g}, which must stay below 0.8 '
                 f'(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: '
                 f'practical, or model: rigid_couple')
-    if sc.model in RIGID_MODELS and sc.controller == 'pi':
+    if model.rigid and sc.controller == 'pi':
         if not sc.h * sc.u0 / sc.m0 > sc.K_I / sc.K_P:
             raise ScenarioError(
                 f'PI steering (8.24) needs h*u0/m0 = {sc.h * sc.u0 / sc.m0:.3g} > '
@@ -1277,14 +1288,15 @@ def initial_state(sc: Scenario) -> RealArray:
     n = sc.num_vehicles
     rng = np.random.default_rng(sc.seed)
     half = 0.5 * sc.init_box
-    speed = sc.u0 if sc.model in RIGID_MODELS else 1.0
+    model = vehicle_model(sc.model)
+    speed = model.speed(sc.u0)
     drawn = (rng.uniform(-half, half, n), rng.uniform(-half, half, n),
              rng.uniform(-np.pi, np.pi, n), np.zeros(n), np.full(n, speed), np.zeros(n))
     X = np.array(drawn)
     for row, name in enumerate(INIT_ARRAYS):
         if getattr(sc, name):
             X[row] = getattr(sc, name)
-    if sc.model in PARTICLE_MODELS:
+    if model.particle:
         X[ROW_U], X[ROW_V] = 1.0, 0.0
     return X
 

@@ -26,8 +26,9 @@ from typing import Any, TYPE_CHECKING
 from formation_control.core import laws
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
-from formation_control.core.models import RIGID_MODELS, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
+from formation_control.core.models import ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
 from formation_control.core.scenario import practical
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -246,7 +247,7 @@ def steady_errors(sc: Scenario, snap: Snapshot) -> dict[str, Value]:
         out['radius_error'] = np.abs(snap.radius * abs(sc.omega0) - 1.0)
     else:
         out['course_spread'] = snap.course_spread
-    if sc.model in RIGID_MODELS:
+    if vehicle_model(sc.model).rigid:
         out['speed_error'] = snap.speed_error
     return out
 
@@ -559,7 +560,7 @@ def steady_turn(sc: Scenario) -> tuple[float, float, float, float]:
 
     """
     h_eff = sc.h
-    if sc.model == 'rigid_cop' and sc.cancel_drag_moment:
+    if vehicle_model(sc.model).drag_moment and sc.cancel_drag_moment:
         h_eff = sc.h * (1.0 + sc.l1 / sc.l)
     v0 = -sc.m0 * sc.u0 * sc.omega0 / h_eff
     s0 = float(np.hypot(sc.u0, v0))

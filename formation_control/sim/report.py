@@ -25,9 +25,10 @@ from typing import Any, TypeAlias
 
 from formation_control.core.control import Controller
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
-                                           ROW_U, ROW_X, ROW_Y)
+from formation_control.core.models import (ground_velocity, ROW_OMEGA, ROW_THETA, ROW_U, ROW_X,
+                                           ROW_Y)
 from formation_control.core.scenario import Scenario
+from formation_control.core.vehicles import vehicle_model
 from formation_control.sim import metrics
 from formation_control.sim.simulator import Run, summary
 import numpy as np
@@ -128,7 +129,7 @@ def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
         thesis or the errata).
 
     """
-    rigid = sc.model in RIGID_MODELS
+    rigid = vehicle_model(sc.model).rigid
     still = sc.flow_c == 0
     out = {'potential': (0.0, 'minimum of V'), 'lyapunov': (0.0, '(2.10) V_c -> 0')}
     if sc.formation == 'parallel':

@@ -34,11 +34,12 @@ from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
 from formation_control.core.estimation import FlowEstimator, neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
-from formation_control.core.models import (ground_velocity, integrate, RIGID_MODELS, ROW_OMEGA,
-                                           ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
+from formation_control.core.models import (ground_velocity, integrate, ROW_OMEGA, ROW_THETA,
+                                           ROW_U, ROW_V, ROW_X, ROW_Y, STATE_NAMES)
 from formation_control.core.navigation import flow_input, PositionFilter
 from formation_control.core.scenario import initial_state, practical, resolve, Scenario
 from formation_control.core.sensors import Sample, Sensors
+from formation_control.core.vehicles import vehicle_model
 from formation_control.core.world import active, World
 from formation_control.sim import metrics
 from formation_control.sim.allocator import keep_freed_memory
@@ -99,7 +100,7 @@ class Run:
         out = {'t': self.t, 'params': np.array(self.sc.to_json()),
                'meta': np.array(json.dumps(self.meta))}
         out.update({name: self.X[:, row] for row, name in enumerate(STATE_NAMES)})
-        if self.sc.model in RIGID_MODELS:
+        if vehicle_model(self.sc.model).rigid:
             out['T'], out['F'] = self.U[:, 0], self.U[:, 1]
         else:
             out['command'] = self.U[:, 1]
@@ -227,7 +228,7 @@ class Stepper:
         """
         if self.sensors is not None:
             return self.sample().X
-        if self.world is None or not self.world.streams or self.sc.model not in RIGID_MODELS \
+        if self.world is None or not self.world.streams or not vehicle_model(self.sc.model).rigid \
                 or self.sc.flow_source != 'known':
             return self.X
         X = self.X.copy()
@@ -273,7 +274,7 @@ class Stepper:
         if self.aircraft is not None:
             self.aircraft.hold(aircraft.turn_demand(self.sc, self.X, self.U)
                                if demand is None else np.asarray(demand, float))
-        elif self.sc.model == 'first_order' and self.world is None:
+        elif vehicle_model(self.sc.model).first_order and self.world is None:
             self.X[ROW_OMEGA] = self.U[1]
         return self.U
 
@@ -658,7 +659,7 @@ def summary(run: Run) -> dict[str, Any]:
     if sc.formation == 'circular':
         out.update(centre_spread=final.spread, radius=final.radius,
                    radius_target=1.0 / abs(sc.omega0))
-    if sc.model in RIGID_MODELS:
+    if vehicle_model(sc.model).rigid:
         X = run.X[-1]
         out.update(mean_u=float(X[ROW_U].mean()), mean_v=float(X[ROW_V].mean()))
     return out
