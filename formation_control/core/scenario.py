@@ -1113,7 +1113,7 @@ def _check_physics(sc: Scenario) -> tuple[str, ...]:
                 f'with gain bandwidth*I0/(l*m0*u0) = {gain:.3g}, which must stay below 0.8 '
                 f'(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: '
                 f'practical, or model: rigid_couple')
-    if model.rigid and sc.controller == 'pi':
+    if 'h' in model.params and sc.controller == 'pi':
         if not sc.h * sc.u0 / sc.m0 > sc.K_I / sc.K_P:
             raise ScenarioError(
                 f'PI steering (8.24) needs h*u0/m0 = {sc.h * sc.u0 / sc.m0:.3g} > '
