@@ -142,6 +142,11 @@ def _read_by(name: str) -> dict[str, Any]:
     return dict(_POSITIVE, models=reading(name))
 
 
+def _derivative(name: str) -> dict[str, Any]:
+    """Return the Spec keywords of a hydrodynamic derivative (<= 0) for the models reading it."""
+    return {'high': 0.0, 'models': reading(name)}
+
+
 _LIMIT = {'low': 0.0, 'zero': 'no limit', 'runtime': True}
 _ENTRIES = 'num_vehicles entries, or none'
 
@@ -233,6 +238,25 @@ class Scenario:
     h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)', **_read_by('h'))
     l1: float = _param(0.0, 'm', 'centre of pressure l1 ahead of the centre of mass, rigid_cop '
                        '(A.1)')
+    # A marine surface vessel (core/vehicles/vessel.py): CyberShip II (Skjetne et al. 2005)
+    X_udot: float = _param(-2.0, 'kg', 'vessel: surge added mass X_udot',
+                           **_derivative('X_udot'))
+    Y_vdot: float = _param(-10.0, 'kg', 'vessel: sway added mass Y_vdot',
+                           **_derivative('Y_vdot'))
+    N_rdot: float = _param(-1.0, 'kg m^2', 'vessel: yaw added inertia N_rdot',
+                           **_derivative('N_rdot'))
+    X_u: float = _param(-0.7225, 'kg/s', 'vessel: linear surge damping X_u',
+                        **_derivative('X_u'))
+    X_uu: float = _param(-1.3274, 'kg/m', 'vessel: quadratic surge damping X_|u|u',
+                         **_derivative('X_uu'))
+    Y_v: float = _param(-0.8612, 'kg/s', 'vessel: linear sway damping Y_v',
+                        **_derivative('Y_v'))
+    Y_vv: float = _param(-36.2823, 'kg/m', 'vessel: quadratic sway damping Y_|v|v',
+                         **_derivative('Y_vv'))
+    N_r: float = _param(-1.9, 'kg m^2/s', 'vessel: linear yaw damping N_r',
+                        **_derivative('N_r'))
+    N_rr: float = _param(-0.75, 'kg m^2', 'vessel: quadratic yaw damping N_|r|r',
+                         **_derivative('N_rr'))
     # Real flight dynamics: JSBSim aircraft (core/aircraft.py, docs/aircraft.md)
     plant_backend: str = _param('native', '', 'what integrates the vehicles: native (the '
                                 "model's equations, core/models.py) or jsbsim (each vehicle a "

@@ -219,11 +219,11 @@ def test_num_vehicles_must_be_at_least_one():
 
 
 @pytest.mark.parametrize('name, value, allowed', [
-    ('model', 'boat', 'first_order | second_order | rigid | rigid_couple | rigid_cop'),
+    ('model', 'boat', 'first_order | second_order | rigid | rigid_couple | rigid_cop | vessel'),
     ('formation', 'line', 'parallel | circular'),
     ('controller', 'pid', 'first_order | backstepping | proportional | pi'),
     ('law_variant', 'exact', 'practical | full'),
-    ('model', 'Rigid', 'first_order | second_order | rigid | rigid_couple | rigid_cop'),
+    ('model', 'Rigid', 'first_order | second_order | rigid | rigid_couple | rigid_cop | vessel'),
 ])
 def test_unknown_choice_lists_the_allowed_values(name, value, allowed):
     _refused(rf"parameter '{name}' = '{value}' is invalid: allowed values: "

@@ -23,9 +23,11 @@ model                     ``U[0]``                               ``U[1]``
 ``rigid``        (6.15)   thrust T along body x (N)              steering force F at the tail (N)
 ``rigid_couple`` (8.22)   thrust T (N)                           moment-couple force F (N)
 ``rigid_cop``    (A.3)    thrust T (N)                           steering force F at the tail (N)
+``vessel`` (Fossen)       surge force tau_u (N)                  yaw moment tau_r (N m)
 ========================  =====================================  ================================
 
-Each is a :class:`base.VehicleModel` (one file per family: :mod:`particles`, :mod:`rigid`);
+Each is a :class:`base.VehicleModel` (one file per family: :mod:`particles`, :mod:`rigid`,
+:mod:`vessel`);
 the rest of the package asks the model object (``models.Plant.model``, :func:`vehicle_model`)
 what it is and what it does, never its name.
 """
@@ -34,9 +36,10 @@ from __future__ import annotations
 from formation_control.core.vehicles.base import VehicleModel
 from formation_control.core.vehicles.particles import FirstOrder, SecondOrder
 from formation_control.core.vehicles.rigid import Rigid, RigidCop, RigidCouple
+from formation_control.core.vehicles.vessel import Vessel
 
 VEHICLE_MODELS: dict[str, VehicleModel] = {
-    m.name: m for m in (FirstOrder(), SecondOrder(), Rigid(), RigidCouple(), RigidCop())}
+    m.name: m for m in (FirstOrder(), SecondOrder(), Rigid(), RigidCouple(), RigidCop(), Vessel())}
 """Every vehicle model by its name, in the order the docs list them."""
 MODEL_NAMES = tuple(VEHICLE_MODELS)
 
