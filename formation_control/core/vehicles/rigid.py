@@ -102,8 +102,8 @@ class Rigid(VehicleModel):
         Return the steering force that gives the yaw acceleration ``dw``, (7.3), (8.11), (A.20).
 
         ``F = -(I0/l)(omega' - h')`` (N) from ``omega' = -(l/I0) F + h'`` (6.14), (A.3), h' the
-        drag moment's (:meth:`drag_moment_accel`). (7.3) prints I0/I; (6.14) requires I0/l
-        (errata).
+        drag moment's (:meth:`base.VehicleModel.drag_moment_accel`). (7.3) prints I0/I; (6.14)
+        requires I0/l (errata).
         """
         if self.drag_moment:
             dw = dw - self.drag_moment_accel(X, p)
