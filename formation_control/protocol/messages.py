@@ -27,6 +27,7 @@ attributes only, so they serve rclpy messages and those a bag reader builds alik
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from functools import lru_cache
 import math
 from operator import attrgetter
 from types import MappingProxyType
@@ -189,6 +190,14 @@ def ground_velocity_of(values: Sequence[float]) -> complex:
     return complex(vx, vy) * complex(math.cos(theta), math.sin(theta))
 
 
+@lru_cache(maxsize=None)
+def _slots(model: str) -> tuple[int, int]:
+    """Return the :data:`CMD_FIELDS` index of each input row of ``model`` (4: not sent)."""
+    first, second = ((CMD_FIELDS + ('',)).index(name)
+                     for name in vehicle_model(model).command_fields)
+    return first, second
+
+
 def cmd_values(u: Sequence[float] | RealArray,
                model: str) -> tuple[float, float, float, float]:
     """
@@ -198,19 +207,17 @@ def cmd_values(u: Sequence[float] | RealArray,
     bodies thrust, steering force; a second-order particle the angular acceleration; a
     first-order one the turn rate; the other fields are 0.
     """
-    fields = dict.fromkeys(CMD_FIELDS, 0.0)
-    for name, value in zip(vehicle_model(model).command_fields, u):
-        if name:
-            fields[name] = float(value)
-    thrust, steering, acceleration, turn_rate = fields.values()
-    return thrust, steering, acceleration, turn_rate
+    out = [0.0, 0.0, 0.0, 0.0, 0.0]
+    first, second = _slots(model)
+    out[first], out[second] = float(u[0]), float(u[1])
+    return out[0], out[1], out[2], out[3]
 
 
 def input_from_cmd_values(values: Sequence[float], model: str) -> tuple[float, float]:
     """Return the input column (2,) of the :data:`CMD_FIELDS` of a command."""
-    fields = dict(zip(CMD_FIELDS, values))
-    first, second = (fields[name] if name else 0.0 for name in vehicle_model(model).command_fields)
-    return first, second
+    padded = (*values, 0.0)
+    first, second = _slots(model)
+    return padded[first], padded[second]
 
 
 def odom_values_of(msg: Any) -> tuple[float, ...]:
