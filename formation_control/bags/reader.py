@@ -38,6 +38,7 @@ from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import ROW_OMEGA
 from formation_control.core.scenario import resolve, Scenario
+from formation_control.core.vehicles import vehicle_model
 from formation_control.protocol import names
 from formation_control.protocol.messages import (input_from_cmd, INTERFACE_VERSION,
                                                  METRIC_DOC, stamp_ns, state_from_odom)
@@ -170,7 +171,7 @@ def read_run(path: str | Path) -> Run:
         values = np.array([u for _, u in seq]).reshape(-1, 2)
         at = np.searchsorted(times, stamps, side='right') - 1
         U[at >= 0, :, k] = values[at[at >= 0]]
-    if sc.model == 'first_order':
+    if vehicle_model(sc.model).first_order:
         X[:, ROW_OMEGA] = U[:, 1]
     return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)})
 

@@ -34,8 +34,9 @@
 #include <math.h>
 #include <string.h>
 
-/* models.MODELS, in order */
-enum { FIRST_ORDER, SECOND_ORDER, RIGID, RIGID_COUPLE, RIGID_COP, NUM_MODELS };
+/* The kernel ids of the models it integrates, exported as _rk4.FIRST_ORDER, ...: each vehicle
+   model of core/vehicles names its own (VehicleModel.kernel); a model without one is not here */
+enum { FIRST_ORDER = 0, SECOND_ORDER = 1, RIGID = 2, RIGID_COUPLE = 3, RIGID_COP = 4, NUM_MODELS };
 #define TURN_MAX 0.05
 #define BLOCK 256
 
@@ -185,7 +186,8 @@ PyDoc_STRVAR(integrate_doc,
 "integrate(X, U, P, model, dt, steps, l, fx, fy)\n--\n\n"
 "Take ``steps`` RK4 steps of ``dt`` of every vehicle in place, the inputs held.\n\n"
 "X: C-contiguous float64 (6, n), rows x, y, theta, omega, u, v (written); U: (2, n) inputs;\n"
-"P: (4, 1) or (4, n) m0, I0, h, l1; model: index into models.MODELS; l: the steering arm;\n"
+"P: (4, 1) or (4, n) m0, I0, h, l1; model: a kernel id (_rk4.FIRST_ORDER, SECOND_ORDER, RIGID,\n"
+"RIGID_COUPLE, RIGID_COP: VehicleModel.kernel); l: the steering arm;\n"
 "fx, fy: the uniform steady flow (m/s).");
 
 static PyObject *integrate(PyObject *self, PyObject *args)
@@ -207,7 +209,7 @@ static PyObject *integrate(PyObject *self, PyObject *args)
     else if (pb.len != 4 * per * (Py_ssize_t)sizeof(double) || (per != 1 && per != n))
         error = "P must hold 4 float64 rows of length 1 or X's";
     else if (model < 0 || model >= NUM_MODELS)
-        error = "model must index models.MODELS";
+        error = "model must index the kernel's models (_rk4.FIRST_ORDER .. _rk4.RIGID_COP)";
     else if (r.steps < 0)
         error = "steps must be >= 0";
     Block *b = error ? NULL : PyMem_RawCalloc(1, sizeof(Block));
@@ -241,5 +243,16 @@ static struct PyModuleDef module = {
 
 PyMODINIT_FUNC PyInit__rk4(void)
 {
-    return PyModule_Create(&module);
+    PyObject *m = PyModule_Create(&module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddIntConstant(m, "FIRST_ORDER", FIRST_ORDER) < 0
+            || PyModule_AddIntConstant(m, "SECOND_ORDER", SECOND_ORDER) < 0
+            || PyModule_AddIntConstant(m, "RIGID", RIGID) < 0
+            || PyModule_AddIntConstant(m, "RIGID_COUPLE", RIGID_COUPLE) < 0
+            || PyModule_AddIntConstant(m, "RIGID_COP", RIGID_COP) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
 }

@@ -79,6 +79,7 @@ from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
 from formation_control.core.parameters import DEFAULTS, MISMATCH_ARRAYS, Scenario
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 G = 9.80665                      # standard gravity (m/s^2)
@@ -219,7 +220,8 @@ def turn_demand(sc: Scenario, X: RealArray, U: RealArray) -> RealArray:
 
     """
     U = np.asarray(U, float)
-    rate = U[1] if sc.model == 'first_order' else np.asarray(X)[ROW_OMEGA] + sc.turn_lag * U[1]
+    rate = U[1] if vehicle_model(sc.model).first_order else \
+        np.asarray(X)[ROW_OMEGA] + sc.turn_lag * U[1]
     return np.stack([np.full(np.shape(rate), sc.airspeed), rate])
 
 
@@ -243,7 +245,7 @@ def law_input(sc: Scenario, omega: RealArray, demand: RealArray) -> RealArray:
 
     """
     rate = np.asarray(demand, float)[1]
-    if sc.model != 'first_order':
+    if not vehicle_model(sc.model).first_order:
         rate = (rate - np.asarray(omega, float)) / sc.turn_lag
     return np.stack([np.zeros(np.shape(rate)), rate])
 

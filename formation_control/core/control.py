@@ -30,9 +30,10 @@ from formation_control.core.flow import uses_flow_rates, vehicle_speed
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
 from formation_control.core.models import (body_accel, ground_velocity, integrate, Plant,
-                                           position, RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U,
-                                           ROW_V, ROW_X, ROW_Y)
+                                           position, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V, ROW_X,
+                                           ROW_Y)
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 
@@ -215,16 +216,17 @@ def thrust(X: RealArray, u0: float, K_f: float, plant: Plant) -> RealArray:
     K_f : float
         Speed gain (1/s).
     plant : Plant
-        Physical parameters (m0, h).
+        Physical parameters and the model, whose inverse gives the thrust
+        (:meth:`vehicles.base.VehicleModel.thrust`).
 
     Returns
     -------
     ndarray, shape (N,)
-        ``T = h s u - m0 v omega + m0 K_f (u0 - u)`` (N), which gives ``u' = K_f (u0 - u)``.
+        The thrust that gives ``u' = K_f (u0 - u)``: ``T = h s u - m0 v omega + m0 K_f (u0 - u)``
+        (N) for the thesis' rigid bodies.
 
     """
-    u, v = X[ROW_U], X[ROW_V]
-    return plant.h * np.hypot(u, v) * u - plant.m0 * v * X[ROW_OMEGA] + plant.m0 * K_f * (u0 - u)
+    return plant.model.thrust(X, K_f * (u0 - X[ROW_U]), plant)
 
 
 def rigid_view(X: RealArray, U_applied: RealArray, plant: Plant,
@@ -291,12 +293,11 @@ def drag_moment_accel(X: RealArray, plant: Plant) -> RealArray:
     Returns
     -------
     ndarray, shape (N,)
-        ``h' = -(l1/I0) D sin(beta) = -(l1/I0) h s v`` (rad/s^2) for ``rigid_cop``, else 0.
+        ``h' = -(l1/I0) D sin(beta) = -(l1/I0) h s v`` (rad/s^2) for ``rigid_cop``, else 0
+        (:meth:`vehicles.base.VehicleModel.drag_moment_accel`).
 
     """
-    if plant.model != 'rigid_cop':
-        return np.zeros(X.shape[1:])
-    return -plant.l1 * plant.h * np.hypot(X[ROW_U], X[ROW_V]) * X[ROW_V] / plant.I0
+    return plant.model.drag_moment_accel(X, plant)
 
 
 def steering_force(a: RealArray, X: RealArray, plant: Plant,
@@ -318,13 +319,15 @@ def steering_force(a: RealArray, X: RealArray, plant: Plant,
     Returns
     -------
     ndarray, shape (N,)
-        ``F = -(I0/l)(a - h')`` (N). (7.3) prints I0/I; ``omega' = -(l/I0) F`` (6.14) requires
-        I0/l (errata).
+        The model's steering input for ``a`` (:meth:`vehicles.base.VehicleModel.steering`):
+        ``F = -(I0/l)(a - h')`` (N) for the thesis' rigid bodies. (7.3) prints I0/I;
+        ``omega' = -(l/I0) F`` (6.14) requires I0/l (errata). Without ``cancel_drag_moment``
+        the law takes the body as one without a drag moment (``l1 = 0``).
 
     """
-    if cancel_drag_moment:
-        a = a - drag_moment_accel(X, plant)
-    return -plant.I0 * a / plant.l
+    if not cancel_drag_moment and plant.model.drag_moment:
+        plant = replace(plant, l1=0.0)
+    return plant.model.steering(X, a, plant)
 
 
 def command_limits(sc: Scenario) -> RealArray:
@@ -343,10 +346,11 @@ def command_limits(sc: Scenario) -> RealArray:
         (second order) or rad/s (first order); inf where there is no limit.
 
     """
-    if sc.model in RIGID_MODELS:
+    model = vehicle_model(sc.model)
+    if model.rigid:
         limits = (sc.max_thrust, sc.max_steering_force)
     else:
-        limits = (0.0, sc.max_turn_rate if sc.model == 'first_order' else sc.max_angular_accel)
+        limits = (0.0, sc.max_turn_rate if model.first_order else sc.max_angular_accel)
     return np.array([v if v > 0 else np.inf for v in limits])
 
 
@@ -439,7 +443,7 @@ class Controller:
         self.sc = sc
         self.plant = Plant.of(sc)
         self.still = Plant.of(replace(sc, flow=(0.0, 0.0), flow_model='uniform'))
-        self.rigid = sc.model in RIGID_MODELS
+        self.rigid = self.plant.model.rigid
         self.speed = vehicle_speed(sc) if not self.rigid else 1.0
         coupling = None if sc.all_to_all else sc.comm_graph.coupling()
         cross = 1.0 / math.prod(law_units(sc)) ** 2

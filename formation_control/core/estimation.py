@@ -39,7 +39,8 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import position, RIGID_MODELS, ROW_THETA, ROW_U, ROW_V
+from formation_control.core.models import position, ROW_THETA, ROW_U, ROW_V
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 if TYPE_CHECKING:
@@ -112,7 +113,7 @@ class FlowEstimator:
         self.fhat = np.zeros(n, complex)
         self.rhat: ComplexArray | None = None
         self.v_rel = np.zeros(n, complex)
-        self.limit = CLAMP * (sc.u0 if sc.model in RIGID_MODELS else 1.0)
+        self.limit = CLAMP * vehicle_model(sc.model).speed(sc.u0)
 
     def update(self, X: RealArray, v_ground: ComplexArray,
                neighbours: ComplexArray | None = None,
@@ -210,7 +211,7 @@ def filter_noise(sc: Scenario) -> float:
     Particles know their own velocity through the water (water_sigma does not apply).
     """
     a = np.exp(-bandwidth(sc) * sc.dt_control)
-    water = sc.water_sigma if sc.model in RIGID_MODELS else 0.0
+    water = sc.water_sigma if vehicle_model(sc.model).rigid else 0.0
     return float(np.sqrt((sc.velocity_sigma ** 2 + water ** 2) * (1 - a) / (1 + a)))
 
 
@@ -239,7 +240,7 @@ def best_gain(sc: Scenario) -> float:
     ``lambda* = sigma_g sqrt(2 b / N) - b`` (``N = s^2 dt``); the fastest the sampled filter
     takes, ``1 / dt``, without noise; a slow ``b`` where the gust is nil.
     """
-    water = sc.water_sigma if sc.model in RIGID_MODELS else 0.0
+    water = sc.water_sigma if vehicle_model(sc.model).rigid else 0.0
     N = (sc.velocity_sigma ** 2 + water ** 2) * sc.dt_control
     b = 1.0 / sc.gust_time
     if N == 0:

@@ -27,9 +27,9 @@ from formation_control.core import formations
 from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import Flowfield, FlowfieldError
-from formation_control.core.models import PARTICLE_MODELS, RIGID_MODELS
 from formation_control.core.parameters import Scenario
 from formation_control.core.steering import uses_held_force
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 
@@ -51,9 +51,10 @@ def _check_flow(sc: Scenario) -> None:
     if sc.plant_backend == 'jsbsim' and speed >= sc.airspeed:
         _fail(where, value, f'aircraft need {what} < airspeed = {sc.airspeed} m/s (the wind '
               f'must not blow them backwards)')
-    if sc.plant_backend == 'native' and sc.model in PARTICLE_MODELS and speed >= 1:
+    model = vehicle_model(sc.model)
+    if sc.plant_backend == 'native' and model.particle and speed >= 1:
         _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
-    if sc.model in RIGID_MODELS and speed >= sc.u0:
+    if model.rigid and speed >= sc.u0:
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
     strength = {'time_varying': 'flow_amplitude', 'shear': 'flow_shear',
                 'vortex': 'flow_circulation'}.get(sc.flow_model)
@@ -72,7 +73,7 @@ def vehicle_speed(sc: Scenario) -> float:
     """Return the vehicles' speed relative to the flow (m/s): 1 particles, u0 rigid, airspeed."""
     if sc.plant_backend == 'jsbsim':
         return sc.airspeed
-    return sc.u0 if sc.model in RIGID_MODELS else 1.0
+    return vehicle_model(sc.model).speed(sc.u0)
 
 
 SLOW_FLOW = 0.1
@@ -91,7 +92,7 @@ def uses_flow_rates(sc: Scenario) -> bool:
     """
     return (sc.flow_source == 'known' and sc.flow_model != 'uniform'
             and sc.plant_backend != 'jsbsim'
-            and (sc.model not in RIGID_MODELS or uses_held_force(sc)))
+            and (not vehicle_model(sc.model).rigid or uses_held_force(sc)))
 
 
 def _steady_view_why(sc: Scenario) -> str:

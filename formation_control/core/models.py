@@ -13,50 +13,43 @@
 # limitations under the License.
 
 """
-Vehicle models as state-derivative functions, and the RK4 integrator kept apart from them.
+The state layout, the plant's parameters and the RK4 integrator, kept apart from the models.
 
 Every model uses the same state layout, an array ``X`` of shape (6, N) with rows
-``x, y, theta, omega, u, v`` (m, m, rad, rad/s, m/s, m/s), and an input ``U`` of shape (2, N):
-
-========================  =====================================  ================================
-model                     ``U[0]``                               ``U[1]``
-========================  =====================================  ================================
-``first_order``  (1.1)    unused                                 turn rate theta' (rad/s)
-``second_order`` (1.3)    unused                                 angular acceleration a (rad/s^2)
-``rigid``        (6.15)   thrust T along body x (N)              steering force F at the tail (N)
-``rigid_couple`` (8.22)   thrust T (N)                           moment-couple force F (N)
-``rigid_cop``    (A.3)    thrust T (N)                           steering force F at the tail (N)
-========================  =====================================  ================================
+``x, y, theta, omega, u, v`` (m, m, rad, rad/s, m/s, m/s), and an input ``U`` of shape (2, N)
+whose rows are the model's (:mod:`vehicles`, the table of models by name).
 
 ``u, v`` are the body-frame velocity relative to the flow ``f``; the ground velocity is
 ``(u + i v) e^{i theta} + f`` (8.1), with ``f = f(t, x, y)`` the :mod:`flowfields` flow at the
 vehicle's own place and time (uniform and steady in the thesis). Particles keep ``u = 1, v = 0``.
 
-:func:`deriv` is the right-hand side and :func:`rk4_step` one classical RK4 step on it;
-:func:`integrate` takes the same steps in a uniform steady flow with the compiled RK4
-(``_rk4.c``, vehicle by vehicle), and agrees with :func:`rk4_step` to rounding
-(test_rigid.py); in a flow that is not uniform, where every stage needs its own positions,
-it takes :func:`rk4_step`.
+:func:`deriv` is the right-hand side (the model's :meth:`vehicles.base.VehicleModel.rates` plus
+the flow) and :func:`rk4_step` one classical RK4 step on it; :func:`integrate` takes the same
+steps in a uniform steady flow with the model's compiled RK4 (``_rk4.c``, vehicle by vehicle)
+where it has one, and agrees with :func:`rk4_step` to rounding (test_rigid.py); in a flow that
+is not uniform, where every stage needs its own positions, or for a model without a kernel, it
+takes :func:`rk4_step`.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from formation_control.core import _rk4  # type: ignore[attr-defined]
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import ComplexArray, RealArray
+from formation_control.core.vehicles import vehicle_model, VehicleModel
+from formation_control.core.vehicles.base import (ROW_OMEGA, ROW_THETA, ROW_U, ROW_V, ROW_X,
+                                                  ROW_Y, STATE_NAMES)
 import numpy as np
 
 if TYPE_CHECKING:
     from formation_control.core.parameters import Scenario
 
-ROW_X, ROW_Y, ROW_THETA, ROW_OMEGA, ROW_U, ROW_V = range(6)
-STATE_NAMES = ('x', 'y', 'theta', 'omega', 'u', 'v')
-PARTICLE_MODELS = ('first_order', 'second_order')
-RIGID_MODELS = ('rigid', 'rigid_couple', 'rigid_cop')
-MODELS = PARTICLE_MODELS + RIGID_MODELS
+__all__ = ['body_accel', 'deriv', 'ground_velocity', 'integrate', 'Plant', 'position',
+           'rk4', 'rk4_step', 'ROW_OMEGA', 'ROW_THETA', 'ROW_U', 'ROW_V', 'ROW_X', 'ROW_Y',
+           'STATE_NAMES']
 
 
 @dataclass(frozen=True)
@@ -66,8 +59,8 @@ class Plant:
 
     Attributes
     ----------
-    model : str
-        One of ``MODELS``.
+    model : vehicles.base.VehicleModel
+        The vehicle model (:func:`vehicles.vehicle_model` of the scenario's ``model``).
     flow : flowfields.Flowfield
         The flow ``f(t, x, y) = fx + i fy`` (m/s); uniform and steady in the thesis.
     m0 : float
@@ -80,19 +73,22 @@ class Plant:
         Drag coefficient, ``D = h s^2`` (kg/m), ``h = rho S C_D / 2`` (6.15).
     l1 : float
         Centre of pressure ahead of the centre of mass (m), ``rigid_cop`` only (A.1).
+    coeffs : mapping of str to float
+        The model's further coefficients (``VehicleModel.coefficients``), by parameter name.
 
     m0, I0, h and l1 may be arrays, one value per vehicle (the true vehicles of
     :class:`world.World`), broadcast against the vehicles of a state.
 
     """
 
-    model: str
+    model: VehicleModel
     flow: Flowfield
     m0: float | RealArray
     I0: float | RealArray
     l: float
     h: float | RealArray
     l1: float | RealArray
+    coeffs: Mapping[str, float] = field(default_factory=dict)
 
     @classmethod
     def of(cls, sc: Scenario) -> Plant:
@@ -102,15 +98,17 @@ class Plant:
         Parameters
         ----------
         sc : scenario.Scenario
-            Any object with the scenario's attributes ``model, m0, I0, l, h, l1`` and the
-            flowfield's (:class:`flowfields.Flowfield`).
+            Any object with the scenario's attributes ``model, m0, I0, l, h, l1``, the model's
+            coefficients and the flowfield's (:class:`flowfields.Flowfield`).
 
         Returns
         -------
         Plant
 
         """
-        return cls(sc.model, Flowfield(sc), sc.m0, sc.I0, sc.l, sc.h, sc.l1)
+        model = vehicle_model(sc.model)
+        coeffs = {name: getattr(sc, name) for name in model.coefficients}
+        return cls(model, Flowfield(sc), sc.m0, sc.I0, sc.l, sc.h, sc.l1, coeffs)
 
 
 def position(X: RealArray) -> ComplexArray:
@@ -157,40 +155,24 @@ def ground_velocity(X: RealArray,
 def body_accel(X: RealArray, U: RealArray,
                plant: Plant) -> tuple[RealArray, ...]:
     """
-    Return the body-frame accelerations of the rigid-body models, (6.15), (8.9), (8.22), (A.3).
+    Return the body-frame accelerations ``u', v', omega'`` of a model with body velocity.
 
     Parameters
     ----------
     X : array_like, shape (6, ...)
         States (rows x, y, theta, omega, u, v; see the module docstring).
     U : array_like, shape (2, ...)
-        Inputs: thrust T and steering force F (N).
+        Inputs (thrust and steering input of ``plant.model``).
     plant : Plant
-        A rigid-body model (``plant.model`` in ``RIGID_MODELS``).
+        A model with body velocity rows (``plant.model.rigid``).
 
     Returns
     -------
     du, dv, domega : ndarray, shape ``X.shape[1:]``
-        ``u' = (T - h s u) / m0 + v omega`` and ``v' = (F - h s v) / m0 - u omega`` (m/s^2; no
-        F in v' for the moment couple (8.22)), ``omega' = -l F / I0`` (rad/s^2; minus
-        ``l1 h s v / I0`` for the centre of pressure (A.3)), with ``s = |u + i v|``.
-
-    Notes
-    -----
-    Drag ``D = h s^2`` opposes the flow-relative velocity, so ``D cos(beta) = h s u`` and
-    ``D sin(beta) = h s v``. Written in flow-relative u, v, the uniform steady flow drops out.
+        The model's :meth:`vehicles.base.VehicleModel.body_accel`, e.g. (6.15), (8.22), (A.3).
 
     """
-    u, v, w = X[ROW_U], X[ROW_V], X[ROW_OMEGA]
-    thrust, force = U[0], U[1]
-    hs = np.sqrt(u * u + v * v) * plant.h                  # h s (faster than np.hypot)
-    side = -(hs * v) if plant.model == 'rigid_couple' else force - hs * v   # (8.22): a couple
-    du = (thrust - hs * u) * (1.0 / plant.m0) + v * w      # (T - h s u) / m0 + v omega
-    dv = side * (1.0 / plant.m0) - u * w                   # (F - h s v) / m0 - u omega
-    dw = force * (-plant.l / plant.I0)                     # -l F / I0
-    if plant.model == 'rigid_cop':                         # (A.3): drag moment
-        dw = dw - hs * plant.l1 * v * (1.0 / plant.I0)
-    return du, dv, dw
+    return plant.model.body_accel(X, U, plant)
 
 
 def deriv(X: RealArray, U: RealArray, plant: Plant,
@@ -212,25 +194,15 @@ def deriv(X: RealArray, U: RealArray, plant: Plant,
     Returns
     -------
     ndarray, shape (6, N)
-        dX/dt: particles (1.1), (1.3), ``r' = e^{i theta} + f`` (1.4); rigid bodies
-        ``r' = (u + i v) e^{i theta} + f`` (6.7), (8.1), ``theta' = omega`` and
-        :func:`body_accel`. Rows a model does not move are zero (u, v of particles; omega of
-        first-order ones, whose turn rate is the input).
+        dX/dt: the model's rates in still water (:meth:`vehicles.base.VehicleModel.rates`:
+        particles (1.1), (1.3); rigid bodies ``r' = (u + i v) e^{i theta}`` (6.7),
+        ``theta' = omega`` and :func:`body_accel`) plus the flow, ``r' += f`` (1.4), (8.1).
+        Rows a model does not move are zero (u, v of particles; omega of first-order ones,
+        whose turn rate is the input).
 
     """
     X = np.asarray(X, dtype=float)
-    c, s = np.cos(X[ROW_THETA]), np.sin(X[ROW_THETA])
-    dX = np.zeros(X.shape)
-    if plant.model in PARTICLE_MODELS:
-        dX[ROW_X], dX[ROW_Y] = c, s                          # (1.1), (1.3)
-        dX[ROW_THETA] = U[1] if plant.model == 'first_order' else X[ROW_OMEGA]
-        if plant.model == 'second_order':
-            dX[ROW_OMEGA] = U[1]
-    else:
-        u, v = X[ROW_U], X[ROW_V]
-        dX[ROW_X], dX[ROW_Y] = u * c - v * s, u * s + v * c  # (6.7)
-        dX[ROW_THETA] = X[ROW_OMEGA]
-        dX[ROW_U], dX[ROW_V], dX[ROW_OMEGA] = body_accel(X, U, plant)
+    dX = plant.model.rates(X, U, plant)
     flow = plant.flow.value if plant.flow.uniform else \
         plant.flow(t, X[ROW_X], X[ROW_Y])                    # at each vehicle's own place
     dX[ROW_X] += np.real(flow)                               # (1.4), (1.7), (8.1)
@@ -324,15 +296,16 @@ def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
 
     Notes
     -----
-    In a uniform steady flow this is the compiled RK4 (``_rk4.c``), vehicle by vehicle: a
-    vehicle's numbers do not depend on the others, so a fleet integrated alone, in a batch or
-    as one vehicle of a node are the same bit for bit. cos and sin of each stage's heading are
+    In a uniform steady flow this is the model's compiled RK4 (``_rk4.c``, the kernel
+    ``plant.model.kernel``), vehicle by vehicle: a vehicle's numbers do not depend on the
+    others, so a fleet integrated alone, in a batch or as one vehicle of a node are the same
+    bit for bit. cos and sin of each stage's heading are
     those of the step's turned by the stage's increment (a Taylor series below 0.05 rad);
-    omega' held, the last stage's heading is the next step's. A flow that is not uniform takes
-    :func:`rk4_step`, which evaluates it at every stage.
+    omega' held, the last stage's heading is the next step's. A flow that is not uniform, or a
+    model without a kernel, takes :func:`rk4_step`, which evaluates the flow at every stage.
 
     """
-    if not plant.flow.uniform:
+    if not plant.flow.uniform or plant.model.kernel is None:
         for step in range(steps):
             X = rk4_step(X, U, dt, plant, t + step * dt)
         return X
@@ -343,6 +316,6 @@ def integrate(X: RealArray, U: RealArray, dt: float, steps: int, plant: Plant,
     if any(p.ndim for p in params):
         params = [np.broadcast_to(p, shape[1:]) for p in params]
     flow = complex(plant.flow.value)
-    _rk4.integrate(X, U, np.ascontiguousarray(params), MODELS.index(plant.model), dt, steps,
+    _rk4.integrate(X, U, np.ascontiguousarray(params), plant.model.kernel, dt, steps,
                    plant.l, flow.real, flow.imag)
     return X

@@ -49,9 +49,9 @@ import math
 from typing import TYPE_CHECKING
 
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import (ground_velocity, integrate, Plant, RIGID_MODELS, ROW_X,
-                                           ROW_Y)
+from formation_control.core.models import ground_velocity, integrate, Plant, ROW_X, ROW_Y
 from formation_control.core.sensors import fix_every
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 if TYPE_CHECKING:
@@ -121,7 +121,7 @@ def water_noise(sc: Scenario) -> float:
     and the heading noise turning the speed V (u0, or 1 for particles) across the track,
     ``V heading_sigma``, shared on average by the two map axes.
     """
-    rigid = sc.model in RIGID_MODELS
+    rigid = vehicle_model(sc.model).rigid
     speed = sc.u0 if rigid else 1.0
     water = sc.water_sigma if rigid else 0.0
     return math.sqrt(water ** 2 + 0.5 * (speed * sc.heading_sigma) ** 2)
@@ -151,11 +151,14 @@ def thrust_push(sc: Scenario) -> float:
     """
     Return the true speed change per unit of speed noise in a step that the model misses (s).
 
-    A rigid body thrusting from a measured speed off by n moves by ``2 h u0 / m0 n dt`` more
-    than its model, started from the measured speed, predicts (:func:`sensors.speed_under_noise`:
-    ``K_f + c``); 0 for particles, whose command moves model and vehicle alike.
+    A rigid body thrusting from a measured speed off by n moves by ``c n dt`` more than its
+    model, started from the measured speed, predicts (:func:`sensors.speed_under_noise`:
+    ``K_f + c``), c its surge drag rate (``2 h u0 / m0`` for the thesis' bodies,
+    :meth:`vehicles.base.VehicleModel.surge_mode`); 0 for particles, whose command moves
+    model and vehicle alike.
     """
-    return 2.0 * sc.h * sc.u0 / sc.m0 * sc.dt_control if sc.model in RIGID_MODELS else 0.0
+    surge = vehicle_model(sc.model).surge_mode(sc)
+    return surge[1] * sc.dt_control if surge is not None else 0.0
 
 
 def flow_error(sc: Scenario, gain: float | None = None,
@@ -180,7 +183,7 @@ def flow_error(sc: Scenario, gain: float | None = None,
     (:func:`filtered_bandwidth`, :func:`velocity_gains`); ``gains = (1, 1)`` is the raw feed
     (e then cancels: the raw difference ``v_ground - v_rel`` holds no model).
     """
-    rigid = sc.model in RIGID_MODELS
+    rigid = vehicle_model(sc.model).rigid
     speed = sc.u0 if rigid else 1.0
     return _flow_error(sc.dt_control, filtered_bandwidth(sc) if gain is None else float(gain),
                        velocity_gains(sc) if gains is None else gains,

@@ -35,18 +35,15 @@ from typing import Any, TYPE_CHECKING
 
 from formation_control.core.errors import refuse as _fail, ScenarioError, UsageError
 from formation_control.core.geometry import RealArray
+from formation_control.core.vehicles import (MODEL_NAMES, reading, rigid_names, vehicle_model,
+                                             VEHICLE_MODELS)
+from formation_control.core.vehicles.base import STATE_NAMES
 import numpy as np
 import yaml
 
 if TYPE_CHECKING:
     from formation_control.core.graphs import Graph
 
-STATE_NAMES = ('x', 'y', 'theta', 'omega', 'u', 'v')
-"""The rows of a vehicle's state (:mod:`models`)."""
-PARTICLE_MODELS = ('first_order', 'second_order')
-RIGID_MODELS = ('rigid', 'rigid_couple', 'rigid_cop')
-MODELS = PARTICLE_MODELS + RIGID_MODELS
-"""The vehicle models (:mod:`models`)."""
 FLOW_MODELS = ('uniform', 'time_varying', 'shear', 'vortex', 'grid')
 """The flowfields (:mod:`flowfields`)."""
 MISMATCH_NAMES = ('m0', 'I0', 'h', 'l1', 'thrust', 'steering')
@@ -118,7 +115,7 @@ class Spec:
     high: float | None = None
     above: bool = False
     zero: str = ''
-    models: tuple[str, ...] = MODELS
+    models: tuple[str, ...] = MODEL_NAMES
     choices: tuple[str, ...] = ()
     rule: str = ''
     runtime: bool = False
@@ -131,7 +128,22 @@ def _param(default: object, unit: str, text: str, **spec: Any) -> Any:
 
 
 _POSITIVE = {'low': 0.0, 'above': True}
-_RIGID_POSITIVE = dict(_POSITIVE, models=RIGID_MODELS)
+_RIGID_POSITIVE = dict(_POSITIVE, models=rigid_names())
+_MODELS_TEXT = '; '.join(
+    f"{kind} {', '.join(m.text for m in VEHICLE_MODELS.values() if m.particle == particle)}"
+    for kind, particle in (('particles', True), ('rigid bodies', False)))
+
+
+def _read_by(name: str) -> dict[str, Any]:
+    """Return the Spec keywords of a vehicle parameter > 0 for the models that read it."""
+    return dict(_POSITIVE, models=reading(name))
+
+
+def _derivative(name: str) -> dict[str, Any]:
+    """Return the Spec keywords of a hydrodynamic derivative (<= 0) for the models reading it."""
+    return {'high': 0.0, 'models': reading(name)}
+
+
 _LIMIT = {'low': 0.0, 'zero': 'no limit', 'runtime': True}
 _ENTRIES = 'num_vehicles entries, or none'
 
@@ -150,9 +162,8 @@ class Scenario:
 
     # Chapters 1-5: the fleet and the particle laws
     num_vehicles: int = _param(16, '', 'number of vehicles N, numbered 1..N', low=1)
-    model: str = _param(
-        'second_order', '', 'vehicle model: particles first_order (1.1), second_order (1.3); '
-        'rigid bodies rigid (6.15), rigid_couple (8.22), rigid_cop (A.3)', choices=MODELS)
+    model: str = _param('second_order', '', f'vehicle model: {_MODELS_TEXT}',
+                        choices=MODEL_NAMES)
     formation: str = _param('parallel', '', 'formation: parallel (1.12) or circular (1.16)',
                             choices=FORMATIONS)
     controller: str = _param(
@@ -216,15 +227,33 @@ class Scenario:
     K_P: float = _param(10.0, '1/s', 'PI steering proportional gain K_P (8.24)', runtime=True,
                         **_RIGID_POSITIVE)
     K_I: float = _param(15.0, '1/s^2', 'PI steering integral gain K_I (8.24)', runtime=True,
-                        low=0.0, models=RIGID_MODELS)
-    m0: float = _param(1.0, 'kg', 'mass m0 (6.15)', **_RIGID_POSITIVE)
-    I0: float = _param(0.1, 'kg m^2', 'yaw moment of inertia I0 (6.15)', **_RIGID_POSITIVE)
+                        low=0.0, models=rigid_names())
+    m0: float = _param(1.0, 'kg', 'mass m0 (6.15)', **_read_by('m0'))
+    I0: float = _param(0.1, 'kg m^2', 'yaw moment of inertia I0 (6.15)', **_read_by('I0'))
     l: float = _param(0.5, 'm', 'arm l of the steering force behind the centre of mass (6.14)',
-                      **_RIGID_POSITIVE)
-    h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)',
-                      **_RIGID_POSITIVE)
+                      **_read_by('l'))
+    h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)', **_read_by('h'))
     l1: float = _param(0.0, 'm', 'centre of pressure l1 ahead of the centre of mass, rigid_cop '
                        '(A.1)')
+    # A marine surface vessel (core/vehicles/vessel.py): CyberShip II (Skjetne et al. 2005)
+    X_udot: float = _param(-2.0, 'kg', 'vessel: surge added mass X_udot',
+                           **_derivative('X_udot'))
+    Y_vdot: float = _param(-10.0, 'kg', 'vessel: sway added mass Y_vdot',
+                           **_derivative('Y_vdot'))
+    N_rdot: float = _param(-1.0, 'kg m^2', 'vessel: yaw added inertia N_rdot',
+                           **_derivative('N_rdot'))
+    X_u: float = _param(-0.7225, 'kg/s', 'vessel: linear surge damping X_u',
+                        **_derivative('X_u'))
+    X_uu: float = _param(-1.3274, 'kg/m', 'vessel: quadratic surge damping X_|u|u',
+                         **_derivative('X_uu'))
+    Y_v: float = _param(-0.8612, 'kg/s', 'vessel: linear sway damping Y_v',
+                        **_derivative('Y_v'))
+    Y_vv: float = _param(-36.2823, 'kg/m', 'vessel: quadratic sway damping Y_|v|v',
+                         **_derivative('Y_vv'))
+    N_r: float = _param(-1.9, 'kg m^2/s', 'vessel: linear yaw damping N_r',
+                        **_derivative('N_r'))
+    N_rr: float = _param(-0.75, 'kg m^2', 'vessel: quadratic yaw damping N_|r|r',
+                         **_derivative('N_rr'))
     # Real flight dynamics: JSBSim aircraft (core/aircraft.py, docs/aircraft.md)
     plant_backend: str = _param('native', '', 'what integrates the vehicles: native (the '
                                 "model's equations, core/models.py) or jsbsim (each vehicle a "
@@ -362,7 +391,7 @@ class Scenario:
                                  rule="below the steering loop's limit (refused from it, "
                                  'warned from half of it)')
     max_thrust_rate: float = _param(0.0, 'N/s', 'rate limit of the applied thrust, rigid bodies',
-                                    low=0.0, zero='no limit', models=RIGID_MODELS)
+                                    low=0.0, zero='no limit', models=rigid_names())
     max_steering_rate: float = _param(0.0, 'N/s', 'rate limit of the applied steering input: N/s '
                                       'rigid bodies, rad/s^3 second_order, rad/s^2 first_order',
                                       low=0.0, zero='no limit')
@@ -587,8 +616,8 @@ def allowed(name: str) -> str:
     parts = [' | '.join(spec.choices)] if spec.choices else []
     bounds = _bounds(spec)
     if bounds:
-        where = 'rigid bodies' if spec.models == RIGID_MODELS else ', '.join(spec.models)
-        parts.append(bounds if spec.models == MODELS else f'{bounds} for {where}')
+        where = 'rigid bodies' if spec.models == rigid_names() else ', '.join(spec.models)
+        parts.append(bounds if spec.models == MODEL_NAMES else f'{bounds} for {where}')
     if spec.rule:
         parts.append(spec.rule)
     return '; '.join(parts)
@@ -739,7 +768,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if n not in (0, sc.num_vehicles):
             _fail(name, list(getattr(sc, name)),
                   f'must have num_vehicles = {sc.num_vehicles} entries (or none: random)')
-    if sc.model in RIGID_MODELS and any(u <= 0 for u in sc.init_u):
+    if vehicle_model(sc.model).rigid and any(u <= 0 for u in sc.init_u):
         _fail('init_u', list(sc.init_u), 'rigid bodies start with forward speed u > 0 m/s')
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
@@ -748,7 +777,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if sc.graph != kind and getattr(sc, name) != getattr(DEFAULTS, name):
             _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
                   f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
-    if sc.plant_backend == 'jsbsim' and sc.model not in PARTICLE_MODELS:
+    if sc.plant_backend == 'jsbsim' and not vehicle_model(sc.model).particle:
         _fail('model', sc.model, 'plant_backend jsbsim flies the particle laws: model '
               'first_order or second_order')
     from formation_control.core.graphs import GraphError

@@ -31,10 +31,11 @@ from formation_control.core import (aircraft, flow, formations, parameters, sens
                                     world)
 from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import PARTICLE_MODELS, RIGID_MODELS, ROW_U, ROW_V
+from formation_control.core.models import ROW_U, ROW_V
 from formation_control.core.parameters import (coerce, DEFAULTS, INIT_ARRAYS, PARAMETER_NAMES,
                                                parse_override, read_params, Scenario)
 from formation_control.core.stability import hold_fallback, step_warnings
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 CHECKS: tuple[Callable[[Scenario], tuple[str, ...]], ...] = (
@@ -141,13 +142,14 @@ def initial_state(sc: Scenario) -> RealArray:
     n = sc.num_vehicles
     rng = np.random.default_rng(sc.seed)
     half = 0.5 * sc.init_box
-    speed = sc.u0 if sc.model in RIGID_MODELS else 1.0
+    model = vehicle_model(sc.model)
+    speed = model.speed(sc.u0)
     drawn = (rng.uniform(-half, half, n), rng.uniform(-half, half, n),
              rng.uniform(-np.pi, np.pi, n), np.zeros(n), np.full(n, speed), np.zeros(n))
     X = np.array(drawn)
     for row, name in enumerate(INIT_ARRAYS):
         if getattr(sc, name):
             X[row] = getattr(sc, name)
-    if sc.model in PARTICLE_MODELS:
+    if model.particle:
         X[ROW_U], X[ROW_V] = 1.0, 0.0
     return X

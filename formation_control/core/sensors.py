@@ -41,8 +41,8 @@ from typing import TYPE_CHECKING
 
 from formation_control.core.errors import refuse
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import (RIGID_MODELS, ROW_OMEGA, ROW_THETA, ROW_U, ROW_V,
-                                           ROW_X, ROW_Y)
+from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
+from formation_control.core.vehicles import vehicle_model
 from formation_control.core.world import stream
 import numpy as np
 
@@ -186,7 +186,7 @@ class Sensors:
         seen[ROW_X], seen[ROW_Y] = self.fix.real, self.fix.imag
         seen[ROW_THETA] = theta
         seen[ROW_OMEGA] = X[ROW_OMEGA] + sc.yaw_rate_sigma * w[3]
-        if sc.model in RIGID_MODELS:
+        if vehicle_model(sc.model).rigid:
             if told is None:
                 seen[ROW_U], seen[ROW_V] = water
             else:

@@ -41,8 +41,9 @@ from typing import TYPE_CHECKING
 from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import BoolArray, RealArray
 from formation_control.core.graphs import CONNECTIVITY_DENSE_MAX
-from formation_control.core.models import RIGID_MODELS, ROW_OMEGA
+from formation_control.core.models import ROW_OMEGA
 from formation_control.core.steering import law
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 if TYPE_CHECKING:
@@ -180,9 +181,9 @@ def modes(sc: Scenario) -> list[Mode]:
         gain = steer.bandwidth(sc)
         limit = cascade_limit(gain, formation, sc.hold_prediction, steer.feedforward)
         out = [('steering loop', steer.gain, gain, 'dt_control', sc.dt_control, limit)]
-    if sc.model in RIGID_MODELS:
-        out += [('surge drag', '2 h u0 / m0', 2.0 * sc.h * sc.u0 / sc.m0, 'dt_integration',
-                 sc.dt_integration, RK4_LIMIT),
+    surge = vehicle_model(sc.model).surge_mode(sc)
+    if surge is not None:
+        out += [('surge drag', *surge, 'dt_integration', sc.dt_integration, RK4_LIMIT),
                 ('thrust loop', 'K_f', sc.K_f, 'dt_control', sc.dt_control, held)]
     return out
 

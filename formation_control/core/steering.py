@@ -33,8 +33,8 @@ from typing import ClassVar
 from formation_control.core import laws
 from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import RIGID_MODELS
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 
@@ -303,11 +303,12 @@ def check(sc: Scenario) -> tuple[str, ...]:
     zero against the bandwidth, the full law's one-sample loop through the held force and the
     PI law's drag condition (errata, "Rigid-body practice"). Returns the warnings.
     """
-    if (sc.model == 'first_order') != (law(sc).order == 1):
+    model = vehicle_model(sc.model)
+    if model.first_order != (law(sc).order == 1):
         _fail('controller', sc.controller, "model 'first_order' goes with controller "
               "'first_order' only, and controller 'first_order' with model 'first_order' only")
     notes = []
-    if sc.model in ('rigid', 'rigid_cop'):
+    if model.tail_steering:
         zero, band = rhp_zero(sc), law(sc).bandwidth(sc)
         if zero < 0.5 * band:
             raise ScenarioError(
@@ -325,7 +326,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
                 f'with gain bandwidth*I0/(l*m0*u0) = {gain:.3g}, which must stay below 0.8 '
                 f'(parameters law_variant, kappa or K_P, I0, l, m0, u0); use law_variant: '
                 f'practical, or model: rigid_couple')
-    if sc.model in RIGID_MODELS and law(sc).integrates:
+    if 'h' in model.params and law(sc).integrates:
         if not sc.h * sc.u0 / sc.m0 > sc.K_I / sc.K_P:
             raise ScenarioError(
                 f'PI steering (8.24) needs h*u0/m0 = {sc.h * sc.u0 / sc.m0:.3g} > '

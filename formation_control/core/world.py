@@ -46,11 +46,11 @@ from dataclasses import replace
 
 from formation_control.core.errors import refuse as _fail
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import (deriv, Plant, RIGID_MODELS, rk4, ROW_OMEGA, ROW_X,
-                                           ROW_Y)
+from formation_control.core.models import deriv, Plant, rk4, ROW_OMEGA, ROW_X, ROW_Y
 from formation_control.core.parameters import MISMATCH_ARRAYS, MISMATCH_NAMES, Scenario
 from formation_control.core.stability import formation_rate
 from formation_control.core.steering import law
+from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
 TAG = 0x776f726c
@@ -108,7 +108,7 @@ def mismatch_factors(sc: Scenario, seed: int | None = None) -> dict[str, RealArr
 
 def rate_limits(sc: Scenario) -> RealArray:
     """Return the rate limit of each input row (2,) (unit/s; inf: none)."""
-    rates = (sc.max_thrust_rate if sc.model in RIGID_MODELS else 0.0, sc.max_steering_rate)
+    rates = (sc.max_thrust_rate if vehicle_model(sc.model).rigid else 0.0, sc.max_steering_rate)
     return np.array([r if r > 0 else np.inf for r in rates])
 
 
@@ -153,7 +153,7 @@ class World:
         self.plant = replace(nominal, m0=nominal.m0 * per('m0'), I0=nominal.I0 * per('I0'),
                              h=nominal.h * per('h'), l1=nominal.l1 * per('l1'))
         self.effect = np.array([per('thrust'), per('steering')])
-        if sc.model not in RIGID_MODELS:
+        if not nominal.model.rigid:
             self.effect[0] = 1.0
         self.decay = 1.0 - np.exp(-sc.dt_integration / sc.actuator_lag) if sc.actuator_lag \
             else 1.0
@@ -213,7 +213,7 @@ class World:
         dt = self.sc.dt_integration
         a = self.actuate(U)
         self.blow()
-        if self.sc.model == 'first_order':
+        if self.plant.model.first_order:
             X = np.array(X, float)
             X[ROW_OMEGA] = a[1] * self.effect[1]
         return rk4(lambda X, t: self.rates(X, a, t), X, dt, t)

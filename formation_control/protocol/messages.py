@@ -27,15 +27,16 @@ attributes only, so they serve rclpy messages and those a bag reader builds alik
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from functools import lru_cache
 import math
 from operator import attrgetter
 from types import MappingProxyType
 from typing import Any, Mapping, NamedTuple, Optional, TypeVar
 
 from formation_control.core.geometry import ComplexArray, RealArray
-from formation_control.core.models import (ground_velocity, PARTICLE_MODELS, position, ROW_OMEGA,
-                                           ROW_THETA)
+from formation_control.core.models import ground_velocity, position, ROW_OMEGA, ROW_THETA
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model
 from formation_control.protocol.cdr import Codec, Definition, HEADER, Layout, TIME
 from formation_control.protocol.names import DEFAULT_FRAMES, Frames
 import numpy as np
@@ -98,15 +99,15 @@ VEHICLE_COMMAND: Definition = (
 """formation_control_msgs/VehicleCommand, its fields in the order of VehicleCommand.msg."""
 
 
-COMMAND_KINDS = {'second_order': 2, 'first_order': 3}
-"""VehicleCommand.kind of a particle model (SECOND_ORDER, FIRST_ORDER); any other model's is
-RIGID_BODY (:func:`command_kind`)."""
+COMMAND_KINDS = {'angular_acceleration': 2, 'turn_rate': 3}
+"""VehicleCommand.kind of a particle model by the field its input travels in (SECOND_ORDER,
+FIRST_ORDER); a model with a thrust is RIGID_BODY (:func:`command_kind`)."""
 RIGID_BODY = 1
 
 
 def command_kind(model: str) -> int:
-    """Return the VehicleCommand ``kind`` of ``model``."""
-    return COMMAND_KINDS.get(model, RIGID_BODY)
+    """Return the VehicleCommand ``kind`` of ``model`` (from its ``command_fields``)."""
+    return COMMAND_KINDS.get(vehicle_model(model).command_fields[1], RIGID_BODY)
 
 
 def quaternion_zw(theta: float) -> tuple[float, float]:
@@ -177,7 +178,7 @@ def state_from_odom_values(values: Sequence[float], flow: complex, model: str) -
     x, y, qz, qw, vx, vy, yaw_rate = values
     theta = 2.0 * math.atan2(qz, qw)
     rel = complex(vx, vy) - flow * complex(math.cos(theta), -math.sin(theta))
-    if model in PARTICLE_MODELS:
+    if vehicle_model(model).particle:
         rel = 1.0 + 0j
     return np.array([x, y, theta, yaw_rate, rel.real, rel.imag])
 
@@ -189,27 +190,34 @@ def ground_velocity_of(values: Sequence[float]) -> complex:
     return complex(vx, vy) * complex(math.cos(theta), math.sin(theta))
 
 
+@lru_cache(maxsize=None)
+def _slots(model: str) -> tuple[int, int]:
+    """Return the :data:`CMD_FIELDS` index of each input row of ``model`` (4: not sent)."""
+    first, second = ((CMD_FIELDS + ('',)).index(name)
+                     for name in vehicle_model(model).command_fields)
+    return first, second
+
+
 def cmd_values(u: Sequence[float] | RealArray,
                model: str) -> tuple[float, float, float, float]:
     """
     Return the :data:`CMD_FIELDS` of one vehicle's input column u (2,).
 
-    Rigid bodies: thrust, steering force; a second-order particle: the angular acceleration;
-    a first-order one: the turn rate; the other fields are 0.
+    Each input row in the field the model names (``VehicleModel.command_fields``): rigid
+    bodies thrust, steering force; a second-order particle the angular acceleration; a
+    first-order one the turn rate; the other fields are 0.
     """
-    if model == 'second_order':
-        return 0.0, 0.0, float(u[1]), 0.0
-    if model in PARTICLE_MODELS:
-        return 0.0, 0.0, 0.0, float(u[1])
-    return float(u[0]), float(u[1]), 0.0, 0.0
+    out = [0.0, 0.0, 0.0, 0.0, 0.0]
+    first, second = _slots(model)
+    out[first], out[second] = float(u[0]), float(u[1])
+    return out[0], out[1], out[2], out[3]
 
 
 def input_from_cmd_values(values: Sequence[float], model: str) -> tuple[float, float]:
     """Return the input column (2,) of the :data:`CMD_FIELDS` of a command."""
-    thrust, steering, acceleration, turn_rate = values
-    if model == 'second_order':
-        return 0.0, acceleration
-    return (0.0, turn_rate) if model in PARTICLE_MODELS else (thrust, steering)
+    padded = (*values, 0.0)
+    first, second = _slots(model)
+    return padded[first], padded[second]
 
 
 def odom_values_of(msg: Any) -> tuple[float, ...]:

@@ -31,8 +31,9 @@ from typing import Any
 from formation_control.core.control import Controller
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import View
-from formation_control.core.models import RIGID_MODELS, ROW_U, ROW_V
+from formation_control.core.models import ROW_U, ROW_V
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model
 from formation_control.protocol.messages import state_from_odom_values, ViewRow
 from formation_control.sim.onboard import OnboardStep
 import numpy as np
@@ -80,7 +81,7 @@ def needs_second_sensor(sc: Scenario) -> str | None:
     """
     if sc.flow_source == 'known':
         return None if sc.flow_model == 'uniform' else 'flow'
-    return 'water' if sc.model in RIGID_MODELS else None
+    return 'water' if vehicle_model(sc.model).rigid else None
 
 
 def sampled_state(second: str | None, values: Sequence[float], other: Any, flow: complex,

@@ -124,7 +124,7 @@ class Native(PlantBackend):
 
     def hold(self, X: RealArray, U: RealArray, demand: RealArray | None = None) -> None:
         """Hold ``U``; the first-order turn rate is the state omega, so it is written into X."""
-        if self.sc.model == 'first_order':
+        if self.plant.model.first_order:
             X[ROW_OMEGA] = U[1]
 
     def advance(self, X: RealArray, U: RealArray, step: int, steps: int) -> RealArray:

@@ -27,8 +27,9 @@ from typing import Any, TYPE_CHECKING
 from formation_control.core import formations, laws
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
-from formation_control.core.models import RIGID_MODELS, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
+from formation_control.core.models import ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
 from formation_control.core.scenario import practical
+from formation_control.core.vehicles import vehicle_model
 from formation_control.sim.backends import backend_of
 import numpy as np
 from numpy.typing import ArrayLike
@@ -266,7 +267,7 @@ def steady_errors(sc: Scenario, snap: Snapshot) -> dict[str, Value]:
     speed error ``mean_k |u_k - u0|`` (m/s). Floats, or arrays for a batch's snapshot.
     """
     out = {name: ERRORS[name](sc, snap) for name in formations.of(sc).band_errors}
-    if sc.model in RIGID_MODELS:
+    if vehicle_model(sc.model).rigid:
         out['speed_error'] = snap.speed_error
     return out
 
@@ -572,7 +573,7 @@ def steady_turn(sc: Scenario) -> tuple[float, float, float, float]:
 
     """
     h_eff = sc.h
-    if sc.model == 'rigid_cop' and sc.cancel_drag_moment:
+    if vehicle_model(sc.model).drag_moment and sc.cancel_drag_moment:
         h_eff = sc.h * (1.0 + sc.l1 / sc.l)
     v0 = -sc.m0 * sc.u0 * sc.omega0 / h_eff
     s0 = float(np.hypot(sc.u0, v0))

@@ -26,8 +26,8 @@ from os import PathLike
 
 from formation_control.core.flow import vehicle_speed
 from formation_control.core.geometry import ComplexArray
-from formation_control.core.models import RIGID_MODELS
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model
 from formation_control.sim.report import Series, series
 from formation_control.sim.simulator import Run
 import matplotlib
@@ -159,7 +159,7 @@ def plot_run(run: Run, path: str | PathLike[str]) -> Series:
     """
     sc = run.sc
     d = series(run)
-    rigid = sc.model in RIGID_MODELS
+    rigid = vehicle_model(sc.model).rigid
     flight = 'altitude' in run.channels
     fig, axes = plt.subplots(2, 3 if flight else 2, figsize=(19 if flight else 13, 10))
     _trajectories(axes[0, 0], d, sc)

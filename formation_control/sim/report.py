@@ -26,9 +26,10 @@ from typing import Any, TypeAlias
 from formation_control.core import formations
 from formation_control.core.control import Controller
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_OMEGA, ROW_THETA,
-                                           ROW_U, ROW_X, ROW_Y)
+from formation_control.core.models import (ground_velocity, ROW_OMEGA, ROW_THETA, ROW_U, ROW_X,
+                                           ROW_Y)
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model
 from formation_control.sim import metrics
 from formation_control.sim.simulator import Run, summary
 import numpy as np
@@ -129,7 +130,9 @@ def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
         thesis or the errata).
 
     """
-    rigid = sc.model in RIGID_MODELS
+    model = vehicle_model(sc.model)
+    rigid = model.rigid
+    drag = 'h' in model.params          # the thesis' steady states (7.9)-(7.10), (8.17) need h
     still = sc.flow_c == 0
     out = {'potential': (0.0, 'minimum of V'), 'lyapunov': (0.0, '(2.10) V_c -> 0')}
     radius = formations.of(sc).radius(sc)
@@ -142,7 +145,7 @@ def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
         if sc.informed:
             out['centre_x'] = (sc.c0[0], '(7.17) centre -> c0')
             out['centre_y'] = (sc.c0[1], '(7.17) centre -> c0')
-        if still:
+        if still and (drag or not rigid):
             rate = abs(sc.omega0) * (metrics.steady_turn(sc)[1] if rigid else 1.0)
             out['max_turn_rate'] = (rate, '(7.9)-(7.10) yaw rate omega0 s0' if rigid
                                     else 'turn rate omega0')
@@ -157,10 +160,11 @@ def predictions(sc: Scenario, X: RealArray) -> dict[str, tuple[float, str]]:
                                  else (0.0, 'the vehicles of a cluster coincide'))
     if rigid:
         out['speed_error'] = (0.0, '(7.1) u -> u0')
-        if radius is not None and still:
+        if radius is not None and still and drag:
             out['crab_angle'] = (metrics.steady_turn(sc)[2], '(7.9)-(7.10) corrected: beta0')
         if radius is None:
             out['crab_angle'] = (0.0, 'straight motion: v -> 0')
+        if radius is None and drag:
             crab = float(np.mean(metrics.parallel_flow_crab(sc, X[ROW_THETA])[0]))
             out['crab_angle_inertial'] = (crab, '(8.17) at the final heading' if not still
                                           else 'no flow: 0')

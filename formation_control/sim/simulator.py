@@ -34,11 +34,12 @@ from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
 from formation_control.core.estimation import neighbour_mean
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
-from formation_control.core.models import (ground_velocity, RIGID_MODELS, ROW_THETA, ROW_U,
-                                           ROW_V, ROW_X, ROW_Y, STATE_NAMES)
+from formation_control.core.models import (ground_velocity, ROW_THETA, ROW_U, ROW_V, ROW_X,
+                                           ROW_Y, STATE_NAMES)
 from formation_control.core.parameters import Scenario
 from formation_control.core.scenario import initial_state, practical, resolve
 from formation_control.core.sensors import Sample, Sensors
+from formation_control.core.vehicles import vehicle_model
 from formation_control.sim import metrics
 from formation_control.sim.allocator import keep_freed_memory
 from formation_control.sim.backends import backend_of
@@ -100,7 +101,7 @@ class Run:
         out = {'t': self.t, 'params': np.array(self.sc.to_json()),
                'meta': np.array(json.dumps(self.meta))}
         out.update({name: self.X[:, row] for row, name in enumerate(STATE_NAMES)})
-        if self.sc.model in RIGID_MODELS:
+        if vehicle_model(self.sc.model).rigid:
             out['T'], out['F'] = self.U[:, 0], self.U[:, 1]
         else:
             out['command'] = self.U[:, 1]
@@ -226,7 +227,7 @@ class Stepper:
         """
         if self.sensors is not None:
             return self.sample().X
-        if not self.backend.gusts or self.sc.model not in RIGID_MODELS \
+        if not self.backend.gusts or not vehicle_model(self.sc.model).rigid \
                 or self.sc.flow_source != 'known':
             return self.X
         X = self.X.copy()
@@ -634,7 +635,7 @@ def summary(run: Run) -> dict[str, Any]:
     radius = formations.of(sc).radius(sc)
     if radius is not None:
         out.update(centre_spread=final.spread, radius=final.radius, radius_target=radius)
-    if sc.model in RIGID_MODELS:
+    if vehicle_model(sc.model).rigid:
         X = run.X[-1]
         out.update(mean_u=float(X[ROW_U].mean()), mean_v=float(X[ROW_V].mean()))
     return out

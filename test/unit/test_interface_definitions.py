@@ -24,7 +24,7 @@ from pathlib import Path
 import re
 import sys
 
-from formation_control.core.models import PARTICLE_MODELS
+from formation_control.core.vehicles import VEHICLE_MODELS
 from formation_control.protocol import cdr, faults, messages
 from formation_control.protocol.messages import METRIC_DOC
 import pytest
@@ -98,7 +98,8 @@ def test_fault_kinds_are_those_of_the_fault_script():
 def test_a_command_kind_per_particle_model_and_one_for_rigid_bodies():
     kinds = {name: value for name, value in constants('VehicleCommand').items()
              if name != 'INTERFACE_VERSION'}
-    assert set(kinds) == {m.upper() for m in PARTICLE_MODELS} | {'RIGID_BODY'}
+    assert set(kinds) == {m.name.upper() for m in VEHICLE_MODELS.values() if m.particle} | {
+        'RIGID_BODY'}
     assert 0 not in kinds.values() and len(set(kinds.values())) == len(kinds)
     assert {'thrust', 'steering_force', 'angular_acceleration', 'turn_rate'} <= set(
         fields('VehicleCommand'))

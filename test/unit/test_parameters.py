@@ -15,7 +15,8 @@
 """
 The parameter table (core/parameters.py) is a leaf, and names what the features implement.
 
-It imports no physics module (type-only imports included); the values its choices allow are
+It imports no physics module but the vehicle-model registry, which imports nothing of the
+scenario (type-only imports included); the values its choices allow are
 exactly the names of the vehicle models, formations and steering laws the features implement;
 :func:`scenario.resolve` runs the table's check first, then every feature's.
 """
@@ -24,20 +25,21 @@ import pkgutil
 
 from formation_control import core
 from formation_control.core import formations, models, parameters, scenario, steering
+from formation_control.core.vehicles import VEHICLE_MODELS
 from test_layers import graph
 
 
 def test_the_table_imports_no_physics_module():
     edges, _ = graph()
-    inside = {m.rsplit('.', 1)[-1] for m in edges['formation_control.core.parameters']}
-    assert inside <= {'errors', 'geometry', 'graphs'}
-    assert 'formation_control.core.parameters' not in edges['formation_control.core.graphs']
+    inside = {m.removeprefix('formation_control.core.')
+              for m in edges['formation_control.core.parameters']}
+    assert inside <= {'errors', 'geometry', 'graphs', 'vehicles', 'vehicles.base'}
+    for below in ('graphs', 'vehicles', 'vehicles.base'):
+        assert 'formation_control.core.parameters' not in edges[f'formation_control.core.{below}']
 
 
 def test_the_choices_are_what_the_features_implement():
-    assert parameters.MODELS == models.MODELS
-    assert parameters.RIGID_MODELS == models.RIGID_MODELS
-    assert parameters.PARTICLE_MODELS == models.PARTICLE_MODELS
+    assert parameters.CHOICES['model'] == tuple(VEHICLE_MODELS)
     assert parameters.STATE_NAMES == models.STATE_NAMES
     assert parameters.FORMATIONS == tuple(formations.FORMATIONS)
     assert parameters.CONTROLLERS == tuple(steering.LAWS)

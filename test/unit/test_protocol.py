@@ -278,7 +278,7 @@ def test_inbox_drops_delays_and_limits_range_and_counts_each(clock):
 
 
 @pytest.mark.parametrize('name', ['rigid_circular_flow_center', 'particle_parallel_flow',
-                                  'first_order_circular'])
+                                  'first_order_circular', 'vessel_circular'])
 def test_the_plants_fleet_loop_is_the_offline_simulator(name):
     """Commands computed one vehicle at a time and held by FleetPlant equal ``simulate``."""
     sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=4', 'duration:=1.0',
@@ -329,7 +329,8 @@ def test_the_fleet_run_ends_after_its_last_period():
     assert fleet.run({'mode': 'x'}).t.tolist() == pytest.approx([0.0, 0.1])
 
 
-@pytest.mark.parametrize('name', ['rigid_circular_flow_center', 'rigid_circular'])
+@pytest.mark.parametrize('name', ['rigid_circular_flow_center', 'rigid_circular',
+                                  'vessel_circular'])
 def test_onboard_controller_commands_as_the_fleet_controller_does(name, clock):
     """A vehicle's Onboard, fed its own state and its neighbours' rows, equals the simulator."""
     sc = scenario.load(CONFIG / f'{name}.yaml', ['num_vehicles:=4', 'informed:=[2]'], seed=5)

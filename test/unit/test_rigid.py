@@ -22,12 +22,15 @@ from dataclasses import replace
 
 from formation_control.core import _rk4, models
 from formation_control.core.parameters import Scenario
+from formation_control.core.vehicles import vehicle_model, VEHICLE_MODELS
 from formation_control.sim import metrics
 import numpy as np
 import pytest
 from runs import run_of, SEEDS, SOURCES, views
 
 U0_TOL = 1e-3
+KERNEL_MODELS = [name for name, m in VEHICLE_MODELS.items() if m.kernel is not None]
+"""The models with a compiled RK4: the thesis' five, whose plain formulas _plain_deriv writes."""
 FLOW_CASES = [(s, 'known') for s in SEEDS] + [(1, 'estimated')]
 """Every seed told the flow; seed 1 estimating it (``flow_source: estimated``)."""
 
@@ -161,19 +164,20 @@ def _plain_deriv(X, U, plant):
     """dX/dt written out as in (1.1), (1.3), (6.7), (6.15), (8.1), (8.22), (A.3)."""
     dX = np.zeros_like(X)
     c, s = np.cos(X[2]), np.sin(X[2])
-    if plant.model in models.PARTICLE_MODELS:
+    name = plant.model.name
+    if plant.model.particle:
         dX[0], dX[1] = c, s
-        if plant.model == 'first_order':
+        if name == 'first_order':
             dX[2] = U[1]
         else:
             dX[2], dX[3] = X[3], U[1]
     else:
         w, u, v = X[3], X[4], X[5]
         hs = plant.h * np.hypot(u, v)
-        side = 0.0 if plant.model == 'rigid_couple' else U[1]
+        side = 0.0 if name == 'rigid_couple' else U[1]
         dX[0], dX[1], dX[2] = u * c - v * s, u * s + v * c, w
         dX[3] = -plant.l * U[1] / plant.I0
-        if plant.model == 'rigid_cop':
+        if name == 'rigid_cop':
             dX[3] -= plant.l1 * hs * v / plant.I0
         dX[4] = (U[0] - hs * u) / plant.m0 + v * w
         dX[5] = (side - hs * v) / plant.m0 - u * w
@@ -195,7 +199,7 @@ def _plain_rk4(X, U, dt, steps, plant):
 def _random_fleet(model, n, rng):
     X = np.vstack([rng.normal(0.0, 5.0, (2, n)), rng.uniform(-60.0, 60.0, n),
                    rng.normal(0.0, 2.0, n), rng.uniform(0.5, 1.5, n), rng.normal(0.0, 0.2, n)])
-    if model in models.PARTICLE_MODELS:
+    if vehicle_model(model).particle:
         X[4], X[5] = 1.0, 0.0
     return X, np.vstack([rng.uniform(0.0, 5.0, n), rng.normal(0.0, 2.0, n)])
 
@@ -208,7 +212,7 @@ def _assert_close_per_row(new, ref, rtol=1e-12):
 @pytest.mark.slow
 @pytest.mark.parametrize('per_vehicle', [False, True], ids=['one plant', 'one each'])
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
-@pytest.mark.parametrize('model', models.MODELS)
+@pytest.mark.parametrize('model', KERNEL_MODELS)
 def test_integrator_agrees_with_plain_rk4(model, flow, per_vehicle):
     """
     The compiled ``integrate`` agrees with the plain RK4 formulas to 1e-12 of each row's size.
@@ -247,7 +251,7 @@ def test_integrator_refuses_arrays_it_cannot_take():
 
 
 @pytest.mark.parametrize('flow', [0j, 0.3 - 0.2j])
-@pytest.mark.parametrize('model', models.MODELS)
+@pytest.mark.parametrize('model', KERNEL_MODELS)
 def test_ground_velocity_is_the_rate_of_the_position(model, flow):
     """``ground_velocity`` (8.1) is x' + i y' of every model, for one vehicle and a fleet."""
     plant = models.Plant.of(Scenario(model=model, flow=(flow.real, flow.imag), l1=0.2))

@@ -220,11 +220,11 @@ def test_num_vehicles_must_be_at_least_one():
 
 
 @pytest.mark.parametrize('name, value, allowed', [
-    ('model', 'boat', 'first_order | second_order | rigid | rigid_couple | rigid_cop'),
+    ('model', 'boat', 'first_order | second_order | rigid | rigid_couple | rigid_cop | vessel'),
     ('formation', 'line', 'parallel | circular'),
     ('controller', 'pid', 'first_order | backstepping | proportional | pi'),
     ('law_variant', 'exact', 'practical | full'),
-    ('model', 'Rigid', 'first_order | second_order | rigid | rigid_couple | rigid_cop'),
+    ('model', 'Rigid', 'first_order | second_order | rigid | rigid_couple | rigid_cop | vessel'),
 ])
 def test_unknown_choice_lists_the_allowed_values(name, value, allowed):
     _refused(rf"parameter '{name}' = '{value}' is invalid: allowed values: "
@@ -456,7 +456,7 @@ def test_each_range_of_the_table_is_enforced(name):
     """A value just outside the documented range is refused with that range in the message."""
     spec = parameters.PARAMETERS[name]
     value = spec.low if spec.above else spec.low - 1
-    base = RIGID if spec.models == parameters.RIGID_MODELS else {}
+    base = {} if Scenario().model in spec.models else RIGID
     _refused(rf"parameter '{name}' = .* is invalid: must be {'>' if spec.above else '>='} "
              rf'{spec.low:g}', **base, **{name: value})
     resolve(dict(base, **{name: getattr(Scenario(), name)}))

@@ -1,0 +1,72 @@
+# Copyright 2026 formation_control developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Unit-speed particles: the first-order (1.1) and second-order (1.3) models of chapters 1-5.
+
+``r' = e^{i theta}`` (1.1), (1.3) (plus the flow, (1.4)); ``U[1]`` is the turn rate theta'
+(first order) or the angular acceleration omega' (second order); ``U[0]`` is unused and the
+rows u, v stay at 1, 0.
+"""
+from __future__ import annotations
+
+from formation_control.core import _rk4  # type: ignore[attr-defined]
+from formation_control.core.geometry import RealArray
+from formation_control.core.vehicles.base import (Params, ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y,
+                                                  VehicleModel)
+import numpy as np
+
+
+class FirstOrder(VehicleModel):
+    """The first-order particle (1.1): its input is the turn rate theta' (rad/s)."""
+
+    name = 'first_order'
+    text = 'first_order (1.1)'
+    particle = True
+    first_order = True
+    command_fields = ('', 'turn_rate')
+    kernel = _rk4.FIRST_ORDER
+
+    def rates(self, X: RealArray, U: RealArray, p: Params) -> RealArray:
+        """Return dX/dt in still water: ``r' = e^{i theta}``, ``theta' = U[1]`` (1.1)."""
+        dX = np.zeros(np.shape(X))
+        dX[ROW_X], dX[ROW_Y] = np.cos(X[ROW_THETA]), np.sin(X[ROW_THETA])
+        dX[ROW_THETA] = U[1]
+        return dX
+
+    def steering(self, X: RealArray, dw: RealArray, p: Params) -> RealArray:
+        """Refuse: a first-order particle is steered by its turn rate, not an acceleration."""
+        raise ValueError('model first_order takes a turn rate: controller first_order')
+
+
+class SecondOrder(VehicleModel):
+    """The second-order particle (1.3): its input is the angular acceleration omega' (rad/s^2)."""
+
+    name = 'second_order'
+    text = 'second_order (1.3)'
+    particle = True
+    command_fields = ('', 'angular_acceleration')
+    kernel = _rk4.SECOND_ORDER
+
+    def rates(self, X: RealArray, U: RealArray, p: Params) -> RealArray:
+        """Return dX/dt in still water: ``r' = e^{i theta}``, ``theta' = omega, omega' = U[1]``."""
+        dX = np.zeros(np.shape(X))
+        dX[ROW_X], dX[ROW_Y] = np.cos(X[ROW_THETA]), np.sin(X[ROW_THETA])
+        dX[ROW_THETA] = X[ROW_OMEGA]
+        dX[ROW_OMEGA] = U[1]
+        return dX
+
+    def steering(self, X: RealArray, dw: RealArray, p: Params) -> RealArray:
+        """Return ``U[1] = omega'``: the input is the yaw acceleration itself (1.3)."""
+        return np.asarray(dw, float)
