@@ -92,6 +92,7 @@ GLIDE_SETTLE = 60.0              # seconds a glider flies its speed hold to find
 MAX_OUTPUTS = 16                 # <output> elements of a model sent to /dev/null
 LOG_KEPT = 100                   # JSBSim messages kept (the trim's reasons)
 CHANNELS = ('altitude', 'bank', 'airspeed_demand', 'turn_rate_demand')
+BACKEND = 'jsbsim'               # the plant_backend whose plant this module builds
 """What a run records of each aircraft beside the state: altitude above the ground (m), bank
 (rad, right wing down positive) and the autopilot demand (m/s, rad/s) held over the period."""
 
@@ -171,6 +172,11 @@ def _logger(jsbsim: Any) -> Any:
 
 
 @lru_cache(maxsize=1)
+def flown(sc: Scenario) -> bool:
+    """Return whether JSBSim aircraft are the plant (``plant_backend: jsbsim``)."""
+    return sc.plant_backend == BACKEND
+
+
 def installed() -> tuple[str, ...]:
     """Return the names of the aircraft models the jsbsim package ships, sorted."""
     root = Path(_jsbsim().get_default_root_dir()) / 'aircraft'
@@ -563,7 +569,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
     limit, and an aircraft JSBSim has and trims (:func:`check_trim`). No warnings; nothing
     for the native plant.
     """
-    if sc.plant_backend != 'jsbsim':
+    if not flown(sc):
         return ()
     native = [name for name in NATIVE_WORLD if getattr(sc, name) != getattr(DEFAULTS, name)]
     if native:

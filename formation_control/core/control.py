@@ -25,7 +25,7 @@ from dataclasses import replace
 import math
 from typing import Any
 
-from formation_control.core import formations, laws, steering
+from formation_control.core import aircraft, formations, laws, steering
 from formation_control.core.flow import uses_flow_rates, vehicle_speed
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
@@ -373,7 +373,7 @@ def law_units(sc: Scenario) -> tuple[float, float]:
         backstepping law depends on the choice (:class:`laws.Circular`); docs/aircraft.md.
 
     """
-    if sc.plant_backend != 'jsbsim':
+    if not aircraft.flown(sc):
         return 1.0, 1.0
     radius = formations.of(sc).radius(sc)
     if radius is not None:

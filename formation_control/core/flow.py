@@ -23,7 +23,7 @@ law taking it as uniform and steady can follow, or whose gradient jumps, is warn
 """
 from __future__ import annotations
 
-from formation_control.core import formations
+from formation_control.core import aircraft, formations
 from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.estimation import CLAMP
 from formation_control.core.flowfields import Flowfield, FlowfieldError
@@ -48,11 +48,11 @@ def _check_flow(sc: Scenario) -> None:
     value = list(sc.flow) if where == 'flow' else sc.flow_model
     what = '|flow|' if where == 'flow' else \
         f'the {sc.flow_model} flow reaches {speed:.3g} m/s: max |f|'
-    if sc.plant_backend == 'jsbsim' and speed >= sc.airspeed:
+    if aircraft.flown(sc) and speed >= sc.airspeed:
         _fail(where, value, f'aircraft need {what} < airspeed = {sc.airspeed} m/s (the wind '
               f'must not blow them backwards)')
     model = vehicle_model(sc.model)
-    if sc.plant_backend == 'native' and model.particle and speed >= 1:
+    if not aircraft.flown(sc) and model.particle and speed >= 1:
         _fail(where, value, f'unit-speed particles need {what} < 1 m/s (1.6)')
     if model.rigid and speed >= sc.u0:
         _fail(where, value, f'rigid bodies need {what} < u0 = {sc.u0} m/s')
@@ -71,7 +71,7 @@ def _check_flow(sc: Scenario) -> None:
 
 def vehicle_speed(sc: Scenario) -> float:
     """Return the vehicles' speed relative to the flow (m/s): 1 particles, u0 rigid, airspeed."""
-    if sc.plant_backend == 'jsbsim':
+    if aircraft.flown(sc):
         return sc.airspeed
     return vehicle_model(sc.model).speed(sc.u0)
 
@@ -91,7 +91,7 @@ def uses_flow_rates(sc: Scenario) -> bool:
     flow's rates are not built: they take the flow as uniform and steady.
     """
     return (sc.flow_source == 'known' and sc.flow_model != 'uniform'
-            and sc.plant_backend != 'jsbsim'
+            and not aircraft.flown(sc)
             and (not vehicle_model(sc.model).rigid or uses_held_force(sc)))
 
 
@@ -99,7 +99,7 @@ def _steady_view_why(sc: Scenario) -> str:
     """Return why the laws of ``sc`` take its flow as uniform and steady."""
     if sc.flow_source == 'estimated':
         return 'flow_source estimated: an estimate has no known rate or gradient'
-    if sc.plant_backend == 'jsbsim':
+    if aircraft.flown(sc):
         return "plant_backend jsbsim: the aircraft's laws take no rate of the flow"
     return 'law_variant practical drops the rates'
 

@@ -768,6 +768,10 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if n not in (0, sc.num_vehicles):
             _fail(name, list(getattr(sc, name)),
                   f'must have num_vehicles = {sc.num_vehicles} entries (or none: random)')
+    if sc.plant_backend not in vehicle_model(sc.model).backends:
+        takes = [m.name for m in VEHICLE_MODELS.values() if sc.plant_backend in m.backends]
+        _fail('model', sc.model, f'plant_backend {sc.plant_backend} flies the laws of model '
+              f"{' or '.join(takes)} only")
     if vehicle_model(sc.model).rigid and any(u <= 0 for u in sc.init_u):
         _fail('init_u', list(sc.init_u), 'rigid bodies start with forward speed u > 0 m/s')
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
@@ -777,9 +781,6 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if sc.graph != kind and getattr(sc, name) != getattr(DEFAULTS, name):
             _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
                   f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
-    if sc.plant_backend == 'jsbsim' and not vehicle_model(sc.model).particle:
-        _fail('model', sc.model, 'plant_backend jsbsim flies the particle laws: model '
-              'first_order or second_order')
     from formation_control.core.graphs import GraphError
     try:
         sc.comm_graph

@@ -93,6 +93,8 @@ class VehicleModel:
         The VehicleCommand fields that carry ``U[0]`` and ``U[1]`` ('' for none).
     kernel : int or None
         The id of its compiled RK4 (``_rk4.RIGID``, ...); None integrates with numpy RK4.
+    backends : tuple of str
+        The plant backends (``plant_backend``) that can be the plant of its laws.
 
     """
 
@@ -106,6 +108,7 @@ class VehicleModel:
     drag_moment: ClassVar[bool] = False
     command_fields: ClassVar[tuple[str, str]] = ('thrust', 'steering_force')
     kernel: ClassVar[int | None] = None
+    backends: ClassVar[tuple[str, ...]] = ('native',)
 
     @property
     def rigid(self) -> bool:

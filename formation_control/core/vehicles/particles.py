@@ -34,6 +34,7 @@ class FirstOrder(VehicleModel):
     name = 'first_order'
     text = 'first_order (1.1)'
     particle = True
+    backends = ('native', 'jsbsim')                  # JSBSim aircraft fly the particle laws
     first_order = True
     command_fields = ('', 'turn_rate')
     kernel = _rk4.FIRST_ORDER
@@ -56,6 +57,7 @@ class SecondOrder(VehicleModel):
     name = 'second_order'
     text = 'second_order (1.3)'
     particle = True
+    backends = ('native', 'jsbsim')                  # JSBSim aircraft fly the particle laws
     command_fields = ('', 'angular_acceleration')
     kernel = _rk4.SECOND_ORDER
 
