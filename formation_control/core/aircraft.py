@@ -91,8 +91,8 @@ GUST_W20 = {0: 0.0, 1: 15.0, 2: 15.0, 3: 30.0, 4: 30.0, 5: 45.0, 6: 45.0, 7: 45.
 GLIDE_SETTLE = 60.0              # seconds a glider flies its speed hold to find its glide
 MAX_OUTPUTS = 16                 # <output> elements of a model sent to /dev/null
 LOG_KEPT = 100                   # JSBSim messages kept (the trim's reasons)
-CHANNELS = ('altitude', 'bank', 'airspeed_demand', 'turn_rate_demand')
 BACKEND = 'jsbsim'               # the plant_backend whose plant this module builds
+CHANNELS = ('altitude', 'bank', 'airspeed_demand', 'turn_rate_demand')
 """What a run records of each aircraft beside the state: altitude above the ground (m), bank
 (rad, right wing down positive) and the autopilot demand (m/s, rad/s) held over the period."""
 

@@ -192,7 +192,7 @@ class Stepper:
 
     @property
     def ctrl(self) -> Controller:
-        """Return the vehicles' controller (:attr:`vehicles`)."""
+        """Return the vehicles' controller (that of ``vehicles``, the onboard step)."""
         return self.vehicles.ctrl
 
     @property

@@ -181,7 +181,7 @@ def test_a_fleet_converges_while_its_graph_switches_between_connected_graphs():
     st = Stepper(sc)
     periods_per_switch = int(round(2.0 / sc.dt_control))
     for n in range(sc.periods):
-        st.ctrl = ctrls[(n // periods_per_switch) % 2]
+        st.vehicles.ctrl = ctrls[(n // periods_per_switch) % 2]
         st.command()
         st.advance()
     snap = metrics.snapshot(ctrls[0], st.X, st.U)
