@@ -127,6 +127,10 @@ class FormationKind:
         return (steer.lag_limit(steer.bandwidth(sc), f, sc.K_I),
                 f'the steering loop ({steer.gain}, formation rate {f:.3g} 1/s)')
 
+    def lag_caveat(self, sc: Scenario) -> str | None:
+        """Return why :meth:`lag_limit` may not hold for the scenario's vehicles; None: it does."""
+        return None
+
 
 class ParallelFormation(FormationKind):
     """Parallel motion (1.12), (3.7): the phases synchronise, ``K < 0``."""
@@ -194,6 +198,24 @@ class CircularFormation(FormationKind):
         loop = (centre_lag_limit(sc), f"the circle's centre loop ({steer.gain} = "
                 f'{steer.bandwidth(sc):g}, K = {sc.K:g}, omega0 = {sc.omega0:g})')
         return min(super().lag_limit(sc), loop)
+
+    def lag_caveat(self, sc: Scenario) -> str | None:
+        """
+        Return why the centre loop's limit may not hold here: rigid bodies, a flow; else None.
+
+        The limit is derived for particles in still water; the figures quoted are measured
+        (docs/errata.md, "Actuator lag in the circle's centre loop").
+        """
+        if vehicle_model(sc.model).rigid:
+            return ("the centre loop's limit is derived for particles: a rigid body's speed "
+                    'and sway are not in it (measured: rigid_circular, seed 12, loses its '
+                    'centres from 0.2 s of lag, 0.23 of the limit)')
+        if sc.flow_c != 0 or sc.flow_model != 'uniform':
+            return ("the centre loop's limit is derived in still water: in a flow the course "
+                    'rate varies along the circle and the lag leaves the centres apart in '
+                    'proportion to it (measured: particle_circular_flow, |f| = 0.5 m/s, seed '
+                    '12: 2 cm at 0.1 of the limit, lost from 0.45 of it)')
+        return None
 
 
 def centre_loop(sc: Scenario, tau: float, q: float) -> tuple[RealArray, RealArray]:

@@ -19,7 +19,8 @@ A law turns the formation law's phase rate ``phi`` (1.12), (1.16) into a command
 rate itself (first order, (1.12), (1.16)) or a phase acceleration: backstepping (3.7),
 (3.14), (7.12), proportional (5.5), PI (8.24). Each carries what the rest of the package asks
 of it: the gain whose modulus is its steering bandwidth, its phase acceleration, the longest
-actuator lag its linearised loop is stable with (docs/errata.md, "Actuator lag"), whether it
+actuator lag its linearised loop is stable with (docs/errata.md, "Actuator lag") and that loop
+through the lag, which the circle's centre loop closes on (:mod:`formations`), whether it
 integrates (anti-windup) and whether it reads the course rate from the model with the held
 force. :data:`LAWS` is the table; :func:`law` picks a scenario's; :func:`check` refuses a
 rigid-body steering loop that would diverge (tail steering's right-half-plane zero, the full

@@ -300,4 +300,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if sc.actuator_lag > 0.5 * limit:
             notes.append(f'{text}: past half of it, expect slow, oscillating turns, and near it '
                          f'no settling (measured at 0.95 of it)')
+        caveat = formations.of(sc).lag_caveat(sc)
+        if caveat:
+            notes.append(f'actuator_lag = {sc.actuator_lag:g} s: {caveat}')
     return tuple(notes)

@@ -129,3 +129,14 @@ def test_a_lag_on_a_circle_without_a_derived_limit_is_refused_and_first_order_ha
                          ('particle_circular', {'informed': [1], 'c0': [1.0, 0.0]})):
         with pytest.raises(NoLagLimit, match="'actuator_lag'"):
             scenario.load(CONFIG / f'{name}.yaml', actuator_lag=0.01, **values)
+
+
+def test_where_the_centre_loops_limit_is_not_derived_a_lag_is_warned_about():
+    """Rigid bodies and a flow: the caveat, with the measured figures, reaches the warnings."""
+    for name in ('rigid_circular', 'particle_circular_flow'):
+        sc = scenario.load(CONFIG / f'{name}.yaml', actuator_lag=0.02)
+        assert of(sc).lag_caveat(sc) and any(
+            'actuator_lag = 0.02' in w and 'measured' in w for w in sc.warnings)
+    for name in ('particle_circular', 'particle_parallel', 'rigid_parallel'):
+        sc = scenario.load(CONFIG / f'{name}.yaml', actuator_lag=0.02)
+        assert of(sc).lag_caveat(sc) is None and sc.warnings == ()
