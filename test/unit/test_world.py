@@ -171,8 +171,9 @@ def test_the_circle_settles_below_its_centre_loops_lag_limit_and_not_past_it(val
     The circle's centre loop, not the steering loop, bounds the lag (docs/errata.md).
 
     particle_circular (seed 7): the centre loop's limit (1.06 s, 0.65 s) lies far below the
-    steering loop's 1/kappa + 1/K (2.33 s, 1.5 s). At 0.8 of it the centres meet (spread from
-    the recorded states); at 1.2 they stay metres apart. A lag of 1.2 of it is refused at
+    steering loop's 1/kappa + 1/K (2.33 s, 1.5 s). At 0.8 of it the centres meet from these
+    starts (spread from the recorded states; the limit is local: some starts keep a limit
+    cycle there, errata); at 1.2 they stay metres apart. A lag of 1.2 of it is refused at
     start-up, 0.8 warned about, 0.4 accepted in silence.
     """
     sc = scenario.load(CONFIG / 'particle_circular.yaml', seed=7, **values)
