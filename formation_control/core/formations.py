@@ -30,7 +30,15 @@ from typing import ClassVar
 
 from formation_control.core import graphs, laws
 from formation_control.core.errors import refuse as _fail
+from formation_control.core.geometry import RealArray
 from formation_control.core.parameters import Scenario
+from formation_control.core.stability import formation_rate
+from formation_control.core.steering import law as steering_law, NoLagLimit
+from formation_control.core.vehicles import vehicle_model
+import numpy as np
+
+PHASE_SPREADS = np.linspace(0.0, 0.25, 5)
+"""The values of ``q = (1 - |mean e^{2 i theta}|^2) / 4`` the centre loop is checked at."""
 
 
 class FormationKind:
@@ -94,6 +102,35 @@ class FormationKind:
         """Return the rate the laws act at (rad/s) for a ground speed ``s_min``, and its name."""
         raise NotImplementedError
 
+    def lag_limit(self, sc: Scenario) -> tuple[float, str]:
+        """
+        Return the longest actuator lag (s) the formation's linearised loops are stable with.
+
+        Parameters
+        ----------
+        sc : Scenario
+            The steering law, its gains and the formation's.
+
+        Returns
+        -------
+        (float, str)
+            The limit and the loop it comes from. The base: the steering loop's
+            (:meth:`steering.SteeringLaw.lag_limit` at :func:`stability.formation_rate`).
+
+        Raises
+        ------
+        NoLagLimit
+            No limit is derived for the law or the formation.
+
+        """
+        steer, f = steering_law(sc), formation_rate(sc)
+        return (steer.lag_limit(steer.bandwidth(sc), f, sc.K_I),
+                f'the steering loop ({steer.gain}, formation rate {f:.3g} 1/s)')
+
+    def lag_caveat(self, sc: Scenario) -> str | None:
+        """Return why :meth:`lag_limit` may not hold for the scenario's vehicles; None: it does."""
+        return None
+
 
 class ParallelFormation(FormationKind):
     """Parallel motion (1.12), (3.7): the phases synchronise, ``K < 0``."""
@@ -149,6 +186,102 @@ class CircularFormation(FormationKind):
     def law_rate(self, sc: Scenario, s_min: float) -> tuple[float, str]:
         """Return the circle's own turn rate ``|omega0| s_min``."""
         return abs(sc.omega0) * s_min, "the circle's own turn rate |omega0| (s - |f|)"
+
+    def lag_limit(self, sc: Scenario) -> tuple[float, str]:
+        """
+        Return the smaller of the steering loop's and the centre loop's lag limits (s).
+
+        The centre loop (:func:`centre_lag_limit`) is derived all-to-all, without a pattern
+        or a prescribed centre; elsewhere it raises NoLagLimit.
+        """
+        steer = steering_law(sc)
+        loop = (centre_lag_limit(sc), f"the circle's centre loop ({steer.gain} = "
+                f'{steer.bandwidth(sc):g}, K = {sc.K:g}, omega0 = {sc.omega0:g})')
+        return min(super().lag_limit(sc), loop)
+
+    def lag_caveat(self, sc: Scenario) -> str | None:
+        """
+        Return why the centre loop's limit may not hold here: rigid bodies, a flow; else None.
+
+        The limit is derived for particles in still water; the figures quoted are measured
+        (docs/errata.md, "Actuator lag in the circle's centre loop").
+        """
+        if vehicle_model(sc.model).rigid:
+            return ("the centre loop's limit is derived for particles: a rigid body's speed "
+                    'and sway are not in it (measured: rigid_circular, seed 12, loses its '
+                    'centres from 0.2 s of lag, 0.23 of the limit)')
+        if sc.flow_c != 0 or sc.flow_model != 'uniform':
+            return ("the centre loop's limit is derived in still water: in a flow the course "
+                    'rate varies along the circle and the lag leaves the centres apart in '
+                    'proportion to it (measured: particle_circular_flow, |f| = 0.5 m/s, seed '
+                    '12: 2 cm at 0.1 of the limit, lost from 0.45 of it)')
+        return None
+
+
+def centre_loop(sc: Scenario, tau: float, q: float) -> tuple[RealArray, RealArray]:
+    """
+    Return the characteristic polynomials of the circle's centre loop through a lag tau.
+
+    Parameters
+    ----------
+    sc : Scenario
+        The steering law and gains, K, omega0, the speed (1; rigid bodies u0).
+    tau : float
+        The actuator lag (s).
+    q : float
+        ``(1 - |mean e^{2 i theta}|^2) / 4`` in [0, 1/4] of the phases on the circle.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``M (s^2 + W^2) + s A`` (the modes that leave the mean centre at rest) and
+        ``M^2 (s^2 + W^2) + s M A + q A^2`` (the modes that move it), with ``W = omega0 s0``,
+        ``M = omega0 P``, ``A = omega0 K Phi + Sigma / omega0`` of the law's loop
+        (:meth:`steering.SteeringLaw.lag_loop`); docs/errata.md, "Actuator lag in the
+        circle's centre loop".
+
+    """
+    steer = steering_law(sc)
+    P, Phi, Sigma = steer.lag_loop(tau, steer.bandwidth(sc), sc.K_I)
+    speed = sc.u0 if vehicle_model(sc.model).rigid else 1.0
+    rotation = np.array([1.0, 0.0, (sc.omega0 * speed) ** 2])
+    M = sc.omega0 * P
+    A = np.polyadd(sc.omega0 * sc.K * Phi, Sigma / sc.omega0)
+    sMA = np.polymul([1.0, 0.0], np.polymul(M, A))
+    single = np.polyadd(np.polymul(M, rotation), np.polymul([1.0, 0.0], A))
+    coupled = np.polyadd(np.polyadd(np.polymul(np.polymul(M, M), rotation), sMA),
+                         q * np.polymul(A, A))
+    return single, coupled
+
+
+def centre_lag_limit(sc: Scenario) -> float:
+    """
+    Return the longest lag (s) the circle's linearised centre loop is stable with.
+
+    Every polynomial of :func:`centre_loop` at each :data:`PHASE_SPREADS` must be Hurwitz;
+    the largest such tau is bisected from a stable one, inf past 1e6 s (the first-order law).
+    Raises NoLagLimit on a graph, with a pattern or a prescribed centre (not derived).
+    """
+    if not sc.all_to_all or sc.pattern != 'none' or sc.informed:
+        raise NoLagLimit("the circle's centre loop through an actuator lag is derived "
+                         'all-to-all, without a pattern or a prescribed centre only: '
+                         "parameter 'actuator_lag' cannot be checked here (graph, pattern, "
+                         'informed)')
+
+    def stable(tau: float) -> bool:
+        return all(bool(np.all(np.roots(p).real < 0)) for q in PHASE_SPREADS
+                   for p in centre_loop(sc, tau, q))
+
+    high = 1.0
+    while stable(high):
+        high *= 2.0
+        if high > 1e6:
+            return float(np.inf)
+    low = 0.0
+    for _ in range(32):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if stable(mid) else (low, mid)
+    return low
 
 
 FORMATIONS: dict[str, FormationKind] = {f.name: f for f in (ParallelFormation(),

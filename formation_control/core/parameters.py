@@ -388,8 +388,9 @@ class Scenario:
                                       rule=f'> 0; {_ENTRIES}')
     actuator_lag: float = _param(0.0, 's', 'time constant tau of the first-order lag from each '
                                  'command to the applied input', low=0.0, zero='none',
-                                 rule="below the steering loop's limit (refused from it, "
-                                 'warned from half of it)')
+                                 rule="below the formation's limit: the steering loop's, on "
+                                 "a circle also the centre loop's (refused from it, warned "
+                                 'from half of it)')
     max_thrust_rate: float = _param(0.0, 'N/s', 'rate limit of the applied thrust, rigid bodies',
                                     low=0.0, zero='no limit', models=rigid_names())
     max_steering_rate: float = _param(0.0, 'N/s', 'rate limit of the applied steering input: N/s '

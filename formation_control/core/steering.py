@@ -19,7 +19,8 @@ A law turns the formation law's phase rate ``phi`` (1.12), (1.16) into a command
 rate itself (first order, (1.12), (1.16)) or a phase acceleration: backstepping (3.7),
 (3.14), (7.12), proportional (5.5), PI (8.24). Each carries what the rest of the package asks
 of it: the gain whose modulus is its steering bandwidth, its phase acceleration, the longest
-actuator lag its linearised loop is stable with (docs/errata.md, "Actuator lag"), whether it
+actuator lag its linearised loop is stable with (docs/errata.md, "Actuator lag") and that loop
+through the lag, which the circle's centre loop closes on (:mod:`formations`), whether it
 integrates (anti-windup) and whether it reads the course rate from the model with the held
 force. :data:`LAWS` is the table; :func:`law` picks a scenario's; :func:`check` refuses a
 rigid-body steering loop that would diverge (tail steering's right-half-plane zero, the full
@@ -132,6 +133,38 @@ class SteeringLaw:
         raise NoLagLimit(f'steering law {self.name!r} has no derived actuator-lag limit: '
                          "parameter 'actuator_lag' cannot be checked against it")
 
+    def lag_loop(self, tau: float, gain: float, K_I: float = 0.0
+                 ) -> tuple[RealArray, RealArray, RealArray]:
+        """
+        Return the law's linearised loop through the lag, ``P v = Phi phi~ + Sigma sigma~``.
+
+        Parameters
+        ----------
+        tau : float
+            The actuator lag (s).
+        gain : float
+            The steering bandwidth (1/s), :meth:`bandwidth`.
+        K_I : float
+            The PI law's integral gain (1/s^2).
+
+        Returns
+        -------
+        (ndarray, ndarray, ndarray)
+            The coefficients (highest power first) of the polynomials P, Phi, Sigma in s that
+            relate the rate error ``v = rate - phi`` at rest, the deviation ``phi~`` of the
+            formation's phase rate and that ``sigma~`` of the cross term, the applied input
+            lagging the command, ``tau a' = u - a`` (docs/errata.md, "Actuator lag in the
+            circle's centre loop").
+
+        Raises
+        ------
+        NoLagLimit
+            The law has no derived loop.
+
+        """
+        raise NoLagLimit(f'steering law {self.name!r} has no derived loop through an actuator '
+                         "lag: parameter 'actuator_lag' cannot be checked against it")
+
 
 class FirstOrder(SteeringLaw):
     """The first-order law ``phase' = phi`` (1.12), (1.16), on first-order vehicles (1.1)."""
@@ -148,6 +181,11 @@ class FirstOrder(SteeringLaw):
     def lag_limit(self, gain: float, f: float, K_I: float = 0.0) -> float:
         """Return inf: a first-order loop through a lag (``tau s^2 + s + g``) is always stable."""
         return np.inf
+
+    def lag_loop(self, tau: float, gain: float, K_I: float = 0.0
+                 ) -> tuple[RealArray, RealArray, RealArray]:
+        """Return ``P = tau s + 1``, ``Phi = 1``, ``Sigma = 0``: the rate lags phi."""
+        return np.array([tau, 1.0]), np.ones(1), np.zeros(1)
 
 
 class Backstepping(SteeringLaw):
@@ -172,6 +210,11 @@ class Backstepping(SteeringLaw):
         """
         return 1.0 / gain + 1.0 / f if f > 0 else np.inf
 
+    def lag_loop(self, tau: float, gain: float, K_I: float = 0.0
+                 ) -> tuple[RealArray, RealArray, RealArray]:
+        """Return ``P = tau s^2 + s + kappa``, ``Phi = s + kappa`` (phi' fed forward), ``1``."""
+        return np.array([tau, 1.0, gain]), np.array([1.0, gain]), np.ones(1)
+
 
 class Proportional(SteeringLaw):
     """The proportional law (5.5): ``-K_p (rate - phi)``."""
@@ -192,6 +235,11 @@ class Proportional(SteeringLaw):
         ``u = -kappa e' - kappa f e`` through the lag: stable (Routh) for ``tau < 1/f``.
         """
         return 1.0 / f if f > 0 else np.inf
+
+    def lag_loop(self, tau: float, gain: float, K_I: float = 0.0
+                 ) -> tuple[RealArray, RealArray, RealArray]:
+        """Return ``P = tau s^2 + s + K_p``, ``Phi = K_p``, ``Sigma = 0``."""
+        return np.array([tau, 1.0, gain]), np.array([gain]), np.zeros(1)
 
 
 class PI(SteeringLaw):
@@ -234,6 +282,11 @@ class PI(SteeringLaw):
             mid = 0.5 * (low + high)
             low, high = (mid, high) if stable(mid) else (low, mid)
         return low
+
+    def lag_loop(self, tau: float, gain: float, K_I: float = 0.0
+                 ) -> tuple[RealArray, RealArray, RealArray]:
+        """Return ``P = tau s^3 + s^2 + K_P s + K_I``, ``Phi = K_P s + K_I``, ``0`` (times s)."""
+        return np.array([tau, 1.0, gain, K_I]), np.array([gain, K_I]), np.zeros(1)
 
 
 LAWS: dict[str, SteeringLaw] = {law.name: law for law in (FirstOrder(), Backstepping(),

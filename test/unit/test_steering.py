@@ -61,6 +61,21 @@ def test_a_law_without_a_derived_lag_limit_raises_naming_itself():
 
     with pytest.raises(NoLagLimit, match="'bang_bang'.*'actuator_lag'"):
         Bang().lag_limit(5.0, 1.0)
+    with pytest.raises(NoLagLimit, match="'bang_bang'.*'actuator_lag'"):
+        Bang().lag_loop(0.1, 5.0)
+
+
+@pytest.mark.parametrize('name, gain, f, K_I', [('backstepping', 2.5, 0.7, 0.0),
+                                                ('proportional', 3.0, 0.4, 0.0),
+                                                ('pi', 6.0, 0.8, 4.0)])
+def test_each_laws_lag_loop_closed_on_the_formation_rate_gives_its_lag_limit(name, gain, f, K_I):
+    """``s P + f Phi`` (phi = -f e, v = s e) is Hurwitz below lag_limit and not above it."""
+    steer = LAWS[name]
+    tau = steer.lag_limit(gain, f, K_I)
+    for t, stable in ((0.99 * tau, True), (1.01 * tau, False)):
+        P, Phi, _ = steer.lag_loop(t, gain, K_I)
+        loop = np.polyadd(np.polymul([1.0, 0.0], P), f * Phi)
+        assert bool(np.all(np.roots(loop).real < 0)) == stable
 
 
 def test_the_phase_acceleration_is_the_law_of_core_laws():

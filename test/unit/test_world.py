@@ -23,7 +23,7 @@ and correlation asked; the PI law's anti-windup; bad input refused naming the pa
 """
 from dataclasses import replace
 
-from formation_control.core import scenario, world
+from formation_control.core import formations, scenario, world
 from formation_control.core.control import Controller
 from formation_control.core.errors import ScenarioError
 from formation_control.core.models import ROW_U, ROW_V
@@ -152,6 +152,66 @@ def test_a_lag_below_the_limit_settles_and_past_it_the_phases_keep_oscillating()
     assert any('actuator_lag' in w for w in warned.warnings)
     assert scenario.load(CONFIG / 'particle_parallel.yaml', kappa=2.0,
                          actuator_lag=0.4 * limit).warnings == ()
+
+
+def _centre_spread(sc):
+    """Return the largest distance of a circle centre from the mean one (m), per sample."""
+    X = simulator.simulate(sc).X
+    c = X[:, 0] + 1j * X[:, 1] + 1j * np.exp(1j * X[:, 2]) / sc.omega0        # (1.14)
+    return abs(c - c.mean(axis=1, keepdims=True)).max(axis=1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('values', [
+    {'num_vehicles': 6, 'kappa': 3.0, 'K': 0.5, 'duration': 100.0},
+    {'num_vehicles': 5, 'kappa': 4.0, 'K': 0.8, 'omega0': 0.5, 'duration': 120.0},
+])
+def test_the_circle_settles_below_its_centre_loops_lag_limit_and_not_past_it(values):
+    """
+    The circle's centre loop, not the steering loop, bounds the lag (docs/errata.md).
+
+    particle_circular (seed 7): the centre loop's limit (1.06 s, 0.65 s) lies far below the
+    steering loop's 1/kappa + 1/K (2.33 s, 1.5 s). At 0.8 of it the centres meet from these
+    starts (spread from the recorded states; the limit is local: some starts keep a limit
+    cycle there, errata); at 1.2 they stay metres apart. A lag of 1.2 of it is refused at
+    start-up, 0.8 warned about, 0.4 accepted in silence.
+    """
+    sc = scenario.load(CONFIG / 'particle_circular.yaml', seed=7, **values)
+    limit, loop = formations.of(sc).lag_limit(sc)
+    assert 'centre loop' in loop and limit < 0.5 * (1 / sc.kappa + 1 / sc.K)
+    below = _centre_spread(replace(sc, actuator_lag=0.8 * limit))
+    past = _centre_spread(replace(sc, actuator_lag=1.2 * limit))
+    radius = 1 / sc.omega0
+    assert below[-len(below) // 5:].max() < 1e-2 * radius
+    assert below[len(below) // 10] > 1e-3 * radius                  # it started apart
+    assert past[-len(past) // 5:].min() > 0.5 * radius
+    with pytest.raises(ScenarioError, match="'actuator_lag'.*centre loop"):
+        scenario.load(CONFIG / 'particle_circular.yaml', actuator_lag=1.2 * limit, **values)
+    warned = scenario.load(CONFIG / 'particle_circular.yaml', actuator_lag=0.8 * limit,
+                           **values)
+    assert any('actuator_lag' in w for w in warned.warnings)
+    assert scenario.load(CONFIG / 'particle_circular.yaml', actuator_lag=0.4 * limit,
+                         **values).warnings == ()
+
+
+def _course_centre_spread(sc):
+    """Return the centre spread (m) over the last fifth, centres from the course (7.11)."""
+    X = simulator.simulate(sc).X
+    course = np.angle(np.exp(1j * (X[:, 2] + np.arctan2(X[:, 5], X[:, 4]))) + complex(*sc.flow))
+    c = X[:, 0] + 1j * X[:, 1] + 1j * np.exp(1j * course) / sc.omega0
+    spread = abs(c - c.mean(axis=1, keepdims=True)).max(axis=1)
+    return spread[-len(spread) // 5:]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('name, duration, held, lost', [
+    ('rigid_circular', 120.0, 0.15, 0.25), ('particle_circular_flow', 100.0, 0.088, 0.44)])
+def test_the_measured_lags_the_caveat_quotes_where_the_limit_is_not_derived(
+        name, duration, held, lost):
+    """Measured, not derived (seed 12): held below the figure the warning quotes, lost past it."""
+    sc = scenario.load(CONFIG / f'{name}.yaml', seed=12, duration=duration)
+    assert _course_centre_spread(replace(sc, actuator_lag=held)).max() < 0.05
+    assert _course_centre_spread(replace(sc, actuator_lag=lost)).min() > 1.0
 
 
 def test_the_gust_has_the_intensity_and_correlation_asked():
