@@ -20,20 +20,17 @@ ROOT = ('', '/', '//')
 FLEET = ('fleet_a', '/fleet_a', 'fleet_a/', '/fleet_a/', '//fleet_a//')
 
 
-@pytest.mark.parametrize('namespace', ROOT)
-def test_root_namespace(namespace):
-    assert names.namespace_prefix(namespace) == '/'
-    assert names.namespace_of(namespace) == '/'
-    assert names.status_prefix(namespace) == ''
-    assert names.resolve(namespace, 'formation/scenario') == '/formation/scenario'
+EXPECTED = [(ns, ('/', '/', '', '/formation/scenario')) for ns in ROOT] + \
+    [(ns, ('/fleet_a/', '/fleet_a', 'fleet_a/', '/fleet_a/formation/scenario')) for ns in FLEET]
 
 
-@pytest.mark.parametrize('namespace', FLEET)
-def test_fleet_namespace(namespace):
-    assert names.namespace_prefix(namespace) == '/fleet_a/'
-    assert names.namespace_of(namespace) == '/fleet_a'
-    assert names.status_prefix(namespace) == 'fleet_a/'
-    assert names.resolve(namespace, 'vehicle_1/odom') == '/fleet_a/vehicle_1/odom'
+@pytest.mark.parametrize('namespace, expected', EXPECTED)
+def test_root_and_fleet_namespaces(namespace, expected):
+    assert (names.namespace_prefix(namespace), names.namespace_of(namespace),
+            names.status_prefix(namespace), names.resolve(namespace, 'formation/scenario')) \
+        == expected
+    if namespace in FLEET:
+        assert names.resolve(namespace, 'vehicle_1/odom') == '/fleet_a/vehicle_1/odom'
 
 
 @pytest.mark.parametrize('namespace', ('/fleet_a/team_2', 'fleet_a/team_2/'))
