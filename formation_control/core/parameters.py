@@ -416,6 +416,11 @@ class Scenario:
                                 'parallel', **_POSITIVE)
     band_speed: float = _param(0.05, 'm/s', 'band: the speed error mean |u - u0|, rigid bodies',
                                **_POSITIVE)
+    hold_window: float = _param(0.0, 's', "converged 'yes': how long every condition must "
+                                'have held, at every recorded sample, to the end of the run '
+                                '(the band test: at least its settle_window)', low=0.0,
+                                zero='derived: one cycle of the formation law and of the '
+                                'steering loop, at least 10 recorded samples (docs/laws.md)')
     warnings: tuple[str, ...] = field(default=(), compare=False)
 
     @property
