@@ -431,13 +431,14 @@ class Scenario:
                                  'dead reckoning over a fix interval (gusts, mismatch), and its '
                                  'velocities over gust_time',
                                  **_POSITIVE)
-    convergence: str = _param('auto', '', "the convergence test: exact (the thesis' tolerances "
-                              'at the last sample), band (every steady-state error within its '
-                              'band at every sample of the last settle_window) or auto (band '
-                              'when mismatch, actuators, gusts or sensors are on)',
+    convergence: str = _param('auto', '', "the convergence test: exact (the thesis' "
+                              'tolerances), band (every steady-state error within its band) or '
+                              'auto (band when mismatch, actuators, gusts or sensors are on); '
+                              'either holds at every sample of the last hold_window',
                               choices=('auto', 'exact', 'band'))
     settle_window: float = _param(10.0, 's', 'band: the last window the steady-state errors are '
-                                  'taken over (the whole run if it is shorter)', **_POSITIVE)
+                                  'taken over (the whole run if it is shorter); the shortest '
+                                  'hold_window', **_POSITIVE)
     band_spread: float = _param(0.2, 'm', 'band: the centre spread max |c_k - mean c|, circular',
                                 **_POSITIVE)
     band_radius: float = _param(0.05, '', 'band: the relative radius error, circular',
@@ -446,6 +447,11 @@ class Scenario:
                                 'parallel', **_POSITIVE)
     band_speed: float = _param(0.05, 'm/s', 'band: the speed error mean |u - u0|, rigid bodies',
                                **_POSITIVE)
+    hold_window: float = _param(0.0, 's', "converged 'yes': how long every condition must "
+                                'have held, at every recorded sample, to the end of the run '
+                                '(the band test: at least its settle_window)', low=0.0,
+                                zero='derived: one cycle of the formation law and of the '
+                                'steering loop, at least 10 recorded samples (docs/laws.md)')
     warnings: tuple[str, ...] = field(default=(), compare=False)
 
     @property

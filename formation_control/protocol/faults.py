@@ -225,10 +225,9 @@ def survivors_converged(run: Run,
     Returns
     -------
     (bool or None, float or None)
-        :func:`metrics.converged` at the end on the members' states alone, measured as a
-        complete fleet of their number (the survivors' own formation), and
-        :func:`metrics.convergence_time` of that test over the run (s); (None, None) without
-        members.
+        :func:`metrics.verdict` of :func:`metrics.converged` on the members' states alone,
+        measured as a complete fleet of their number (the survivors' own formation), and the
+        time from which it held (s; None unless converged); (None, None) without members.
 
     """
     rows = [k - 1 for k in members]
@@ -241,4 +240,5 @@ def survivors_converged(run: Run,
     ctrl = Controller(sub)
     flags = [bool(metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows])))
              for X, U in zip(run.X, run.U)]
-    return bool(flags[-1]), metrics.convergence_time(run.t, flags)
+    verdict = metrics.settling(sub, run.t, flags)
+    return verdict.converged, verdict.since if verdict.converged else None

@@ -31,7 +31,7 @@ from formation_control.core.control import Controller
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
 from formation_control.core.parameters import RUNTIME, Scenario
-from formation_control.core.scenario import practical, resolve
+from formation_control.core.scenario import resolve
 from formation_control.protocol import names
 from formation_control.sim import metrics
 import numpy as np
@@ -139,8 +139,9 @@ class Latch:
     """
     The convergence latch: :attr:`since` is when the formation last entered its test.
 
-    With ``hold`` (the band test's settle_window, s) it counts as converged only once it has
-    stayed within its bands that long (:func:`metrics.verdict`); at once otherwise.
+    It counts as converged only once the test has held at every sample for ``hold`` seconds
+    (:func:`metrics.hold_window`), the rule of :func:`metrics.verdict` in real time; leaving
+    the test starts the wait again.
     """
 
     def __init__(self, hold: float = 0.0) -> None:
@@ -294,7 +295,7 @@ class Watch:
         self.heard = {stream: np.full(n, np.nan) for stream in STREAMS}
         self.started = clock()
         self.sampling = Sampling(n, period)
-        self.latch = Latch(sc.settle_window if practical(sc) else 0.0)
+        self.latch = Latch(metrics.hold_window(sc))
         self.trails = Trails(trail_length, n)
         self.vehicle_ok = np.zeros(n, bool)
         self.saturated = np.zeros(n, bool)
@@ -313,6 +314,7 @@ class Watch:
     def take(self, agreed: Mapping[str, Hashable]) -> None:
         """Follow the gains the fleet agreed on (:meth:`GainAgreement.announce`; ScenarioError)."""
         self.ctrl = Controller(self.gains.take(agreed))
+        self.latch.hold = metrics.hold_window(self.sc)
 
     def flow(self, x: RealArray, y: RealArray) -> ComplexArray:
         """Return the flow at (x, y) at the time of the last sample."""

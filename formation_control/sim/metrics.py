@@ -24,7 +24,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any, TYPE_CHECKING
 
-from formation_control.core import formations, laws
+from formation_control.core import formations, laws, steering
+from formation_control.core.flow import flowfield, vehicle_speed
 from formation_control.core.geometry import BoolArray, ComplexArray, RealArray
 from formation_control.core.laws import Value
 from formation_control.core.models import ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
@@ -278,6 +279,75 @@ def window(sc: Scenario, t: ArrayLike) -> BoolArray:
     return t >= t[-1] - min(sc.settle_window, t[-1] - t[0]) - 1e-9
 
 
+HOLD_SAMPLES = 10
+"""The derived hold window spans at least this many recorded periods (``record_dt``)."""
+
+
+def hold_window(sc: Scenario) -> float:
+    """
+    Return how long every convergence condition must have held, to the end, for a 'yes' (s).
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its ``hold_window`` (0: derived), formation, gains, speed, flow, ``record_dt`` and,
+        with the band test (:func:`scenario.practical`), ``settle_window``.
+
+    Returns
+    -------
+    float
+        ``hold_window`` if given, else the longest of one cycle of the formation law
+        ``2 pi / rate``, one cycle of the steering loop ``2 pi / bandwidth`` and
+        :data:`HOLD_SAMPLES` recorded periods; with the band test at least ``settle_window``.
+
+    Notes
+    -----
+    The formation law's rate is :meth:`formations.FormationKind.law_rate` at the slowest
+    ground speed ``s - max |f|``: circular, the circle's turn rate ``|omega0| (s - max |f|)``,
+    so the window is at least one orbit (every course is flown once, and a flow, whose effect
+    on the formation turns with the course, has acted at every phase of it); parallel,
+    ``|K|`` (1.12), so the window is ``2 pi`` time constants of the alignment, over which a
+    transient that only passes through the test decays by ``e^{-2 pi}`` (0.2 %) and has
+    left it. The steering loop's rate is its bandwidth (:meth:`steering.SteeringLaw.bandwidth`:
+    kappa (3.7), K_p (5.5), K_P (8.24), K for first-order vehicles). The floor keeps a verdict
+    from resting on a few samples. The band test also covers the window its steady-state
+    errors are reported over.
+
+    """
+    hold = sc.hold_window
+    if hold == 0.0:
+        s_min = vehicle_speed(sc) - flowfield(sc).max_speed
+        rate, _ = formations.of(sc).law_rate(sc, s_min)
+        hold = max(2.0 * np.pi / rate, 2.0 * np.pi / steering.law(sc).bandwidth(sc),
+                   HOLD_SAMPLES * sc.record_every * sc.dt_control)
+    return max(hold, sc.settle_window) if practical(sc) else hold
+
+
+def held(t: ArrayLike, flags: ArrayLike) -> Any:
+    """
+    Return how long each run's test has held at every sample, up to its last sample (s).
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+        Sample times (s), T >= 1.
+    flags : array_like of bool, shape (T,) or (T, B)
+        The convergence test at each sample.
+
+    Returns
+    -------
+    float or ndarray, shape (B,)
+        ``t[-1] - since`` with ``since`` :func:`convergence_times` (the first sample from
+        which every sample holds); 0 where the last sample does not hold, and for a run of
+        one sample.
+
+    """
+    t, flags = np.asarray(t, float), np.asarray(flags, bool)
+    since = convergence_times(t, flags.reshape(flags.shape[0], -1))
+    out = np.where(np.isnan(since), 0.0, t[-1] - np.nan_to_num(since))
+    return float(out[0]) if flags.ndim == 1 else out
+
+
 def verdict(sc: Scenario, t: ArrayLike, flags: ArrayLike) -> Any:
     """
     Return whether each run converged, from its convergence test at each sample.
@@ -285,24 +355,68 @@ def verdict(sc: Scenario, t: ArrayLike, flags: ArrayLike) -> Any:
     Parameters
     ----------
     sc : scenario.Scenario
-        Its ``convergence`` test (:func:`scenario.practical`) and ``settle_window``.
+        Its :func:`hold_window`.
     t : array_like, shape (T,)
         Sample times (s).
     flags : array_like of bool, shape (T,) or (T, B)
-        :func:`converged` at each sample.
+        :func:`converged` at each sample (the exact or the band test).
 
     Returns
     -------
     bool or ndarray of bool, shape (B,)
-        Exact test: the last sample holds. Band test: every sample of the last window holds
-        (the formation stayed within its band that long), so a 'yes' is never given to a run
-        that left the band in that window.
+        Every sample from some time X to the end holds, and ``t[-1] - X`` is at least the
+        hold window (:func:`held`): a run that meets its test only over its last samples, or
+        that left it within the window, is not converged.
 
     """
-    flags = np.asarray(flags, bool)
-    if not practical(sc):
-        return flags[-1]
-    return np.all(flags[window(sc, t)], axis=0)
+    out = np.asarray(held(t, flags)) >= hold_window(sc) - 1e-9
+    return bool(out) if out.ndim == 0 else out
+
+
+@dataclass(frozen=True)
+class Settling:
+    """
+    The verdict of one run (:func:`settling`).
+
+    Attributes
+    ----------
+    converged : bool
+        :func:`verdict`.
+    since : float or None
+        The time from which every sample holds (s); None when the last sample fails.
+    held : float or None
+        How long that is, to the last sample (s), :func:`held`; None when the last sample
+        fails.
+    hold : float
+        The hold window (s), :func:`hold_window`.
+
+    """
+
+    converged: bool
+    since: float | None
+    held: float | None
+    hold: float
+
+    def text(self) -> str:
+        """Return the report's verdict: 'yes, from t = X s (...)', 'no, not settled: ...'."""
+        if self.converged:
+            return (f'yes, from t = {self.since:.4g} s (held {self.held:.4g} s, hold window '
+                    f'{self.hold:.4g} s)')
+        if self.held is None:
+            return 'no'
+        span = f'the last {self.held:.4g} s' if self.held > 0 else 'the last sample'
+        return f'no, not settled: held only {span} of the {self.hold:.4g} s hold window'
+
+
+def settling(sc: Scenario, t: ArrayLike, flags: ArrayLike) -> Settling:
+    """
+    Return the verdict of one run from its test at each sample (flags (T,), t (T,) s).
+
+    ``since`` is :func:`convergence_time`, also for a run that did not hold it long enough.
+    """
+    since = convergence_time(t, flags)
+    span = None if since is None else held(t, flags)
+    return Settling(bool(verdict(sc, t, flags)), since, span, hold_window(sc))
 
 
 def steady_state(sc: Scenario, t: ArrayLike,
@@ -476,7 +590,9 @@ def nearest_distance(r: ComplexArray) -> RealArray:
 
 def convergence_time(t: ArrayLike, flags: ArrayLike) -> float | None:
     """
-    Return the first time from which ``flags`` holds to the end.
+    Return the first time from which ``flags`` holds at every sample to the end.
+
+    Whether that is long enough for a 'yes' is :func:`verdict`'s to say (:func:`hold_window`).
 
     Parameters
     ----------

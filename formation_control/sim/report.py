@@ -201,10 +201,10 @@ def report(run: Run) -> tuple[dict[str, Any], list[Row]]:
 
 def format_report(title: str, out: Mapping[str, Any], rows: Iterable[Row]) -> str:
     """Return the text ``formation-control report`` prints of a report (:func:`report`)."""
-    time = out['convergence_time']
+    verdict = metrics.Settling(out['converged'], out['convergence_time'], out['held'],
+                               out['hold_window'])
     lines = [title,
-             f"  converged          {'yes' if out['converged'] else 'no'}"
-             + (f', from t = {time:.4g} s' if time is not None else '')
+             f'  converged          {verdict.text()}'
              + (f" (fails: {', '.join(out['unmet'])})" if out.get('unmet') else ''),
              f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
     if out.get('pattern'):

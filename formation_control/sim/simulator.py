@@ -452,6 +452,10 @@ class Outcome:
         return metrics.steady_state(self.sc, self.t, {name: [e[name] for e in self.errors]
                                                       for name in self.errors[-1]})
 
+    def held(self) -> RealArray:
+        """Return how long each fleet's test held to the end, :func:`metrics.held` (s), (B,)."""
+        return np.where(self.diverged, 0.0, metrics.held(self.t, self.flags))
+
     def convergence_times(self) -> RealArray:
         """Return each fleet's :func:`metrics.convergence_times` (s; NaN: not converged), (B,)."""
         return np.where(self.converged(), metrics.convergence_times(self.t, self.flags), np.nan)
@@ -591,13 +595,15 @@ def summary(run: Run) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.converged` at the end,
-        evaluated sample by sample: a fleet's views stay in cache),
+        ``num_vehicles``, ``duration`` (s), ``converged`` (:func:`metrics.verdict`: every
+        :func:`metrics.converged` held at every sample over at least the last
+        :func:`metrics.hold_window`, evaluated sample by sample: a fleet's views stay in cache),
         ``unmet`` (the names of the :func:`metrics.conditions` it fails at the end),
-        ``convergence_time`` (s or None), the final ``order_parameter``, ``lyapunov`` and
-        ``max_turn_rate``. With the band test (:func:`scenario.practical`): ``converged``
-        is :func:`metrics.verdict` (within every band at every sample of the last window),
-        ``unmet`` the bands left in that window, ``steady_state`` the median, 95th percentile
+        ``convergence_time`` (s, from which they held; None unless converged), ``held`` (s,
+        how long they held to the end; None if the last sample fails), ``hold_window`` (s), the
+        final ``order_parameter``, ``lyapunov`` and ``max_turn_rate``. With the band test
+        (:func:`scenario.practical`): the test is every band, ``unmet`` the bands left in the
+        last ``settle_window``, ``steady_state`` the median, 95th percentile
         and band of each :func:`metrics.steady_errors` over it, and ``settle_window`` (s).
         Circular: ``centre_spread``, ``radius``, ``radius_target``; rigid bodies: ``mean_u``,
         ``mean_v`` (m/s).
@@ -614,14 +620,14 @@ def summary(run: Run) -> dict[str, Any]:
         flags.append(metrics.converged(sc, final))
         met.append(metrics.conditions(sc, final))
         errors.append(metrics.steady_errors(sc, final))
+    verdict = metrics.settling(sc, run.t, flags)
     out = {'num_vehicles': sc.num_vehicles, 'duration': float(run.t[-1]),
-           'converged': bool(metrics.verdict(sc, run.t, flags)),
+           'converged': verdict.converged,
            'unmet': metrics.unmet(sc, final),
-           'convergence_time': None,
+           'convergence_time': verdict.since if verdict.converged else None,
+           'held': verdict.held, 'hold_window': verdict.hold,
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate}
-    if out['converged']:
-        out['convergence_time'] = metrics.convergence_time(run.t, flags)
     if practical(sc):
         keep = metrics.window(sc, run.t)
         out['unmet'] = [name for name in met[-1] if not all(

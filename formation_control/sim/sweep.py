@@ -234,7 +234,8 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     -------
     dict of str to ndarray
         One row per run: ``seed``, ``converged`` (:func:`metrics.verdict`, as
-        :func:`simulator.summary`), ``convergence_time`` (s, NaN if not converged), the final
+        :func:`simulator.summary`), ``convergence_time`` (s, NaN if not converged), ``held``
+        (s, how long the test held to the end, :meth:`simulator.Outcome.held`), the final
         metrics by name (:meth:`metrics.Snapshot.values`), ``met_<condition>`` for each of
         :func:`metrics.conditions` (at the end; with the band test over the last window),
         with the band test ``ss_median_<error>`` and ``ss_p95_<error>`` of each
@@ -248,6 +249,7 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
                              seeds=seeds)
     rows = {'seed': np.array(seeds, dtype=np.int64), 'converged': out.converged(),
             'convergence_time': out.convergence_times(),
+            'held': out.held(),
             'diverged': np.broadcast_to(out.diverged, (len(seeds),)).copy()}
     for name, ok in out.met_conditions().items():
         rows[f'met_{name}'] = np.broadcast_to(ok, (len(seeds),)).copy()

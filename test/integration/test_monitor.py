@@ -46,7 +46,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 import yaml
 
 SCENARIO = 'rigid_parallel_flow'
-DURATION = 9.0
+DURATION = 14.0                # converged from t = 7 s, held past the 6.28 s hold window
 """Lockstep equals the offline run, which converges at t = 7 s."""
 
 
@@ -350,9 +350,9 @@ def test_replaying_the_bag_into_a_fresh_monitor_gives_its_metrics_and_report(rec
     """
     ``play``: the recorded fleet's topics, republished, give a new monitor the same metrics.
 
-    At the recorded rate (9 s): the monitor samples a step once it holds every vehicle's
+    At the recorded rate (14 s): the monitor samples a step once it holds every vehicle's
     odometry of it, which a replay much faster than recorded on a loaded machine interleaves
-    with the next steps' (a 10 x replay here lost up to 70 of the 91 samples).
+    with the next steps' (a 10 x replay of 9 s lost up to 70 of its 91 samples).
     """
     from formation_control.bags.playback import Bag
     from formation_control.ros.player import PlayerNode

@@ -227,12 +227,12 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     fleet_a is inspected and tuned with the CLI while both run, then stopped with SIGINT.
     """
     fleet_b = scenario.load(CONFIG / 'particle_parallel.yaml', ['num_vehicles:=3'],
-                            duration=8.0)
+                            duration=13.0)
     patient = tmp_path / 'patient.yaml'          # the CLI batch below loads the CPUs: no vehicle
     patient.write_text(yaml.safe_dump({'/**': {'ros__parameters': {     # leaves while starved
         'neighbor_timeout': 30.0, 'command_timeout': 60.0}}}))
     launch_b = _launch(cli, tmp_path / 'fleet_b.log', 'scenario:=particle_parallel',
-                       'namespace:=fleet_b', 'num_vehicles:=3', 'duration:=8.0',
+                       'namespace:=fleet_b', 'num_vehicles:=3', 'duration:=13.0',
                        f'params_file:={patient}', f'record_path:={tmp_path / "fleet_b.npz"}',
                        f'record:={tmp_path / "bag_b"}')
     launch = _launch(cli, tmp_path / 'launch.log', 'scenario:=rigid_parallel',

@@ -166,7 +166,7 @@ def test_the_fleet_converges_over_tls_and_keeps_intruders_out(hosts, tmp_path):
     that never started (:data:`NEVER_JOINED`) is run once more.
     """
     n = 4
-    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=8.0')
+    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=14.0')
     fleet = fleet_of(hosts, n)
     security.write_fleet(tmp_path / 'fleet', fleet)
     other = security.roster(n, {'vehicle_1': hosts.address(INTRUDER)})

@@ -80,7 +80,7 @@ def test_a_member_posing_as_another_is_ignored_and_counted(hosts, tmp_path):
     counts do not hang on how fast the run is.
     """
     n = 4
-    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=8.0')
+    sc = load('rigid_parallel', f'num_vehicles:={n}', 'duration:=14.0')
     fleet = fleet_of(hosts, n)
     security.write_fleet(tmp_path / 'fleet', fleet)
     hearers = [j for j in range(1, n + 1) if POSED in sc.comm_graph.neighbours(j)]

@@ -78,16 +78,18 @@ def test_the_census_has_both_verdicts():
 
 
 def test_a_last_sample_in_the_band_is_not_enough():
-    sc = scenario.load(CONFIG / 'rigid_circular.yaml', gust_intensity=0.1, settle_window=1.0)
+    sc = scenario.load(CONFIG / 'rigid_circular.yaml', gust_intensity=0.1, settle_window=1.0,
+                       hold_window=1.0)
     t = np.arange(0.0, 5.01, 0.1)
     flags = np.ones(t.size, bool)
     flags[-5] = False                                  # out of the band 0.4 s before the end
     assert not metrics.verdict(sc, t, flags)
     flags[-5], flags[-12] = True, False                # 1.1 s before: outside the window
     assert metrics.verdict(sc, t, flags)
-    exact = scenario.load(CONFIG / 'rigid_circular.yaml')
+    exact = scenario.load(CONFIG / 'rigid_circular.yaml', hold_window=1.0)
+    assert metrics.verdict(exact, t, flags)
     flags[-5] = False
-    assert metrics.verdict(exact, t, flags)            # the exact test reads the last sample
+    assert not metrics.verdict(exact, t, flags)        # the exact test holds over the window too
 
 
 @pytest.mark.slow

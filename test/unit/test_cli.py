@@ -37,7 +37,8 @@ CLI = Path(sys.executable).parent / 'formation-control'
 CONFIG = Path(__file__).resolve().parents[2] / 'config'
 STATE_KEYS = ('x', 'y', 'theta', 'omega', 'u', 'v')
 SUMMARY_KEYS = {'num_vehicles', 'duration', 'converged', 'unmet', 'convergence_time',
-                'order_parameter', 'lyapunov', 'max_turn_rate', 'final', 'predicted'}
+                'held', 'hold_window', 'order_parameter', 'lyapunov', 'max_turn_rate', 'final',
+                'predicted'}
 PARTICLE_OVERRIDES = ['num_vehicles:=4', 'duration:=5.0', 'flow:=[0.2, 0.1]', 'kappa:=4.0']
 AMENT_CASES = pytest.mark.parametrize('ament', [
     pytest.param(True, id='ament_prefix_set'),
@@ -115,6 +116,7 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
     assert summary['duration'] == 5.0
     assert isinstance(summary['converged'], bool)
     assert summary['convergence_time'] is None or 0.0 <= summary['convergence_time'] <= 5.0
+    assert summary['hold_window'] > 5.0 and not summary['converged']   # too short to hold it
 
 
 def test_npz_has_the_documented_arrays(particle_run):

@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config'
-RIGID = ['-p', 'duration:=25.0', '-p', 'K:=[1.0, 2.0]']
+RIGID = ['-p', 'duration:=30.0', '-p', 'K:=[1.0, 2.0]']
 SEEDS = 4
 
 
@@ -61,7 +61,7 @@ def test_batched_runs_equal_single_runs(reference):
     assert d['K'].tolist() == [1.0] * SEEDS + [2.0] * SEEDS
     assert d['converged'][:SEEDS].any() and not d['converged'].all()
     for row in range(2 * SEEDS):
-        sc = scenario.resolve(dict(rigid_base(), duration=25.0, K=float(d['K'][row]),
+        sc = scenario.resolve(dict(rigid_base(), duration=30.0, K=float(d['K'][row]),
                                    seed=int(d['seed'][row])))
         run = simulator.simulate(sc)
         want = simulator.summary(run)
@@ -148,7 +148,7 @@ def test_failed_batches_are_reported_and_resume_completes(reference, tmp_path):
     assert parts == ['point0000_seed00000000.npz', 'point0000_seed00000003.npz']
     with pytest.raises(sweep.SweepError, match='--resume'):
         sweep.execute(the_plan, out, workers=0)
-    other = sweep.plan(rigid_base(), ['duration:=25.0', 'K:=[1.0, 3.0]'], range(SEEDS),
+    other = sweep.plan(rigid_base(), ['duration:=30.0', 'K:=[1.0, 3.0]'], range(SEEDS),
                        batch_size=3)
     with pytest.raises(sweep.SweepError, match='another sweep'):
         sweep.execute(other, out, workers=0, resume=True)
@@ -168,7 +168,7 @@ def test_failed_batches_are_reported_and_resume_completes(reference, tmp_path):
 @pytest.mark.slow
 def test_a_dead_worker_is_retried_once_then_reported(reference, tmp_path, monkeypatch):
     monkeypatch.setenv('SWEEP_TEST_MARKER', str(tmp_path / 'marker'))
-    the_plan = sweep.plan(rigid_base(), ['duration:=25.0', 'K:=1.0'], range(SEEDS),
+    the_plan = sweep.plan(rigid_base(), ['duration:=30.0', 'K:=1.0'], range(SEEDS),
                           batch_size=2)
     out = tmp_path / 'retry.npz'
     assert sweep.execute(the_plan, out, workers=2, task=die_once) == {}

@@ -18,6 +18,7 @@ from formation_control.core.errors import ScenarioError
 from formation_control.core.models import ROW_THETA, ROW_U, ROW_X, ROW_Y
 from formation_control.protocol import watch
 from formation_control.protocol.watch import ERROR, OK, WARN
+from formation_control.sim import metrics
 import numpy as np
 import pytest
 from runs import CONFIG
@@ -200,7 +201,7 @@ def test_a_vehicle_unheard_goes_stale_from_the_start_of_the_watch(clock):
 
 
 def test_the_formation_latches_converged_and_reports_the_time_it_took(clock):
-    w = _watch(_scenario(num_vehicles=2), clock, converge_within=0.05)
+    w = _watch(_scenario(num_vehicles=2, hold_window=0.2), clock, converge_within=0.05)
     X = _aligned(2)
     X[ROW_THETA, 1] = 0.5 + np.pi                                   # head to head
     for k in (1, 2):
@@ -210,20 +211,37 @@ def test_the_formation_latches_converged_and_reports_the_time_it_took(clock):
     assert not changed and values['order_parameter'] < 1e-12
     assert w.formation_status(rejected=0)[1:3] == (OK, 'converging')
     aligned = _aligned(2)
+    for ms in (100, 200):                                # in the test, not yet for the window
+        for k in (1, 2):
+            w.odom(k, aligned[:, k - 1], ms * MS)
+        _, changed = w.sample(ms * MS)
+        assert not changed and not w.latch.converged and w.latch.since is None
     for k in (1, 2):
-        w.odom(k, aligned[:, k - 1], 100 * MS)
-    _, changed = w.sample(100 * MS)
+        w.odom(k, aligned[:, k - 1], 300 * MS)
+    _, changed = w.sample(300 * MS)
     assert changed and w.latch.since == pytest.approx(0.1)
     name, level, message, values = w.formation_status(rejected=3)
     assert (name, level, message) == ('formation', OK, 'converged in 0.10 s')
     assert values['convergence_time'] == '0.100' and values['rejected_messages'] == 3
     assert values['order_parameter'] == '1'
     for k in (1, 2):
-        w.odom(k, X[:, k - 1], 200 * MS)
-    _, changed = w.sample(200 * MS)
+        w.odom(k, X[:, k - 1], 400 * MS)
+    _, changed = w.sample(400 * MS)
     assert changed
-    assert w.formation_status(0)[1:3] == (WARN, 'not converged after 0.2 s')
-    assert [w.vehicle_status(i)[2] for i in (0, 1)] == ['not converging after 0.2 s'] * 2
+    assert w.formation_status(0)[1:3] == (WARN, 'not converged after 0.4 s')
+    assert [w.vehicle_status(i)[2] for i in (0, 1)] == ['not converging after 0.4 s'] * 2
+
+
+def test_the_monitor_latch_waits_the_derived_hold_window(clock):
+    sc = _scenario(num_vehicles=2)
+    w = _watch(sc, clock)
+    assert w.latch.hold == pytest.approx(metrics.hold_window(sc)) == pytest.approx(2 * np.pi)
+    aligned = _aligned(2)
+    for ms in range(0, 6400, 100):                       # 0 .. 6.3 s, in the test throughout
+        for k in (1, 2):
+            w.odom(k, aligned[:, k - 1], ms * MS)
+        assert w.sample(ms * MS)[1] is (ms == 6300)     # converged once held 2 pi / |K|
+    assert w.latch.converged and w.latch.since == 0.0
 
 
 def test_the_live_graph_holds_the_links_both_ends_hear_within_the_timeout(clock):
