@@ -17,9 +17,11 @@ The scenario parameter table: every parameter of a run, its default, unit and al
 
 A scenario file is ``/**: ros__parameters: ...`` (:func:`read_params`, :func:`parse_override`,
 :func:`find`); :func:`scenario.resolve` validates it, every error naming the parameter and the
-values it may take, before anything runs. The parameters, their defaults, units and ranges are
-one table, the fields of :class:`Scenario`. This module imports no physics module: each feature
-checks its own parameters, and imports the table, never the reverse.
+values it may take, before anything runs. The parameters, their defaults, units, ranges and
+the configurations that read them (:data:`READERS`) are one table, the fields of
+:class:`Scenario`: a value set where the run does not read it is refused (:func:`check_read`).
+This module imports no physics module: each feature checks its own parameters, and imports
+the table, never the reverse.
 """
 from __future__ import annotations
 
