@@ -78,7 +78,7 @@ from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
-from formation_control.core.parameters import DEFAULTS, MISMATCH_ARRAYS, Scenario
+from formation_control.core.parameters import Scenario
 from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
@@ -548,39 +548,17 @@ def check_trim(sc: Scenario) -> None:
     _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
 
 
-NATIVE_WORLD = ('mismatch', *MISMATCH_ARRAYS, 'actuator_lag', 'max_thrust_rate',
-                'max_steering_rate', 'gust_intensity', 'gnss_sigma', 'gnss_rate', 'heading_sigma',
-                'heading_bias', 'yaw_rate_sigma', 'velocity_sigma', 'water_sigma', 'water_bias',
-                'sensor_latency', 'position_filter')
-"""The world of the native plant (issue 30), refused with ``plant_backend: jsbsim``."""
-
-
-JSBSIM_OWNS = ('u0', 'K_f', 'K_P', 'K_I', 'm0', 'I0', 'l', 'h', 'l1', 'max_thrust',
-               'max_steering_force')
-"""The rigid-body parameters, which a JSBSim aircraft's own model (mass, drag, ...) replaces."""
-
-
 def check(sc: Scenario) -> tuple[str, ...]:
     """
     Refuse a jsbsim scenario the aircraft cannot fly (docs/aircraft.md, "Bad input").
 
-    The native plant's world and rigid-body parameters left out, a tangent plane within
-    +-80 deg of latitude, airspeed limits that admit the airspeed, a circle within the bank
-    limit, and an aircraft JSBSim has and trims (:func:`check_trim`). No warnings; nothing
-    for the native plant.
+    A tangent plane within +-80 deg of latitude, airspeed limits that admit the airspeed, a
+    circle within the bank limit, and an aircraft JSBSim has and trims (:func:`check_trim`).
+    No warnings; nothing for the native plant. The native plant's world and the rigid-body
+    parameters, which JSBSim does not read, are refused by :func:`parameters.check_read`.
     """
     if not flown(sc):
         return ()
-    native = [name for name in NATIVE_WORLD if getattr(sc, name) != getattr(DEFAULTS, name)]
-    if native:
-        _fail(native[0], getattr(sc, native[0]), "with plant_backend jsbsim: the native plant's "
-              'model mismatch, actuators, gusts and sensors are not applied to JSBSim aircraft '
-              '(JSBSim has its own turbulence: turbulence_severity): leave it out')
-    owned = [name for name in JSBSIM_OWNS if getattr(sc, name) != getattr(DEFAULTS, name)]
-    if owned:
-        _fail(owned[0], getattr(sc, owned[0]), f'with plant_backend jsbsim the aircraft model '
-              f'{sc.jsbsim_aircraft!r} owns its mass, inertia, drag and thrust: leave out '
-              f"{', '.join(owned)}")
     if not -80.0 <= sc.geodetic_origin[0] <= 80.0:
         _fail('geodetic_origin', list(sc.geodetic_origin), 'the latitude must lie within '
               '+-80 deg (the map frame is a tangent plane)')

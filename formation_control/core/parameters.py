@@ -17,13 +17,15 @@ The scenario parameter table: every parameter of a run, its default, unit and al
 
 A scenario file is ``/**: ros__parameters: ...`` (:func:`read_params`, :func:`parse_override`,
 :func:`find`); :func:`scenario.resolve` validates it, every error naming the parameter and the
-values it may take, before anything runs. The parameters, their defaults, units and ranges are
-one table, the fields of :class:`Scenario`. This module imports no physics module: each feature
-checks its own parameters, and imports the table, never the reverse.
+values it may take, before anything runs. The parameters, their defaults, units, ranges and
+the configurations that read them (:data:`READERS`) are one table, the fields of
+:class:`Scenario`: a value set where the run does not read it is refused (:func:`check_read`).
+This module imports no physics module: each feature checks its own parameters, and imports
+the table, never the reverse.
 """
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field, fields, replace
 from functools import cached_property
 import json
@@ -78,6 +80,79 @@ _Loader.add_implicit_resolver(
 
 
 @dataclass(frozen=True)
+class Reader:
+    """
+    A configuration that reads a parameter: the values of one deciding parameter, its axis.
+
+    Attributes
+    ----------
+    text : str
+        The configuration in words, as messages and docs/parameters.md name it.
+    axis : str
+        The parameter whose value decides it (``plant_backend``, ``model``, ...).
+    values : tuple
+        The values of ``axis`` that read the parameter.
+    shared : str
+        Why a shared parameter file often sets the parameter where it is not read: a value is
+        then warned about, not refused ('' = refused).
+    hint : str
+        What the refusal adds.
+
+    """
+
+    text: str
+    axis: str
+    values: tuple[Any, ...]
+    shared: str = ''
+    hint: str = ''
+
+    def holds(self, sc: Any) -> bool:
+        """Return whether scenario ``sc`` is this configuration (its axis takes one value)."""
+        return getattr(sc, self.axis) in self.values
+
+
+def _models(text: str, test: Callable[[Any], bool]) -> Reader:
+    """Return the :class:`Reader` of the vehicle models (the registry's) that pass ``test``."""
+    names = tuple(m.name for m in VEHICLE_MODELS.values() if test(m))
+    return Reader(text or f"model {' or '.join(names)}", 'model', names)
+
+
+def model_reader(param: str) -> str:
+    """Return the name in :data:`READERS` of the models that read vehicle parameter ``param``."""
+    return f"model {' or '.join(reading(param))}"
+
+
+_GAINS = 'a fleet file often carries the gains of every steering law (-p controller:=...)'
+_FORMATION = 'a fleet file is often flown in both formations (-p formation:=...)'
+READERS = {r.text: r for r in (
+    Reader('plant_backend native', 'plant_backend', ('native',), hint='JSBSim aircraft meet '
+           "no mismatch, actuators, gusts or sensors of the native plant's world; their own "
+           "turbulence is 'turbulence'"),
+    Reader('plant_backend jsbsim', 'plant_backend', ('jsbsim',)),
+    _models('rigid bodies', lambda m: m.rigid),
+    replace(_models('rigid bodies (their through-water sensor)', lambda m: m.rigid),
+            shared="a fleet's sensor suite is often given to particles and rigid bodies alike"),
+    _models('', lambda m: m.first_order),
+    _models('', lambda m: m.particle and not m.first_order),
+    *(Reader(model_reader(p), 'model', reading(p))
+      for p in dict.fromkeys(p for m in VEHICLE_MODELS.values() for p in m.params)),
+    Reader('formation circular', 'formation', ('circular',), _FORMATION),
+    Reader('controller backstepping', 'controller', ('backstepping',), _GAINS),
+    Reader('controller proportional', 'controller', ('proportional',), _GAINS),
+    Reader('controller pi', 'controller', ('pi',), _GAINS),
+    Reader('flow_source estimated', 'flow_source', ('estimated',)),
+    Reader('flow_estimator filter', 'flow_estimator', ('filter',)),
+    Reader('flow_estimator observer', 'flow_estimator', ('observer',)),
+    *(Reader(f'flow_model {m}', 'flow_model', (m,)) for m in FLOW_MODELS[1:]),
+    Reader('position_filter kalman', 'position_filter', ('kalman',)),
+    Reader('pattern splay or symmetric', 'pattern', PATTERNS[1:]),
+    Reader('pattern symmetric', 'pattern', ('symmetric',)),
+    *(Reader(f'graph {g}', 'graph', (g,)) for g in ('circulant', 'random', 'explicit')))}
+"""The configurations that read parameters, by their words (:attr:`Spec.reads`): each a set of
+values of one axis, its models from the vehicle registry."""
+
+
+@dataclass(frozen=True)
 class Spec:
     """
     What one scenario parameter means and which values it may take.
@@ -101,6 +176,9 @@ class Spec:
         The allowed values of a string.
     rule : str
         Further conditions, in words (checked by :func:`scenario.resolve` in code).
+    reads : tuple of str
+        The configurations (:data:`READERS`) that read it, all of them; () = every run. A value
+        other than the default elsewhere is refused (or warned about) by :func:`check_read`.
     runtime : bool
         A running node accepts a new value (validated with the whole scenario); otherwise the
         parameter is read-only.
@@ -118,6 +196,7 @@ class Spec:
     models: tuple[str, ...] = MODEL_NAMES
     choices: tuple[str, ...] = ()
     rule: str = ''
+    reads: tuple[str, ...] = ()
     runtime: bool = False
     shown_default: str = ''
 
@@ -128,7 +207,8 @@ def _param(default: object, unit: str, text: str, **spec: Any) -> Any:
 
 
 _POSITIVE = {'low': 0.0, 'above': True}
-_RIGID_POSITIVE = dict(_POSITIVE, models=rigid_names())
+_RIGID = {'models': rigid_names(), 'reads': ('rigid bodies',)}
+_RIGID_POSITIVE = dict(_POSITIVE, **_RIGID)
 _MODELS_TEXT = '; '.join(
     f"{kind} {', '.join(m.text for m in VEHICLE_MODELS.values() if m.particle == particle)}"
     for kind, particle in (('particles', True), ('rigid bodies', False)))
@@ -136,14 +216,21 @@ _MODELS_TEXT = '; '.join(
 
 def _read_by(name: str) -> dict[str, Any]:
     """Return the Spec keywords of a vehicle parameter > 0 for the models that read it."""
-    return dict(_POSITIVE, models=reading(name))
+    return dict(_POSITIVE, models=reading(name), reads=(model_reader(name),))
 
 
 def _derivative(name: str) -> dict[str, Any]:
     """Return the Spec keywords of a hydrodynamic derivative (<= 0) for the models reading it."""
-    return {'high': 0.0, 'models': reading(name)}
+    return {'high': 0.0, 'models': reading(name), 'reads': (model_reader(name),)}
 
 
+_NATIVE = ('plant_backend native',)
+_JSBSIM = ('plant_backend jsbsim',)
+_WATER = _NATIVE + ('rigid bodies (their through-water sensor)',)
+_CIRCULAR = ('formation circular',)
+_ESTIMATED = ('flow_source estimated',)
+_FILTER = _ESTIMATED + ('flow_estimator filter',)
+_OBSERVER = _ESTIMATED + ('flow_estimator observer',)
 _LIMIT = {'low': 0.0, 'zero': 'no limit', 'runtime': True}
 _ENTRIES = 'num_vehicles entries, or none'
 
@@ -175,9 +262,9 @@ class Scenario:
                       rule='K < 0 for parallel (1.12), (3.7); K > 0 for circular (1.16), (3.14)',
                       runtime=True)
     kappa: float = _param(5.0, '1/s', 'backstepping gain kappa (3.7), (3.14)', runtime=True,
-                          **_POSITIVE)
+                          **_POSITIVE, reads=('controller backstepping',))
     omega0: float = _param(1.0, 'rad/m', 'circle curvature omega0: radius 1/|omega0|',
-                           rule='!= 0 for circular', runtime=True)
+                           rule='!= 0 for circular', runtime=True, reads=_CIRCULAR)
     flow: tuple = _param((0.0, 0.0), 'm/s', 'uniform steady flow [fx, fy], map frame (1.4); '
                          'the background of the other flow models',
                          rule='max |f| < 1 for particles (1.6), < u0 for rigid bodies')
@@ -186,55 +273,62 @@ class Scenario:
                              '(Rankine) or grid (file, bilinear); see core/flowfields.py',
                              choices=FLOW_MODELS)
     flow_amplitude: float = _param(0.0, 'm/s', 'time_varying: amplitude A of the flow part '
-                                   'that turns once per flow_period', low=0.0)
-    flow_period: float = _param(600.0, 's', 'time_varying: period T of that turn', **_POSITIVE)
-    flow_shear: float = _param(0.0, '1/s', 'shear: gradient G, fx = flow_x + G clip(y, -w, w)')
+                                   'that turns once per flow_period', low=0.0,
+                                   reads=('flow_model time_varying',))
+    flow_period: float = _param(600.0, 's', 'time_varying: period T of that turn', **_POSITIVE,
+                                reads=('flow_model time_varying',))
+    flow_shear: float = _param(0.0, '1/s', 'shear: gradient G, fx = flow_x + G clip(y, -w, w)',
+                               reads=('flow_model shear',))
     flow_shear_width: float = _param(5.0, 'm', 'shear: half-width w of the shear layer',
-                                     **_POSITIVE)
-    flow_center: tuple = _param((0.0, 0.0), 'm', 'vortex: centre [x, y], map frame')
-    flow_radius: float = _param(2.0, 'm', 'vortex: core radius R', **_POSITIVE)
+                                     **_POSITIVE, reads=('flow_model shear',))
+    flow_center: tuple = _param((0.0, 0.0), 'm', 'vortex: centre [x, y], map frame',
+                                reads=('flow_model vortex',))
+    flow_radius: float = _param(2.0, 'm', 'vortex: core radius R', **_POSITIVE,
+                                reads=('flow_model vortex',))
     flow_circulation: float = _param(0.0, 'm^2/s', 'vortex: circulation Gamma (> 0 counter-'
-                                     'clockwise); peak speed Gamma / (2 pi R) at r = R')
+                                     'clockwise); peak speed Gamma / (2 pi R) at r = R',
+                                     reads=('flow_model vortex',))
     flow_grid_file: str = _param('', '', 'grid: .npz (x, y, fx, fy) or .csv (x,y,fx,fy) file of '
-                                 'the flow', rule='an existing file with finite values')
+                                 'the flow', rule='an existing file with finite values',
+                                 reads=('flow_model grid',))
     flow_source: str = _param('known', '', 'where a vehicle gets the flow: known (the flow '
                               'topic: the local flow) or estimated (from its own ground and '
                               'through-water velocities, no flow topic)', choices=FLOW_SOURCES)
     flow_estimator: str = _param('filter', '', "estimated: filter fhat' = lambda_f (v_ground - "
                                  "v_rel - fhat), or observer from the position only (rhat' = "
                                  "v_rel + fhat + l1 (r - rhat), fhat' = l2 (r - rhat))",
-                                 choices=FLOW_ESTIMATORS)
+                                 choices=FLOW_ESTIMATORS, reads=_ESTIMATED)
     flow_gain: float = _param(1.0, '1/s', 'filter: estimator bandwidth lambda_f', runtime=True,
-                              **_POSITIVE)
+                              **_POSITIVE, reads=_FILTER)
     flow_gain_from_noise: bool = _param(False, '', 'filter: take the bandwidth that minimises the '
                                         'error in the gust with the sensor noise instead of '
                                         'flow_gain (estimation.best_gain; with position_filter: '
-                                        'kalman, navigation.best_flow_gain)')
+                                        'kalman, navigation.best_flow_gain)', reads=_FILTER)
     flow_observer_l1: float = _param(2.0, '1/s', 'observer: position gain l1', runtime=True,
-                                     **_POSITIVE)
+                                     **_POSITIVE, reads=_OBSERVER)
     flow_observer_l2: float = _param(1.0, '1/s^2', 'observer: flow gain l2', runtime=True,
-                                     **_POSITIVE)
+                                     **_POSITIVE, reads=_OBSERVER)
     flow_consensus: float = _param(0.0, '1/s', 'estimated: gain of the consensus term that pulls '
                                    "each estimate toward its neighbours' (uniform flows)",
-                                   low=0.0, zero='none', runtime=True)
+                                   low=0.0, zero='none', runtime=True, reads=_ESTIMATED)
     K_p: float = _param(5.0, '1/s', 'proportional steering gain K_p (5.5)', runtime=True,
-                        **_POSITIVE)
+                        **_POSITIVE, reads=('controller proportional',))
     # Chapters 6-8 and Appendix A: rigid bodies
     u0: float = _param(1.0, 'm/s', 'forward speed u0 relative to the flow that the thrust holds '
                        '(7.1)', runtime=True, **_RIGID_POSITIVE)
     K_f: float = _param(1.0, '1/s', "thrust gain K_f: u' = K_f (u0 - u) (7.1), (8.10)",
                         runtime=True, **_RIGID_POSITIVE)
     K_P: float = _param(10.0, '1/s', 'PI steering proportional gain K_P (8.24)', runtime=True,
-                        **_RIGID_POSITIVE)
+                        models=rigid_names(), **_POSITIVE, reads=('rigid bodies', 'controller pi'))
     K_I: float = _param(15.0, '1/s^2', 'PI steering integral gain K_I (8.24)', runtime=True,
-                        low=0.0, models=rigid_names())
+                        low=0.0, models=rigid_names(), reads=('rigid bodies', 'controller pi'))
     m0: float = _param(1.0, 'kg', 'mass m0 (6.15)', **_read_by('m0'))
     I0: float = _param(0.1, 'kg m^2', 'yaw moment of inertia I0 (6.15)', **_read_by('I0'))
     l: float = _param(0.5, 'm', 'arm l of the steering force behind the centre of mass (6.14)',
                       **_read_by('l'))
     h: float = _param(5.0, 'kg/m', 'drag coefficient h: drag D = h s^2 (6.15)', **_read_by('h'))
     l1: float = _param(0.0, 'm', 'centre of pressure l1 ahead of the centre of mass, rigid_cop '
-                       '(A.1)')
+                       '(A.1)', reads=(model_reader('l1'),))
     # A marine surface vessel (core/vehicles/vessel.py): CyberShip II (Skjetne et al. 2005)
     X_udot: float = _param(-2.0, 'kg', 'vessel: surge added mass X_udot',
                            **_derivative('X_udot'))
@@ -262,81 +356,92 @@ class Scenario:
                                 'second_order; the rigid-body parameters are left out')
     jsbsim_aircraft: str = _param('c172x', '', 'jsbsim: the aircraft model (gliders: sgs233, '
                                   'sgs126, minisgs descend)', rule='an aircraft of the jsbsim '
-                                  'package that trims at altitude and airspeed')
+                                  'package that trims at altitude and airspeed', reads=_JSBSIM)
     altitude: float = _param(900.0, 'm', 'jsbsim: initial altitude above the ground (held by '
-                             'powered aircraft)', **_POSITIVE)
+                             'powered aircraft)', **_POSITIVE, reads=_JSBSIM)
     airspeed: float = _param(51.0, 'm/s', 'jsbsim: true airspeed V held; the particle laws '
-                             'fly with it as the vehicle speed', rule='> max |f|', **_POSITIVE)
+                             'fly with it as the vehicle speed', rule='> max |f|', **_POSITIVE,
+                             reads=_JSBSIM)
     min_airspeed: float = _param(0.0, 'm/s', 'jsbsim: lowest airspeed demand the autopilot '
-                                 'takes', low=0.0, zero='no limit', rule='<= airspeed')
+                                 'takes', low=0.0, zero='no limit', rule='<= airspeed',
+                                 reads=_JSBSIM)
     max_airspeed: float = _param(0.0, 'm/s', 'jsbsim: highest airspeed demand the autopilot '
-                                 'takes', low=0.0, zero='no limit', rule='>= airspeed')
+                                 'takes', low=0.0, zero='no limit', rule='>= airspeed',
+                                 reads=_JSBSIM)
     bank_limit: float = _param(0.5236, 'rad', 'jsbsim: bank limit of the autopilot (bank from '
                                'tan(phi) = V omega / g)', rule='above the bank the circle '
                                'needs, tan(phi) = V^2 / (g R) in still air', high=1.2,
-                               **_POSITIVE)
+                               **_POSITIVE, reads=_JSBSIM)
     roll_rate_limit: float = _param(0.5, 'rad/s', 'jsbsim: roll-rate limit of the autopilot',
-                                    **_POSITIVE)
+                                    **_POSITIVE, reads=_JSBSIM)
     turn_lag: float = _param(0.5, 's', 'jsbsim: time constant of the bank hold; the '
-                             'second-order turn-rate demand is omega + turn_lag a', **_POSITIVE)
+                             'second-order turn-rate demand is omega + turn_lag a', **_POSITIVE,
+                             reads=_JSBSIM)
     turbulence: int = _param(0, '', 'jsbsim: MIL-F-8785C turbulence severity (1-2 light, 3-4 '
-                             'moderate, 5-7 severe)', low=0, high=7, zero='none')
+                             'moderate, 5-7 severe)', low=0, high=7, zero='none', reads=_JSBSIM)
     turbulence_seed: int = _param(0, '', 'jsbsim: seed of the turbulence (per aircraft: seed '
-                                  '65537 + index)', low=0)
+                                  '65537 + index)', low=0, reads=_JSBSIM)
     geodetic_origin: tuple = _param((38.99, -76.94), 'deg', 'jsbsim: latitude, longitude of the '
                                     'map origin (the map frame is the tangent plane there)',
-                                    rule='latitude within +-80')
+                                    rule='latitude within +-80', reads=_JSBSIM)
     c0: tuple = _param((0.0, 0.0), 'm', 'prescribed circle centre c0 [x, y], map frame (7.17)',
-                       runtime=True)
+                       runtime=True, reads=_CIRCULAR)
     informed: tuple = _param((), '', 'ids of the vehicles that know c0 (a_k0 = 1 in (7.17)); '
-                             'empty = none', rule='ids in 1..num_vehicles', runtime=True)
+                             'empty = none', rule='ids in 1..num_vehicles', runtime=True,
+                             reads=_CIRCULAR)
     law_variant: str = _param(
         'practical', '', "rigid-body steering (7.12): practical (the thesis' simulations) or "
-        "full (adds s' and beta' computed from the model)", choices=LAW_VARIANTS)
+        "full (adds s' and beta' computed from the model)", choices=LAW_VARIANTS,
+        reads=('rigid bodies',))
     cancel_drag_moment: bool = _param(True, '', 'cancel the drag moment of the centre of '
-                                      'pressure, rigid_cop (A.20)')
+                                      'pressure, rigid_cop (A.20)', reads=(model_reader('l1'),))
     # Symmetric circular patterns (Sepulchre, Paley and Leonard 2007), flow-free
     pattern: str = _param('none', '', 'places on the circle: none (free), splay (evenly '
                           'spaced) or symmetric (pattern_M clusters of N/M evenly spaced)',
-                          choices=PATTERNS, rule='formation circular and no flow')
+                          choices=PATTERNS, rule='formation circular and no flow', reads=_CIRCULAR)
     pattern_M: int = _param(2, '', 'symmetric: the number of clusters M',
-                            rule='2 <= M < num_vehicles and M divides num_vehicles')
+                            rule='2 <= M < num_vehicles and M divides num_vehicles',
+                            reads=('pattern symmetric',))
     pattern_gain: float = _param(PATTERN_GAIN, 'rad/s', 'gain K_m > 0 of the phase potential '
                                  '(m = 1..floor(N/2) splay, m < M symmetric); the slot gain',
-                                 **_POSITIVE)
+                                 **_POSITIVE, reads=('pattern splay or symmetric',))
     pattern_gain_M: float = _param(PATTERN_GAIN_M, 'rad/s', 'symmetric moments: |K_M| of the '
                                    'clustering term, K_M = -pattern_gain_M (too large: unequal '
-                                   'clusters)', **_POSITIVE)
+                                   'clusters)', **_POSITIVE, reads=('pattern symmetric',))
     pattern_form: str = _param('auto', '', 'moments (fleet means of e^{i m phase}) or slots '
                                '(synchronise phase_k - beta_k over the graph, beta_k from the '
                                'id k); auto = moments on the complete graph, slots otherwise',
                                choices=('auto', 'moments', 'slots'),
-                               rule='moments only on the complete graph with default graph_nu')
+                               rule='moments only on the complete graph with default graph_nu',
+                               reads=('pattern splay or symmetric',))
     # Communication graph (Sepulchre, Paley and Leonard 2008: limited communication)
     graph: str = _param('complete', '', 'who hears whom: complete (all-to-all, the thesis), '
                         'ring, circulant, random (connected) or explicit',
                         choices=('complete', 'ring', 'circulant', 'random', 'explicit'),
                         rule='undirected and connected')
     graph_offsets: tuple = _param((1,), '', 'circulant: vehicle k hears k +- d for each offset d',
-                                  rule='distinct integers 1 <= d < num_vehicles/2')
+                                  rule='distinct integers 1 <= d < num_vehicles/2',
+                                  reads=('graph circulant',))
     graph_degree: float = _param(4.0, '', 'random: the mean number of neighbours',
-                                 rule='2 <= degree <= num_vehicles - 1')
-    graph_seed: int = _param(0, '', 'random: the seed of the graph', low=0)
+                                 rule='2 <= degree <= num_vehicles - 1', reads=('graph random',))
+    graph_seed: int = _param(0, '', 'random: the seed of the graph', low=0,
+                             reads=('graph random',))
     graph_edges: tuple = _param((), '', 'explicit: undirected edges as a flat list of 1-based id '
                                 'pairs [i1, j1, i2, j2, ...]', rule='ids in 1..num_vehicles, no '
-                                'self or repeated edges')
+                                'self or repeated edges', reads=('graph explicit',))
     graph_nu: float = _param(0.0, '', 'the constant nu of the Laplacian laws (sums over '
                              'neighbours divided by nu)', low=0.0,
                              zero='max degree + 1 (num_vehicles on the complete graph: the '
                              'all-to-all laws)')
     # Command limits
-    max_thrust: float = _param(0.0, 'N', 'thrust limit |T|, rigid bodies', **_LIMIT)
+    max_thrust: float = _param(0.0, 'N', 'thrust limit |T|, rigid bodies', **_LIMIT,
+                               reads=('rigid bodies',))
     max_steering_force: float = _param(0.0, 'N', 'steering-force limit |F|, rigid bodies',
-                                       **_LIMIT)
+                                       **_LIMIT, reads=('rigid bodies',))
     max_angular_accel: float = _param(0.0, 'rad/s^2', 'angular-acceleration command limit, '
-                                      'second_order', **_LIMIT)
+                                      'second_order', **_LIMIT, reads=('model second_order',))
     max_turn_rate: float = _param(0.0, 'rad/s', 'turn-rate command limit, first_order',
-                                  **_LIMIT)
+                                  **_LIMIT, reads=('model first_order',))
     # The run
     seed: int = _param(0, '', 'random seed of the initial state', low=0)
     dt_control: float = _param(0.02, 's', 'control period: each command is held this long',
@@ -371,66 +476,76 @@ class Scenario:
                              'factor drawn uniform in [1 - mismatch, 1 + mismatch]; the '
                              'controllers keep the nominal', low=0.0, zero='none',
                              rule='< 1 (a factor 1 - mismatch <= 0 would make a mass, inertia '
-                             'or drag non-positive)')
+                             'or drag non-positive)', reads=_NATIVE)
     mismatch_m0: tuple = _param((), '', "true-to-nominal factor of each vehicle's mass m0 (wins "
-                                'over mismatch); empty = drawn', rule=f'> 0; {_ENTRIES}')
+                                'over mismatch); empty = drawn', rule=f'> 0; {_ENTRIES}',
+                                reads=_NATIVE + (model_reader('m0'),))
     mismatch_I0: tuple = _param((), '', "factor of each vehicle's inertia I0; empty = drawn",
-                                rule=f'> 0; {_ENTRIES}')
+                                rule=f'> 0; {_ENTRIES}', reads=_NATIVE + (model_reader('I0'),))
     mismatch_h: tuple = _param((), '', "factor of each vehicle's drag h; empty = drawn",
-                               rule=f'> 0; {_ENTRIES}')
+                               rule=f'> 0; {_ENTRIES}', reads=_NATIVE + (model_reader('h'),))
     mismatch_l1: tuple = _param((), '', "factor of each vehicle's drag-moment lever l1 "
-                                '(rigid_cop); empty = drawn', rule=_ENTRIES)
+                                '(rigid_cop); empty = drawn', rule=_ENTRIES,
+                                reads=_NATIVE + (model_reader('l1'),))
     mismatch_thrust: tuple = _param((), '', "factor of each vehicle's thrust effectiveness "
                                     '(applied T = factor * command); empty = drawn',
-                                    rule=f'> 0; {_ENTRIES}')
+                                    rule=f'> 0; {_ENTRIES}', reads=_NATIVE + ('rigid bodies',))
     mismatch_steering: tuple = _param((), '', "factor of each vehicle's steering effectiveness "
                                       "(force F, or a particle's turn input); empty = drawn",
-                                      rule=f'> 0; {_ENTRIES}')
+                                      rule=f'> 0; {_ENTRIES}', reads=_NATIVE)
     actuator_lag: float = _param(0.0, 's', 'time constant tau of the first-order lag from each '
                                  'command to the applied input', low=0.0, zero='none',
                                  rule="below the formation's limit: the steering loop's, on "
                                  "a circle also the centre loop's (refused from it, warned "
-                                 'from half of it)')
+                                 'from half of it)', reads=_NATIVE)
     max_thrust_rate: float = _param(0.0, 'N/s', 'rate limit of the applied thrust, rigid bodies',
-                                    low=0.0, zero='no limit', models=rigid_names())
+                                    low=0.0, zero='no limit', models=rigid_names(),
+                                    reads=_NATIVE + ('rigid bodies',))
     max_steering_rate: float = _param(0.0, 'N/s', 'rate limit of the applied steering input: N/s '
                                       'rigid bodies, rad/s^3 second_order, rad/s^2 first_order',
-                                      low=0.0, zero='no limit')
+                                      low=0.0, zero='no limit', reads=_NATIVE)
     anti_windup: bool = _param(False, '', 'pi: hold the integrator of a vehicle whose steering '
-                               'command sits on its limit (conditional integration)')
+                               'command sits on its limit (conditional integration)',
+                               reads=('controller pi',))
     gust_intensity: float = _param(0.0, 'm/s', 'standard deviation sigma of the gust per axis: a '
                                    'Gauss-Markov flow component of each vehicle, on top of the '
-                                   'flowfield, unknown to the vehicles', low=0.0, zero='none')
+                                   'flowfield, unknown to the vehicles', low=0.0, zero='none',
+                                   reads=_NATIVE)
     gust_time: float = _param(10.0, 's', 'correlation time T of the gust (a correlation length L '
-                              'met at speed V: T = L / V)', **_POSITIVE)
+                              'met at speed V: T = L / V)', **_POSITIVE, reads=_NATIVE)
     gnss_sigma: float = _param(0.0, 'm', 'sensors: position-fix noise sigma per axis (GNSS)',
-                               low=0.0, zero='none')
+                               low=0.0, zero='none', reads=_NATIVE)
     gnss_rate: float = _param(0.0, 'Hz', 'sensors: position fixes per second, the last held '
                               'between fixes', low=0.0, zero='every control step',
-                              rule='at most 1 / dt_control, a whole number of periods apart')
+                              rule='at most 1 / dt_control, a whole number of periods apart',
+                              reads=_NATIVE)
     heading_sigma: float = _param(0.0, 'rad', 'sensors: heading noise sigma (compass)', low=0.0,
-                                  zero='none')
-    heading_bias: float = _param(0.0, 'rad', 'sensors: heading bias (compass), every vehicle')
+                                  zero='none', reads=_NATIVE)
+    heading_bias: float = _param(0.0, 'rad', 'sensors: heading bias (compass), every vehicle',
+                                 reads=_NATIVE)
     yaw_rate_sigma: float = _param(0.0, 'rad/s', 'sensors: yaw-rate noise sigma (gyro)',
-                                   low=0.0, zero='none')
+                                   low=0.0, zero='none', reads=_NATIVE)
     velocity_sigma: float = _param(0.0, 'm/s', 'sensors: ground-velocity noise sigma per axis '
-                                   '(GNSS Doppler), map frame', low=0.0, zero='none')
+                                   '(GNSS Doppler), map frame', low=0.0, zero='none',
+                                   reads=_NATIVE)
     water_sigma: float = _param(0.0, 'm/s', 'sensors: through-water velocity noise sigma per '
-                                'body axis (DVL, pitot), rigid bodies', low=0.0, zero='none')
+                                'body axis (DVL, pitot), rigid bodies', low=0.0, zero='none',
+                                reads=_WATER)
     water_bias: float = _param(0.0, 'm/s', 'sensors: through-water speed bias along body x, '
-                               'rigid bodies')
+                               'rigid bodies', reads=_WATER)
     sensor_latency: float = _param(0.0, 's', 'sensors: how late every measurement arrives',
-                                   low=0.0, zero='none', rule='a whole number of dt_control')
+                                   low=0.0, zero='none', rule='a whole number of dt_control',
+                                   reads=_NATIVE)
     position_filter: str = _param('none', '', "a vehicle's position between and across fixes: "
                                   'none (its latest fix) or kalman (predicted by its own model '
                                   'and held command, corrected at each fix with the steady-state '
                                   'gain of the noise; its filtered ground and through-water '
                                   'velocities feed the flow estimator; core/navigation.py)',
-                                  choices=('none', 'kalman'))
+                                  choices=('none', 'kalman'), reads=_NATIVE)
     filter_drift: float = _param(0.05, 'm/s', 'kalman: the velocity error the filter allows its '
                                  'dead reckoning over a fix interval (gusts, mismatch), and its '
                                  'velocities over gust_time',
-                                 **_POSITIVE)
+                                 **_POSITIVE, reads=('position_filter kalman',))
     convergence: str = _param('auto', '', "the convergence test: exact (the thesis' "
                               'tolerances), band (every steady-state error within its band) or '
                               'auto (band when mismatch, actuators, gusts or sensors are on); '
@@ -630,6 +745,13 @@ def allowed(name: str) -> str:
     return '; '.join(parts)
 
 
+def read_by(name: str) -> str:
+    """Return the configurations that read parameter ``name`` in words ('every run' for all)."""
+    readers = [READERS[r] for r in PARAMETERS[name].reads]
+    return ' and '.join(f"{r.text}{' (else warned)' if r.shared else ''}"
+                        for r in readers) or 'every run'
+
+
 def _shown(name: str) -> str:
     """Return the default of parameter ``name`` as the docs show it."""
     spec, value = PARAMETERS[name], getattr(DEFAULTS, name)
@@ -664,6 +786,17 @@ reason.
 """
 
 MARKDOWN_TAIL = """
+A parameter is read by the runs its *read by* column names (all of them): a value other than
+its default in any other run is refused, naming the parameter and what would read it (`'turbulence'
+= 3 is invalid: not read by this run: it applies to plant_backend jsbsim only (plant_backend is
+'native'); leave it out`). Three kinds are warned about instead (*else warned*), as one fleet
+file often carries them for runs that do not all read them: the gains of one steering law or
+formation (`kappa`, `K_p`, `K_P`, `K_I`, `anti_windup`; `omega0`, `c0`, `informed`, `pattern`),
+flown with `-p controller:=...` or `-p formation:=...`, and the through-water sensor of rigid
+bodies (`water_sigma`, `water_bias`) in a sensor suite given to particles too; the run goes on
+and ignores them (a `pattern` on a parallel formation is still refused by the formation's own
+check).
+
 Checks across parameters, for rigid bodies (see [errata.md](errata.md), "Rigid-body practice"):
 
 - tail steering (`rigid`, `rigid_cop`) has a right-half-plane zero at u0 sqrt(h l / I0): it is
@@ -676,7 +809,6 @@ Checks across parameters, for rigid bodies (see [errata.md](errata.md), "Rigid-b
 Checks across parameters, for every model (errata.md, issue 28):
 
 - `graph_nu`, when given, must be at least the largest degree (every d_k / nu <= 1);
-  `graph_edges` applies to `graph: explicit` only, `graph_offsets` to `circulant` only;
 - `flow_model` `time_varying`, `shear` or `vortex` needs a non-zero strength (`flow_amplitude`,
   `flow_shear`, `flow_circulation`); `flow_source: estimated` needs max |f| below 0.95 of the
   vehicle speed (the estimate's clamp). Known flows that vary are taken into the laws (df/dt,
@@ -707,10 +839,10 @@ def markdown() -> str:
         The whole page, as ``formation-control params`` prints it.
 
     """
-    rows = [(f'`{name}`', _shown(name), spec.unit, allowed(name), 'yes' if spec.runtime else '',
-             spec.text) for name, spec in PARAMETERS.items()]
-    table = markdown_table(('parameter', 'default', 'unit', 'allowed', 'run time', 'meaning'),
-                           rows)
+    rows = [(f'`{name}`', _shown(name), spec.unit, allowed(name), read_by(name),
+             'yes' if spec.runtime else '', spec.text) for name, spec in PARAMETERS.items()]
+    table = markdown_table(('parameter', 'default', 'unit', 'allowed', 'read by', 'run time',
+                            'meaning'), rows)
     return MARKDOWN_HEAD + '\n'.join(table) + '\n' + MARKDOWN_TAIL
 
 
@@ -748,14 +880,63 @@ def check_range(sc: Scenario, name: str) -> None:
         _fail(name, value, f'must be {_bounds(replace(spec, low=None))}')
 
 
-def check(sc: Scenario) -> tuple[str, ...]:
+def unread(sc: Scenario) -> list[tuple[str, Reader]]:
     """
-    Refuse values the table does not allow: choices, ranges, list lengths, ids, whole steps.
+    Return the parameters set away from their defaults in a run that does not read them.
+
+    Returns
+    -------
+    list of tuple
+        ``(name, reader)`` in table order: a configuration of the parameter's
+        :attr:`Spec.reads` that ``sc`` is not, a refusing one before a warning one.
+
+    """
+    out = []
+    for name, spec in PARAMETERS.items():
+        missing = [r for r in map(READERS.__getitem__, spec.reads) if not r.holds(sc)]
+        if missing and getattr(sc, name) != getattr(DEFAULTS, name):
+            out.append((name, min(missing, key=lambda r: bool(r.shared))))
+    return out
+
+
+def check_read(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse a value other than the default where the run will not read it; warn where shared.
 
     Returns
     -------
     tuple of str
-        No notes (the features' checks warn).
+        A warning for each such value whose configuration is :attr:`Reader.shared` (a shared
+        file often sets it).
+
+    Raises
+    ------
+    ScenarioError
+        Naming the parameter and what would read it.
+
+    """
+    notes = []
+    for name, reader in unread(sc):
+        value = getattr(sc, name)
+        value = list(value) if isinstance(value, tuple) else value
+        why = (f'not read by this run: it applies to {reader.text} only ({reader.axis} is '
+               f'{getattr(sc, reader.axis)!r})')
+        if not reader.shared:
+            _fail(name, value, f"{why}{'; ' + reader.hint if reader.hint else ''}; leave it out")
+        notes.append(f"parameter '{name}' = {value!r} is {why}: ignored (warned, not refused: "
+                     f'{reader.shared})')
+    return tuple(notes)
+
+
+def check(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse values the table does not allow: choices, unread values, ranges, lengths, ids, steps.
+
+    Returns
+    -------
+    tuple of str
+        The notes of :func:`check_read`: values set where a shared file often sets them and
+        the run does not read them.
 
     Raises
     ------
@@ -766,7 +947,9 @@ def check(sc: Scenario) -> tuple[str, ...]:
     """
     for name in CHOICES:
         check_choice(sc, name)
-    check_range(sc, 'num_vehicles')
+    for name, spec in PARAMETERS.items():
+        if (spec.low, spec.high) != (None, None):
+            check_range(sc, name)
     for name in ('flow', 'c0', 'flow_center', 'geodetic_origin'):
         if len(getattr(sc, name)) != 2:
             _fail(name, list(getattr(sc, name)), 'must be a list of 2 numbers [x, y] (m/s or m)')
@@ -775,6 +958,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if n not in (0, sc.num_vehicles):
             _fail(name, list(getattr(sc, name)),
                   f'must have num_vehicles = {sc.num_vehicles} entries (or none: random)')
+    notes = check_read(sc)
     if sc.plant_backend not in vehicle_model(sc.model).backends:
         takes = [m.name for m in VEHICLE_MODELS.values() if sc.plant_backend in m.backends]
         _fail('model', sc.model, f'plant_backend {sc.plant_backend} flies the laws of model '
@@ -784,18 +968,11 @@ def check(sc: Scenario) -> tuple[str, ...]:
     bad = [k for k in sc.informed if not 1 <= k <= sc.num_vehicles]
     if bad:
         _fail('informed', list(sc.informed), f'vehicle ids must lie in 1..{sc.num_vehicles}')
-    for name, kind in (('graph_edges', 'explicit'), ('graph_offsets', 'circulant')):
-        if sc.graph != kind and getattr(sc, name) != getattr(DEFAULTS, name):
-            _fail(name, list(getattr(sc, name)), f'applies to graph: {kind} only (graph is '
-                  f'{sc.graph!r}, which would ignore it); say graph: {kind} or leave it out')
     from formation_control.core.graphs import GraphError
     try:
         sc.comm_graph
     except GraphError as err:
         raise ScenarioError(str(err)) from None
-    for name, spec in PARAMETERS.items():
-        if (spec.low, spec.high) != (None, None) and name != 'num_vehicles':
-            check_range(sc, name)
     if sc.dt_integration > sc.dt_control or abs(
             sc.substeps * sc.dt_integration - sc.dt_control) > 1e-9 * sc.dt_control:
         _fail('dt_integration', sc.dt_integration,
@@ -805,7 +982,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         if periods < 1 - 1e-9 or abs(periods - round(periods)) > 1e-6:
             _fail(name, getattr(sc, name),
                   f'must be a whole number (>= 1) of control periods dt_control = {sc.dt_control}')
-    return ()
+    return notes
 
 
 def parse_override(text: str) -> tuple[str, Any]:

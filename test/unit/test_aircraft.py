@@ -129,8 +129,12 @@ def test_the_map_frame_round_trip():
     ({'flow': [51.0, 0.0]}, r"'flow' = \[51.0, 0.0\].*< airspeed = 51.0 m/s"),
     ({'omega0': 1 / 300}, r"'omega0' = 0.0033.*needs a bank of 4\d.\d deg.*bank_limit"),
     ({'altitude': -10.0}, r"'altitude' = -10.0 is invalid: must be > 0"),
-    ({'m0': 1000.0}, r"'m0' = 1000.0 is invalid: .*owns its mass"),
-    ({'h': 0.3}, r"'h' = 0.3 is invalid: .*drag"),
+    ({'m0': 1000.0}, r"'m0' = 1000.0 is invalid: not read by this run: it applies to model "
+                     r"rigid .* only \(model is 'second_order'\)"),
+    ({'h': 0.3}, r"'h' = 0.3 is invalid: not read by this run: it applies to model rigid"),
+    ({'gnss_sigma': 0.5}, r"'gnss_sigma' = 0.5 is invalid: not read by this run: it applies to "
+                          r"plant_backend native only \(plant_backend is 'jsbsim'\); JSBSim "
+                          r"aircraft .* their own turbulence is 'turbulence'"),
     ({'model': 'rigid'}, r"'model' = 'rigid' is invalid: plant_backend jsbsim"),
 ])
 def test_bad_aircraft_input_is_refused_naming_the_parameter(changes, match):

@@ -468,9 +468,10 @@ RING = {'formation': 'circular', 'graph': 'ring', 'num_vehicles': 12}
 @pytest.mark.parametrize('params, match', [
     ({**RING, 'graph_nu': 0.2}, r"'graph_nu' = 0.2 is invalid: must be >= the largest degree 2"),
     ({'graph_nu': 3.0, 'num_vehicles': 6}, r"'graph_nu' = 3.0 .* largest degree 5"),
-    ({**RING, 'graph_edges': [1, 2]}, r"'graph_edges' = \[1, 2\] is invalid: applies to graph: "
-                                      r"explicit only \(graph is 'ring'"),
-    ({'graph_offsets': [2]}, r"'graph_offsets' = \[2\] is invalid: applies to graph: circulant"),
+    ({**RING, 'graph_edges': [1, 2]}, r"'graph_edges' = \[1, 2\] is invalid: not read by this "
+                                      r"run: it applies to graph explicit only \(graph is 'ring'"),
+    ({'graph_offsets': [2]}, r"'graph_offsets' = \[2\] is invalid: not read by this run: it "
+                             r'applies to graph circulant'),
     ({'graph': 'explicit', 'graph_edges': [[1, 2], [2, 3]], 'num_vehicles': 3},
      r"'graph_edges' = \[\[1, 2\], \[2, 3\]\] is invalid: .*flat list"),
     ({'flow_model': 'vortex'}, r"'flow_circulation' = 0.0 is invalid: flow_model vortex needs"),

@@ -147,7 +147,10 @@ def test_a_positive_hydrodynamic_derivative_is_refused(name, value):
     with pytest.raises(ScenarioError, match=rf"parameter '{name}' = {value} is invalid: "
                                             rf'must be <= 0'):
         scenario.resolve({**VESSEL, name: value})
-    scenario.resolve({'model': 'rigid', name: value})             # not read: not checked
+    with pytest.raises(ScenarioError, match=rf"parameter '{name}' = {value} is invalid: not "
+                                            r'read by this run: it applies to model vessel '
+                                            r"only \(model is 'rigid'\)"):
+        scenario.resolve({'model': 'rigid', name: value})         # not read: refused as such
 
 
 def _course_centres(run):
