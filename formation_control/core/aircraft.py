@@ -114,6 +114,8 @@ class Flight(Protocol):
     def roll_rate_limit(self) -> float: ...                             # noqa: D102
     @property
     def turn_lag(self) -> float: ...                                    # noqa: D102
+    @property
+    def turbulence(self) -> int: ...                                    # noqa: D102
 
 
 @dataclass(frozen=True)
@@ -128,6 +130,7 @@ class Trimmed:
     bank_limit: float = 0.5
     roll_rate_limit: float = 0.5
     turn_lag: float = 0.5
+    turbulence: int = 0
 
 
 class AircraftError(ValueError):
@@ -353,7 +356,7 @@ class Aircraft:
 
     """
 
-    def __init__(self, sc: Scenario, frame: MapFrame, x: float, y: float, theta: float,
+    def __init__(self, sc: Flight, frame: MapFrame, x: float, y: float, theta: float,
                  index: int, glide: tuple[float, float, float] | None = None) -> None:
         self.sc: Flight = sc
         self.frame = frame
@@ -540,6 +543,112 @@ def check_trim(sc: Scenario) -> None:
     _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
 
 
+DEMAND_MARGIN = 1.1
+"""tan(bank) of the test turn over that of the steepest turn the circle needs (10 % more load)."""
+TEST_LEVEL, TEST_SETTLE, TEST_HOLD = 5.0, 40.0, 20.0
+"""Seconds a test flight (:func:`fly_demand`) flies level, settles in the turn, is read."""
+AIRSPEED_BAND = 0.05
+"""Share of the airspeed demand the airspeed held stays within (test flight and run verdict)."""
+ALTITUDE_BAND = 30.0
+"""Altitude error (m) a powered aircraft stays within: the c172x keeps 4 m in calm air and 11.5 m
+in moderate turbulence (docs/aircraft.md); the test flight's altitude lost, the run's error."""
+FULL_THROTTLE = 0.98             # throttle at which a held airspeed has no power left in reserve
+
+
+@dataclass(frozen=True)
+class Demand:
+    """
+    What an aircraft holds in a steady turn at a demand (:func:`fly_demand`).
+
+    Attributes
+    ----------
+    bank : float
+        Bank of the test turn (rad), :data:`DEMAND_MARGIN` steeper than the steepest one needed.
+    rate : float
+        Turn rate demanded (rad/s).
+    airspeed : float
+        Mean true airspeed (m/s) over the last :data:`TEST_HOLD` s.
+    sink : float
+        Mean rate of descent (m/s) over that span.
+    altitude_lost : float
+        Altitude lost (m) from the trim to the end of the test.
+    throttle : float
+        Mean throttle over that span (nan: a glider).
+
+    """
+
+    bank: float
+    rate: float
+    airspeed: float
+    sink: float
+    altitude_lost: float
+    throttle: float
+
+
+@lru_cache(maxsize=64)
+def fly_demand(flight: Trimmed, bank: float) -> Demand:
+    """
+    Fly one aircraft from its trim into a steady turn at ``bank`` (rad; 0: straight) and read it.
+
+    Wings level for TEST_LEVEL s, then the turn rate ``g tan(bank) / V`` demanded at the airspeed
+    V for TEST_SETTLE + TEST_HOLD s under the autopilot of the runs (:class:`Aircraft`).
+    """
+    glide = _checked(flight.jsbsim_aircraft, flight.altitude, flight.airspeed,
+                     flight.dt_integration)
+    plane = Aircraft(flight, MapFrame.at((0.0, 0.0)), 0.0, 0.0, 0.0, 0, glide)
+    fdm, dt = plane.fdm, flight.dt_integration
+    rate = G * math.tan(bank) / flight.airspeed
+    start = fdm['position/h-agl-ft'] * FT
+    level, end = round(TEST_LEVEL / dt), round((TEST_LEVEL + TEST_SETTLE + TEST_HOLD) / dt)
+    read = []
+    for n in range(end):
+        plane.step(flight.airspeed, rate if n >= level else 0.0)
+        if n >= end - round(TEST_HOLD / dt):
+            read.append((fdm['velocities/vtrue-fps'] * FT, -fdm['velocities/h-dot-fps'] * FT,
+                         fdm['fcs/throttle-cmd-norm']))
+    speed, sink, throttle = np.mean(read, axis=0)
+    return Demand(bank, rate, float(speed), float(sink),
+                  start - fdm['position/h-agl-ft'] * FT, math.nan if glide else float(throttle))
+
+
+def check_demand(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse an aircraft that cannot hold the airspeed in the steepest turn the formation needs.
+
+    The test flight (:func:`fly_demand`) at :data:`DEMAND_MARGIN` times the tan(bank) of the
+    circle (:func:`required_bank`; a parallel formation flies straight): refused if the
+    airspeed held falls :data:`AIRSPEED_BAND` short of ``airspeed`` or a powered aircraft loses
+    more than :data:`ALTITUDE_BAND`; warned if it holds the airspeed only at full throttle.
+    """
+    radius = formations.of(sc).radius(sc)
+    bank = 0.0 if radius is None else min(
+        math.atan(DEMAND_MARGIN * math.tan(required_bank(sc))), sc.bank_limit)
+    flight = Trimmed(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration,
+                     bank_limit=sc.bank_limit, roll_rate_limit=sc.roll_rate_limit,
+                     turn_lag=sc.turn_lag)
+    held = fly_demand(flight, bank)
+    glider = math.isnan(held.throttle)
+    circle = '' if radius is None else f", 'omega0' = {sc.omega0:.4g} (R = {radius:.4g} m)"
+    where = (f"'jsbsim_aircraft' = {sc.jsbsim_aircraft!r} at 'airspeed' = {sc.airspeed} m/s, "
+             f"'altitude' = {sc.altitude} m{circle}")
+    turn = ('in steady straight flight' if radius is None else
+            f"in a steady turn at bank {math.degrees(bank):.1f} deg (the circle's steepest, "
+            f'tan(bank) {DEMAND_MARGIN - 1:.0%} steeper)')
+    figures = f'{turn} it holds {held.airspeed:.3g} m/s' + (
+        f' and sinks {held.sink:.2g} m/s' if glider else
+        f' at throttle {held.throttle:.2f}, losing {held.altitude_lost:.3g} m in '
+        f'{TEST_LEVEL + TEST_SETTLE + TEST_HOLD:g} s')
+    short = held.airspeed < (1.0 - AIRSPEED_BAND) * sc.airspeed
+    if short or (not glider and held.altitude_lost > ALTITUDE_BAND):
+        raise ScenarioError(
+            f'{where}: the aircraft cannot hold the demand: {figures}, beyond '
+            f'{AIRSPEED_BAND:.0%} of the airspeed or {ALTITUDE_BAND:g} m of altitude: use another '
+            'airspeed, a larger radius (smaller |omega0|) or another aircraft')
+    if not glider and held.throttle >= FULL_THROTTLE:
+        return (f'{where}: the demand is marginal: {figures}, with no power in reserve',)
+    return ()
+
+
 NATIVE_WORLD = ('mismatch', *MISMATCH_ARRAYS, 'actuator_lag', 'max_thrust_rate',
                 'max_steering_rate', 'gust_intensity', 'gnss_sigma', 'gnss_rate', 'heading_sigma',
                 'heading_bias', 'yaw_rate_sigma', 'velocity_sigma', 'water_sigma', 'water_bias',
@@ -558,8 +667,8 @@ def check(sc: Scenario) -> tuple[str, ...]:
 
     The native plant's world and rigid-body parameters left out, a tangent plane within
     +-80 deg of latitude, airspeed limits that admit the airspeed, a circle within the bank
-    limit, and an aircraft JSBSim has and trims (:func:`check_trim`). No warnings; nothing
-    for the native plant.
+    limit, an aircraft JSBSim has and trims (:func:`check_trim`) and that holds the demand
+    (:func:`check_demand`, which warns where it is marginal); nothing for the native plant.
     """
     if sc.plant_backend != 'jsbsim':
         return ()
@@ -593,7 +702,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         check_trim(sc)
     except AircraftError as err:
         raise ScenarioError(str(err)) from None
-    return ()
+    return check_demand(sc)
 
 
 class Fleet:

@@ -138,6 +138,23 @@ def test_bad_aircraft_input_is_refused_naming_the_parameter(changes, match):
         circle(**changes)
 
 
+def test_an_aircraft_that_cannot_hold_the_demand_is_refused_with_its_figures():
+    """pa28 trims level at 45 m/s but in the circle's turn holds 37.6 m/s at full throttle."""
+    with pytest.raises(ScenarioError, match=(
+            r"'jsbsim_aircraft' = 'pa28' at 'airspeed' = 45.0 m/s, 'altitude' = 900.0 m, "
+            r"'omega0' = 0.001667 \(R = 600 m\): the aircraft cannot hold the demand: in a "
+            r'steady turn at bank 2\d.\d deg .* it holds 3\d.\d m/s at throttle 1.00')):
+        circle(jsbsim_aircraft='pa28', airspeed=45.0)
+
+
+def test_an_aircraft_that_holds_the_demand_is_accepted():
+    held = aircraft.fly_demand(aircraft.Trimmed('J3Cub', 900.0, 30.0, 1 / 120), 0.4)
+    assert held.airspeed == pytest.approx(30.0, rel=0.01)
+    assert abs(held.altitude_lost) < 5.0 and held.throttle < 0.9
+    assert circle(jsbsim_aircraft='J3Cub', airspeed=30.0).warnings == ()
+    assert resolve(dict(PARALLEL, jsbsim_aircraft='pa28', airspeed=45.0)).warnings == ()
+
+
 def test_a_glider_finds_its_glide():
     alpha, gamma, elevator = aircraft._checked('sgs233', 1500.0, 28.0, 1 / 120)
     assert -0.15 < gamma < -0.03                        # a glide of 2-9 deg, L/D 7 to 30
