@@ -77,7 +77,7 @@ from formation_control.core import formations
 from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
+from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
 from formation_control.core.parameters import DEFAULTS, MISMATCH_ARRAYS, Scenario
 import numpy as np
 
@@ -647,6 +647,59 @@ def check_demand(sc: Scenario) -> tuple[str, ...]:
     if not glider and held.throttle >= FULL_THROTTLE:
         return (f'{where}: the demand is marginal: {figures}, with no power in reserve',)
     return ()
+
+
+HOLD_SHARE = 0.5
+"""Share of a run, at its end, over which the aircraft must have held airspeed and altitude."""
+
+
+def held(sc: Scenario, t: RealArray, X: RealArray, altitude: RealArray) -> dict[str, Any]:
+    """
+    Return the airspeed and altitude a run's aircraft held, and the bands they left.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its airspeed, altitude and aircraft (a glider descends: its altitude is not held).
+    t : array_like, shape (T,)
+        Sample times (s).
+    X : array_like, shape (T, 6, N) or (T, 6, B, N)
+        The recorded states: the airspeed is the horizontal air velocity ``|u + i v|``.
+    altitude : array_like, shape (T, N) or (T, B, N)
+        The recorded altitudes (m).
+
+    Returns
+    -------
+    dict
+        Over the last :data:`HOLD_SHARE` of the run, from ``hold_from`` (s): ``airspeed_held``
+        and ``altitude_held``, [min, max] over time and vehicles (m/s, m; per fleet of a
+        batch); ``holds``, whether both stayed in their bands (``airspeed``:
+        :data:`AIRSPEED_BAND` of ``airspeed``; ``altitude``, powered aircraft:
+        :data:`ALTITUDE_BAND` of ``altitude``); for one run ``flight_unmet``, the names of
+        the bands left, and ``flight``, how, in words.
+
+    """
+    t = np.asarray(t, float)
+    keep = t >= t[-1] - HOLD_SHARE * (t[-1] - t[0])
+    X, h = np.asarray(X, float)[keep], np.asarray(altitude, float)[keep]
+    glider = _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration) is not None
+    spans = {'airspeed': (np.hypot(X[:, ROW_U], X[:, ROW_V]), sc.airspeed,
+                          AIRSPEED_BAND * sc.airspeed, 'm/s'),
+             'altitude': (h, sc.altitude, math.inf if glider else ALTITUDE_BAND, 'm')}
+    out: dict[str, Any] = {'hold_from': float(t[keep][0]), 'holds': True}
+    unmet, why = [], []
+    for name, (value, target, band, unit) in spans.items():
+        low, high = np.min(value, axis=(0, -1)), np.max(value, axis=(0, -1))
+        ok = np.maximum(target - low, high - target) <= band
+        out[f'{name}_held'] = np.stack([low, high], axis=-1).tolist()
+        out['holds'] = out['holds'] & ok
+        if not np.all(ok):
+            unmet.append(name)
+            why.append(f'{name} {np.min(low):.4g}-{np.max(high):.4g} {unit} left {target:g} '
+                       f'+- {band:.3g} {unit}')
+    if np.ndim(out['holds']) == 0:
+        out.update(holds=bool(out['holds']), flight_unmet=unmet, flight='; '.join(why))
+    return out
 
 
 NATIVE_WORLD = ('mismatch', *MISMATCH_ARRAYS, 'actuator_lag', 'max_thrust_rate',

@@ -22,6 +22,7 @@ than the docs' figures); the same turbulence seed gives the same run.
 """
 from dataclasses import replace
 import math
+import re
 import time
 
 from formation_control.core import aircraft, parameters, scenario
@@ -153,6 +154,43 @@ def test_an_aircraft_that_holds_the_demand_is_accepted():
     assert abs(held.altitude_lost) < 5.0 and held.throttle < 0.9
     assert circle(jsbsim_aircraft='J3Cub', airspeed=30.0).warnings == ()
     assert resolve(dict(PARALLEL, jsbsim_aircraft='pa28', airspeed=45.0)).warnings == ()
+
+
+def on_the_circle(**changes):
+    """Two aircraft started on the circle, counter-clockwise, in still air: converged by 40 s."""
+    ang = np.array([0.0, np.pi])
+    return simulator.simulate(circle(
+        num_vehicles=2, duration=90.0, record_dt=1.0, flow=[0.0, 0.0], init_x=list(600 * np.cos(
+            ang)), init_y=list(600 * np.sin(ang)), init_theta=list(ang + np.pi / 2), **changes))
+
+
+def test_a_run_whose_altitude_drifts_is_not_converged():
+    run = on_the_circle()
+    out = simulator.summary(run)
+    assert out['converged'] and out['holds'] and out['flight_unmet'] == []
+    assert out['hold_from'] == pytest.approx(45.0)
+    low, high = out['altitude_held']
+    assert 880.0 < low < high < 920.0
+    assert out['airspeed_held'][0] > 0.95 * 51.0 and out['airspeed_held'][1] < 1.05 * 51.0
+    run.channels['altitude'] = run.channels['altitude'] - 0.87 * run.t[:, None]   # pa28's sink
+    out = simulator.summary(run)
+    assert not out['converged'] and out['convergence_time'] is None
+    assert out['unmet'] == ['altitude'] and out['flight_unmet'] == ['altitude']
+    assert re.fullmatch(r'altitude 8\d\d.\d-8\d\d.\d m left 900 \+- 30 m', out['flight'])
+    slow = run.X.copy()
+    slow[:, 4:6] *= 0.9
+    held = aircraft.held(run.sc, run.t, slow, run.channels['altitude'] + 0.87 * run.t[:, None])
+    assert held['flight_unmet'] == ['airspeed'] and held['airspeed_held'][1] < 0.95 * 51.0
+
+
+def test_a_study_counts_a_run_that_left_its_altitude_band_as_not_converged(monkeypatch):
+    sc = on_the_circle().sc
+    X0 = simulator.initial_states(sc, [1])
+    assert simulator.simulate(sc, X0, simulator.Outcome(sc), seeds=[1]).converged().tolist() == [
+        True]
+    monkeypatch.setattr(aircraft, 'ALTITUDE_BAND', 0.01)
+    assert simulator.simulate(sc, X0, simulator.Outcome(sc), seeds=[1]).converged().tolist() == [
+        False]
 
 
 def test_a_glider_finds_its_glide():
