@@ -44,7 +44,8 @@ turn-rate demand (:func:`turn_demand`). The inner loop, this module's own for ev
   omega at the true airspeed V, clipped to ``bank_limit``;
 - roll: roll-rate demand ``(phi_cmd - phi) / turn_lag``, clipped to ``roll_rate_limit``, held by
   the ailerons (proportional on the roll-rate error, integral on the bank error); the rudder
-  holds zero sideslip;
+  holds zero sideslip, and with an integral the air velocity along the yaw (v = 0: a steady
+  sideslip of a degree, in the laws' view a course error, left the sgs126 1.7 % off the radius);
 - pitch: powered aircraft hold the trim altitude with the elevator (a pitch demand from the
   altitude error, its integral and the climb rate) and the airspeed with the throttle;
   gliders hold the airspeed with the elevator and descend.
@@ -306,6 +307,7 @@ class MapFrame:
 # Gains of the inner loop (SI, normalised surfaces), tuned on c172x and the gliders.
 ROLL_P, ROLL_I = 2.0, 0.3        # aileron per rad/s of roll-rate error; per rad s of bank error
 YAW_BETA = -2.0                  # rudder per rad of sideslip
+YAW_SLIP_I = 1.0                 # rudder per rad s of the air velocity's angle across the yaw
 TURN_I = 0.1                     # turn-rate demand per rad of turn-rate error integral (1/s)
 PITCH_P, PITCH_Q = 2.0, 0.6      # elevator per rad of pitch error; per rad/s of pitch rate
 PITCH_I = 0.2                    # elevator per rad s of pitch error
@@ -333,6 +335,7 @@ class Holds:
     speed_int: float = 0.0       # integral of the airspeed error (m)
     pitch_int: float = 0.0       # integral of the pitch error (rad s)
     rate_int: float = 0.0        # integral of the turn-rate error (rad)
+    slip_int: float = 0.0        # integral of the air velocity's angle across the yaw (rad s)
     pitch_i: float = PITCH_I     # elevator per rad s of pitch error
 
 
@@ -406,7 +409,11 @@ class Aircraft:
         h.bank_int = min(max(h.bank_int + (phi_cmd - phi) * dt, -INT_MAX), INT_MAX)
         aileron = ROLL_P * (p_cmd - get['p'].get_double_value()) + ROLL_I * h.bank_int
         put['aileron'].set_double_value(min(max(aileron, -1.0), 1.0))
-        rudder = YAW_BETA * get['beta'].get_double_value()
+        psi = get['psi'].get_double_value()
+        across = ((get['vn'].get_double_value() - get['wn'].get_double_value()) * math.sin(psi)
+                  - (get['ve'].get_double_value() - get['we'].get_double_value()) * math.cos(psi))
+        h.slip_int = min(max(h.slip_int + across * FT / v * dt, -INT_MAX), INT_MAX)
+        rudder = YAW_BETA * get['beta'].get_double_value() + YAW_SLIP_I * h.slip_int
         put['rudder'].set_double_value(min(max(rudder, -1.0), 1.0))
         speed_err = airspeed - v
         h.speed_int = min(max(h.speed_int + speed_err * dt, -SPEED_INT_MAX), SPEED_INT_MAX)
@@ -442,7 +449,9 @@ class Aircraft:
 READ = {'vt': 'velocities/vtrue-fps', 'phi': 'attitude/phi-rad', 'p': 'velocities/p-rad_sec',
         'beta': 'aero/beta-rad', 'h': 'position/h-agl-ft', 'hdot': 'velocities/h-dot-fps',
         'theta': 'attitude/theta-rad', 'q': 'velocities/q-rad_sec',
-        'psidot': 'velocities/psidot-rad_sec'}
+        'psidot': 'velocities/psidot-rad_sec', 've': 'velocities/v-east-fps',
+        'vn': 'velocities/v-north-fps', 'we': 'atmosphere/total-wind-east-fps',
+        'wn': 'atmosphere/total-wind-north-fps', 'psi': 'attitude/psi-rad'}
 WRITE = {'aileron': 'fcs/aileron-cmd-norm', 'rudder': 'fcs/rudder-cmd-norm',
          'elevator': 'fcs/elevator-cmd-norm', 'throttle': 'fcs/throttle-cmd-norm'}
 
@@ -634,9 +643,9 @@ def check_demand(sc: Scenario) -> tuple[str, ...]:
     turn = ('in steady straight flight' if radius is None else
             f"in a steady turn at bank {math.degrees(bank):.1f} deg (the circle's steepest, "
             f'tan(bank) {DEMAND_MARGIN - 1:.0%} steeper)')
-    figures = f'{turn} it holds {held.airspeed:.3g} m/s' + (
+    figures = f'{turn} it holds {held.airspeed:.1f} m/s' + (
         f' and sinks {held.sink:.2g} m/s' if glider else
-        f' at throttle {held.throttle:.2f}, losing {held.altitude_lost:.3g} m in '
+        f' at throttle {held.throttle:.2f}, losing {held.altitude_lost:.1f} m in '
         f'{TEST_LEVEL + TEST_SETTLE + TEST_HOLD:g} s')
     short = held.airspeed < (1.0 - AIRSPEED_BAND) * sc.airspeed
     if short or (not glider and held.altitude_lost > ALTITUDE_BAND):

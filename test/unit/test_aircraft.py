@@ -140,7 +140,7 @@ def test_bad_aircraft_input_is_refused_naming_the_parameter(changes, match):
 
 
 def test_an_aircraft_that_cannot_hold_the_demand_is_refused_with_its_figures():
-    """pa28 trims level at 45 m/s but in the circle's turn holds 37.6 m/s at full throttle."""
+    """pa28 trims level at 45 m/s but in the circle's turn holds 37.0 m/s at full throttle."""
     with pytest.raises(ScenarioError, match=(
             r"'jsbsim_aircraft' = 'pa28' at 'airspeed' = 45.0 m/s, 'altitude' = 900.0 m, "
             r"'omega0' = 0.001667 \(R = 600 m\): the aircraft cannot hold the demand: in a "
@@ -181,6 +181,16 @@ def test_a_run_whose_altitude_drifts_is_not_converged():
     slow[:, 4:6] *= 0.9
     held = aircraft.held(run.sc, run.t, slow, run.channels['altitude'] + 0.87 * run.t[:, None])
     assert held['flight_unmet'] == ['airspeed'] and held['airspeed_held'][1] < 0.95 * 51.0
+
+
+def test_the_rudder_holds_the_air_velocity_along_the_yaw():
+    """sgs126 slipped 0.9 % of its airspeed across its yaw (1 % off the radius) before."""
+    run = on_the_circle(jsbsim_aircraft='sgs126', airspeed=30.0, altitude=1500.0, turn_lag=0.5,
+                        kappa=2.0)
+    late = run.t >= 45.0
+    assert np.max(abs(run.X[late, 5] / run.X[late, 4])) < 0.001
+    out = simulator.summary(run)
+    assert out['converged'] and abs(out['radius'] - 600.0) < 3.0
 
 
 def test_a_study_counts_a_run_that_left_its_altitude_band_as_not_converged(monkeypatch):
