@@ -66,7 +66,7 @@ T = R / V for a circle of radius R). docs/aircraft.md derives it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 import math
 import os
@@ -656,6 +656,101 @@ def check_demand(sc: Scenario) -> tuple[str, ...]:
     if not glider and held.throttle >= FULL_THROTTLE:
         return (f'{where}: the demand is marginal: {figures}, with no power in reserve',)
     return ()
+
+
+LAGS = (0.5, 0.7, 1.0, 1.4, 2.0)
+"""The bank-hold time constants ``turn_lag`` (s) :func:`identify` tries, fastest first."""
+STEP_BANK = 0.8                  # the step's bank, a share of bank_limit: the laws' hardest turns
+STEP_LEVEL, STEP_HOLD, STEP_FIT = 2.0, 20.0, 10.0   # s level, s in the turn, s of it fitted
+
+
+@dataclass(frozen=True)
+class TurnResponse:
+    """
+    An aircraft's turn rate after a step in its turn-rate demand (:func:`turn_response`).
+
+    Attributes
+    ----------
+    turn_lag : float
+        The bank-hold time constant flown (s).
+    rate : float
+        The turn rate demanded from the step on (rad/s).
+    t, omega : ndarray, shape (n,)
+        Time from the step (s) and the yaw rate (rad/s), every integration step.
+    lag : float
+        The first-order lag fitted to the first STEP_FIT s: the tau of least squares of
+        ``omega - rate (1 - exp(-t / tau))`` (s).
+    error : float
+        The integral of ``|omega - rate| / rate`` over the STEP_HOLD s (s): 0 for a turn rate
+        that follows its demand at once; an overshoot, a slow approach or an oscillation add.
+
+    """
+
+    turn_lag: float
+    rate: float
+    t: RealArray
+    omega: RealArray
+    lag: float
+    error: float
+
+
+@lru_cache(maxsize=64)
+def turn_response(flight: Trimmed) -> TurnResponse:
+    """
+    Fly one aircraft from its trim through a step in its turn-rate demand and fit its lag.
+
+    STEP_LEVEL s wings level, then STEP_HOLD s of the turn rate ``g tan(b) / V`` of the bank
+    ``b = STEP_BANK bank_limit`` under the runs' autopilot (:class:`Aircraft`) with
+    ``turn_lag`` of ``flight``.
+    """
+    glide = _checked(flight.jsbsim_aircraft, flight.altitude, flight.airspeed,
+                     flight.dt_integration)
+    plane = Aircraft(flight, MapFrame.at((0.0, 0.0)), 0.0, 0.0, 0.0, 0, glide)
+    dt = flight.dt_integration
+    rate = G * math.tan(STEP_BANK * flight.bank_limit) / flight.airspeed
+    for _ in range(round(STEP_LEVEL / dt)):
+        plane.step(flight.airspeed, 0.0)
+    omega = []
+    for _ in range(round(STEP_HOLD / dt)):
+        plane.step(flight.airspeed, rate)
+        omega.append(-plane.fdm['velocities/psidot-rad_sec'])
+    w, t = np.array(omega), dt * np.arange(1, len(omega) + 1)
+    fit = t <= STEP_FIT
+    taus = np.arange(0.05, STEP_FIT, 0.01)
+    cost = ((w[fit] - rate * (1.0 - np.exp(-t[fit] / taus[:, None]))) ** 2).sum(axis=1)
+    error = float(np.sum(abs(w - rate)) * dt / rate)
+    return TurnResponse(flight.turn_lag, rate, t, w, float(taus[np.argmin(cost)]), error)
+
+
+def identify(sc: Scenario) -> TurnResponse:
+    """
+    Return the turn response of the bank hold of :data:`LAGS` the aircraft follows best.
+
+    Each ``turn_lag`` of LAGS (:func:`turn_response`) at the scenario's aircraft, altitude,
+    airspeed and limits; the one of the least ``error``.
+    """
+    return min((turn_response(Trimmed(sc.jsbsim_aircraft, sc.altitude, sc.airspeed,
+                                      sc.dt_integration, bank_limit=sc.bank_limit,
+                                      roll_rate_limit=sc.roll_rate_limit, turn_lag=lag))
+                for lag in LAGS), key=lambda response: response.error)
+
+
+def tuned(sc: Scenario) -> Scenario:
+    """
+    Return the scenario with the aircraft's own turn_lag and kappa where they are left out.
+
+    With ``plant_backend: jsbsim`` and ``turn_lag`` 0: the identified bank hold
+    (:func:`identify`), and kappa ``1 / turn_lag`` if kappa is at its default (the
+    backstepping rate loop as fast as the bank follows, docs/aircraft.md). Unchanged otherwise,
+    and where the aircraft cannot be flown at all (:func:`check` refuses it).
+    """
+    if sc.plant_backend != 'jsbsim' or sc.turn_lag or min(sc.airspeed, sc.altitude) <= 0.0:
+        return sc
+    try:
+        lag = identify(sc).turn_lag
+    except AircraftError:
+        return sc
+    return replace(sc, turn_lag=lag, kappa=1.0 / lag if sc.kappa == DEFAULTS.kappa else sc.kappa)
 
 
 HOLD_SHARE = 0.5

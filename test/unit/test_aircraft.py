@@ -203,6 +203,41 @@ def test_a_study_counts_a_run_that_left_its_altitude_band_as_not_converged(monke
         False]
 
 
+def test_the_identified_lag_is_the_first_order_fit_of_the_step_it_flies():
+    """The c172x's step at 80 % of the bank limit, recorded and fitted here by other code."""
+    flight = aircraft.Trimmed('c172x', 900.0, 51.0, 1 / 120, bank_limit=0.5236, turn_lag=0.5)
+    plane = aircraft.Aircraft(flight, aircraft.MapFrame.at((0.0, 0.0)), 0.0, 0.0, 0.0, 0)
+    rate = 9.80665 * math.tan(0.8 * 0.5236) / 51.0
+    omega = []
+    for n in range(240 + 2400):                     # 2 s level, 20 s in the turn
+        plane.step(51.0, rate if n >= 240 else 0.0)
+        omega.append(-plane.fdm['velocities/psidot-rad_sec'])
+    x, t = np.array(omega[240:]) / rate, np.arange(1, 2401) / 120
+    taus = np.linspace(0.2, 3.0, 2801)
+    cost = [np.sum((x - 1 + np.exp(-t / tau))[t <= 10] ** 2) for tau in taus]
+    response = aircraft.turn_response(flight)
+    assert response.lag == pytest.approx(taus[np.argmin(cost)], abs=0.011)
+    assert 0.8 < response.lag < 1.2
+    t63 = t[np.argmax(x >= 1 - math.exp(-1))]       # not first order: a roll-in, an overshoot
+    assert response.lag < t63 < 1.5 * response.lag
+    assert response.error == pytest.approx(np.sum(abs(x - 1)) / 120, rel=1e-3)
+
+
+def test_turn_lag_and_kappa_are_the_aircrafts_own_unless_given():
+    sc = circle()
+    responses = [aircraft.turn_response(aircraft.Trimmed(
+        'c172x', 900.0, 51.0, sc.dt_integration, bank_limit=sc.bank_limit,
+        roll_rate_limit=sc.roll_rate_limit, turn_lag=lag)) for lag in aircraft.LAGS]
+    best = min(responses, key=lambda r: r.error)
+    assert (sc.turn_lag, sc.kappa) == (best.turn_lag, 1.0 / best.turn_lag) == (0.5, 2.0)
+    assert [r.error for r in responses] == sorted(r.error for r in responses)
+    assert (circle(kappa=3.0).turn_lag, circle(kappa=3.0).kappa) == (0.5, 3.0)
+    assert (circle(turn_lag=1.0).turn_lag, circle(turn_lag=1.0).kappa) == (1.0, 5.0)
+    glider = resolve(parameters.read_params(CONFIG / 'glider_circular.yaml'))
+    assert aircraft.identify(glider).lag > 2.0                        # it rolls slowly
+    assert glider.kappa == 1.0 / glider.turn_lag
+
+
 def test_a_glider_finds_its_glide():
     alpha, gamma, elevator = aircraft._checked('sgs233', 1500.0, 28.0, 1 / 120)
     assert -0.15 < gamma < -0.03                        # a glide of 2-9 deg, L/D 7 to 30
