@@ -625,12 +625,13 @@ def check_demand(sc: Scenario) -> tuple[str, ...]:
     Refuse an aircraft that cannot hold the airspeed in the steepest turn the formation needs.
 
     The test flight (:func:`fly_demand`) at :data:`DEMAND_MARGIN` times the tan(bank) of the
-    circle (:func:`required_bank`; a parallel formation flies straight): refused if the
+    circle (:func:`required_bank`; a parallel formation, whose only turns are those that
+    gather it, at ``bank_limit``), within ``bank_limit``: refused if the
     airspeed held falls :data:`AIRSPEED_BAND` short of ``airspeed`` or a powered aircraft loses
     more than :data:`ALTITUDE_BAND`; warned if it holds the airspeed only at full throttle.
     """
     radius = formations.of(sc).radius(sc)
-    bank = 0.0 if radius is None else min(
+    bank = sc.bank_limit if radius is None else min(
         math.atan(DEMAND_MARGIN * math.tan(required_bank(sc))), sc.bank_limit)
     flight = Trimmed(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration,
                      bank_limit=sc.bank_limit, roll_rate_limit=sc.roll_rate_limit,
@@ -640,19 +641,20 @@ def check_demand(sc: Scenario) -> tuple[str, ...]:
     circle = '' if radius is None else f", 'omega0' = {sc.omega0:.4g} (R = {radius:.4g} m)"
     where = (f"'jsbsim_aircraft' = {sc.jsbsim_aircraft!r} at 'airspeed' = {sc.airspeed} m/s, "
              f"'altitude' = {sc.altitude} m{circle}")
-    turn = ('in steady straight flight' if radius is None else
-            f"in a steady turn at bank {math.degrees(bank):.1f} deg (the circle's steepest, "
-            f'tan(bank) {DEMAND_MARGIN - 1:.0%} steeper)')
+    turn = f'in a steady turn at bank {math.degrees(bank):.1f} deg ' + (
+        "(bank_limit: the formation's turns while it gathers)" if radius is None else
+        f"(the circle's steepest, tan(bank) {DEMAND_MARGIN - 1:.0%} steeper)")
     figures = f'{turn} it holds {held.airspeed:.1f} m/s' + (
         f' and sinks {held.sink:.2g} m/s' if glider else
         f' at throttle {held.throttle:.2f}, losing {held.altitude_lost:.1f} m in '
         f'{TEST_LEVEL + TEST_SETTLE + TEST_HOLD:g} s')
+    remedy = 'a smaller bank_limit' if radius is None else 'a larger radius (smaller |omega0|)'
     short = held.airspeed < (1.0 - AIRSPEED_BAND) * sc.airspeed
     if short or (not glider and held.altitude_lost > ALTITUDE_BAND):
         raise ScenarioError(
             f'{where}: the aircraft cannot hold the demand: {figures}, beyond '
             f'{AIRSPEED_BAND:.0%} of the airspeed or {ALTITUDE_BAND:g} m of altitude: use another '
-            'airspeed, a larger radius (smaller |omega0|) or another aircraft')
+            f'airspeed, {remedy} or another aircraft')
     if not glider and held.throttle >= FULL_THROTTLE:
         return (f'{where}: the demand is marginal: {figures}, with no power in reserve',)
     return ()
