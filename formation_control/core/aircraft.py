@@ -44,7 +44,8 @@ turn-rate demand (:func:`turn_demand`). The inner loop, this module's own for ev
   omega at the true airspeed V, clipped to ``bank_limit``;
 - roll: roll-rate demand ``(phi_cmd - phi) / turn_lag``, clipped to ``roll_rate_limit``, held by
   the ailerons (proportional on the roll-rate error, integral on the bank error); the rudder
-  holds zero sideslip;
+  holds zero sideslip, and with an integral the air velocity along the yaw (v = 0: a steady
+  sideslip of a degree, in the laws' view a course error, left the sgs126 1.7 % off the radius);
 - pitch: powered aircraft hold the trim altitude with the elevator (a pitch demand from the
   altitude error, its integral and the climb rate) and the airspeed with the throttle;
   gliders hold the airspeed with the elevator and descend.
@@ -65,7 +66,7 @@ T = R / V for a circle of radius R). docs/aircraft.md derives it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 import math
 import os
@@ -77,8 +78,8 @@ from formation_control.core import formations
 from formation_control.core.errors import refuse as _fail, ScenarioError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y
-from formation_control.core.parameters import Scenario
+from formation_control.core.models import ROW_OMEGA, ROW_THETA, ROW_U, ROW_V, ROW_X, ROW_Y
+from formation_control.core.parameters import DEFAULTS, Scenario
 from formation_control.core.vehicles import vehicle_model
 import numpy as np
 
@@ -116,6 +117,8 @@ class Flight(Protocol):
     def roll_rate_limit(self) -> float: ...                             # noqa: D102
     @property
     def turn_lag(self) -> float: ...                                    # noqa: D102
+    @property
+    def turbulence(self) -> int: ...                                    # noqa: D102
 
 
 @dataclass(frozen=True)
@@ -130,6 +133,7 @@ class Trimmed:
     bank_limit: float = 0.5
     roll_rate_limit: float = 0.5
     turn_lag: float = 0.5
+    turbulence: int = 0
 
 
 class AircraftError(ValueError):
@@ -311,6 +315,7 @@ class MapFrame:
 # Gains of the inner loop (SI, normalised surfaces), tuned on c172x and the gliders.
 ROLL_P, ROLL_I = 2.0, 0.3        # aileron per rad/s of roll-rate error; per rad s of bank error
 YAW_BETA = -2.0                  # rudder per rad of sideslip
+YAW_SLIP_I = 1.0                 # rudder per rad s of the air velocity's angle across the yaw
 TURN_I = 0.1                     # turn-rate demand per rad of turn-rate error integral (1/s)
 PITCH_P, PITCH_Q = 2.0, 0.6      # elevator per rad of pitch error; per rad/s of pitch rate
 PITCH_I = 0.2                    # elevator per rad s of pitch error
@@ -338,6 +343,7 @@ class Holds:
     speed_int: float = 0.0       # integral of the airspeed error (m)
     pitch_int: float = 0.0       # integral of the pitch error (rad s)
     rate_int: float = 0.0        # integral of the turn-rate error (rad)
+    slip_int: float = 0.0        # integral of the air velocity's angle across the yaw (rad s)
     pitch_i: float = PITCH_I     # elevator per rad s of pitch error
 
 
@@ -361,7 +367,7 @@ class Aircraft:
 
     """
 
-    def __init__(self, sc: Scenario, frame: MapFrame, x: float, y: float, theta: float,
+    def __init__(self, sc: Flight, frame: MapFrame, x: float, y: float, theta: float,
                  index: int, glide: tuple[float, float, float] | None = None) -> None:
         self.sc: Flight = sc
         self.frame = frame
@@ -411,7 +417,11 @@ class Aircraft:
         h.bank_int = min(max(h.bank_int + (phi_cmd - phi) * dt, -INT_MAX), INT_MAX)
         aileron = ROLL_P * (p_cmd - get['p'].get_double_value()) + ROLL_I * h.bank_int
         put['aileron'].set_double_value(min(max(aileron, -1.0), 1.0))
-        rudder = YAW_BETA * get['beta'].get_double_value()
+        psi = get['psi'].get_double_value()
+        across = ((get['vn'].get_double_value() - get['wn'].get_double_value()) * math.sin(psi)
+                  - (get['ve'].get_double_value() - get['we'].get_double_value()) * math.cos(psi))
+        h.slip_int = min(max(h.slip_int + across * FT / v * dt, -INT_MAX), INT_MAX)
+        rudder = YAW_BETA * get['beta'].get_double_value() + YAW_SLIP_I * h.slip_int
         put['rudder'].set_double_value(min(max(rudder, -1.0), 1.0))
         speed_err = airspeed - v
         h.speed_int = min(max(h.speed_int + speed_err * dt, -SPEED_INT_MAX), SPEED_INT_MAX)
@@ -447,7 +457,9 @@ class Aircraft:
 READ = {'vt': 'velocities/vtrue-fps', 'phi': 'attitude/phi-rad', 'p': 'velocities/p-rad_sec',
         'beta': 'aero/beta-rad', 'h': 'position/h-agl-ft', 'hdot': 'velocities/h-dot-fps',
         'theta': 'attitude/theta-rad', 'q': 'velocities/q-rad_sec',
-        'psidot': 'velocities/psidot-rad_sec'}
+        'psidot': 'velocities/psidot-rad_sec', 've': 'velocities/v-east-fps',
+        'vn': 'velocities/v-north-fps', 'we': 'atmosphere/total-wind-east-fps',
+        'wn': 'atmosphere/total-wind-north-fps', 'psi': 'attitude/psi-rad'}
 WRITE = {'aileron': 'fcs/aileron-cmd-norm', 'rudder': 'fcs/rudder-cmd-norm',
          'elevator': 'fcs/elevator-cmd-norm', 'throttle': 'fcs/throttle-cmd-norm'}
 
@@ -548,14 +560,271 @@ def check_trim(sc: Scenario) -> None:
     _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration)
 
 
+DEMAND_MARGIN = 1.1
+"""tan(bank) of the test turn over that of the steepest turn the circle needs (10 % more load)."""
+TEST_LEVEL, TEST_SETTLE, TEST_HOLD = 5.0, 40.0, 20.0
+"""Seconds a test flight (:func:`fly_demand`) flies level, settles in the turn, is read."""
+AIRSPEED_BAND = 0.05
+"""Share of the airspeed demand the airspeed held stays within (test flight and run verdict)."""
+ALTITUDE_BAND = 30.0
+"""Altitude error (m) a powered aircraft stays within: the c172x keeps 4 m in calm air and 11.5 m
+in moderate turbulence (docs/aircraft.md); the test flight's altitude lost, the run's error."""
+FULL_THROTTLE = 0.98             # throttle at which a held airspeed has no power left in reserve
+
+
+@dataclass(frozen=True)
+class Demand:
+    """
+    What an aircraft holds in a steady turn at a demand (:func:`fly_demand`).
+
+    Attributes
+    ----------
+    bank : float
+        Bank of the test turn (rad), :data:`DEMAND_MARGIN` steeper than the steepest one needed.
+    rate : float
+        Turn rate demanded (rad/s).
+    airspeed : float
+        Mean true airspeed (m/s) over the last :data:`TEST_HOLD` s.
+    sink : float
+        Mean rate of descent (m/s) over that span.
+    altitude_lost : float
+        Altitude lost (m) from the trim to the end of the test.
+    throttle : float
+        Mean throttle over that span (nan: a glider).
+
+    """
+
+    bank: float
+    rate: float
+    airspeed: float
+    sink: float
+    altitude_lost: float
+    throttle: float
+
+
+@lru_cache(maxsize=64)
+def fly_demand(flight: Trimmed, bank: float) -> Demand:
+    """
+    Fly one aircraft from its trim into a steady turn at ``bank`` (rad; 0: straight) and read it.
+
+    Wings level for TEST_LEVEL s, then the turn rate ``g tan(bank) / V`` demanded at the airspeed
+    V for TEST_SETTLE + TEST_HOLD s under the autopilot of the runs (:class:`Aircraft`).
+    """
+    glide = _checked(flight.jsbsim_aircraft, flight.altitude, flight.airspeed,
+                     flight.dt_integration)
+    plane = Aircraft(flight, MapFrame.at((0.0, 0.0)), 0.0, 0.0, 0.0, 0, glide)
+    fdm, dt = plane.fdm, flight.dt_integration
+    rate = G * math.tan(bank) / flight.airspeed
+    start = fdm['position/h-agl-ft'] * FT
+    level, end = round(TEST_LEVEL / dt), round((TEST_LEVEL + TEST_SETTLE + TEST_HOLD) / dt)
+    read = []
+    for n in range(end):
+        plane.step(flight.airspeed, rate if n >= level else 0.0)
+        if n >= end - round(TEST_HOLD / dt):
+            read.append((fdm['velocities/vtrue-fps'] * FT, -fdm['velocities/h-dot-fps'] * FT,
+                         fdm['fcs/throttle-cmd-norm']))
+    speed, sink, throttle = np.mean(read, axis=0)
+    return Demand(bank, rate, float(speed), float(sink),
+                  start - fdm['position/h-agl-ft'] * FT, math.nan if glide else float(throttle))
+
+
+def check_demand(sc: Scenario) -> tuple[str, ...]:
+    """
+    Refuse an aircraft that cannot hold the airspeed in the steepest turn the formation needs.
+
+    The test flight (:func:`fly_demand`) at :data:`DEMAND_MARGIN` times the tan(bank) of the
+    circle (:func:`required_bank`; a parallel formation, whose only turns are those that
+    gather it, at ``bank_limit``), within ``bank_limit``: refused if the
+    airspeed held falls :data:`AIRSPEED_BAND` short of ``airspeed`` or a powered aircraft loses
+    more than :data:`ALTITUDE_BAND`; warned if it holds the airspeed only at full throttle.
+    """
+    radius = formations.of(sc).radius(sc)
+    bank = sc.bank_limit if radius is None else min(
+        math.atan(DEMAND_MARGIN * math.tan(required_bank(sc))), sc.bank_limit)
+    flight = Trimmed(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration,
+                     bank_limit=sc.bank_limit, roll_rate_limit=sc.roll_rate_limit,
+                     turn_lag=sc.turn_lag)
+    held = fly_demand(flight, bank)
+    glider = math.isnan(held.throttle)
+    circle = '' if radius is None else f", 'omega0' = {sc.omega0:.4g} (R = {radius:.4g} m)"
+    where = (f"'jsbsim_aircraft' = {sc.jsbsim_aircraft!r} at 'airspeed' = {sc.airspeed} m/s, "
+             f"'altitude' = {sc.altitude} m{circle}")
+    turn = f'in a steady turn at bank {math.degrees(bank):.1f} deg ' + (
+        "(bank_limit: the formation's turns while it gathers)" if radius is None else
+        f"(the circle's steepest, tan(bank) {DEMAND_MARGIN - 1:.0%} steeper)")
+    figures = f'{turn} it holds {held.airspeed:.1f} m/s' + (
+        f' and sinks {held.sink:.2g} m/s' if glider else
+        f' at throttle {held.throttle:.2f}, losing {held.altitude_lost:.1f} m in '
+        f'{TEST_LEVEL + TEST_SETTLE + TEST_HOLD:g} s')
+    remedy = 'a smaller bank_limit' if radius is None else 'a larger radius (smaller |omega0|)'
+    short = held.airspeed < (1.0 - AIRSPEED_BAND) * sc.airspeed
+    if short or (not glider and held.altitude_lost > ALTITUDE_BAND):
+        raise ScenarioError(
+            f'{where}: the aircraft cannot hold the demand: {figures}, beyond '
+            f'{AIRSPEED_BAND:.0%} of the airspeed or {ALTITUDE_BAND:g} m of altitude: use another '
+            f'airspeed, {remedy} or another aircraft')
+    if not glider and held.throttle >= FULL_THROTTLE:
+        return (f'{where}: the demand is marginal: {figures}, with no power in reserve',)
+    return ()
+
+
+LAGS = (0.5, 0.7, 1.0, 1.4, 2.0)
+"""The bank-hold time constants ``turn_lag`` (s) :func:`identify` tries, fastest first."""
+STEP_BANK = 0.8                  # the step's bank, a share of bank_limit: the laws' hardest turns
+STEP_LEVEL, STEP_HOLD, STEP_FIT = 2.0, 20.0, 10.0   # s level, s in the turn, s of it fitted
+
+
+@dataclass(frozen=True)
+class TurnResponse:
+    """
+    An aircraft's turn rate after a step in its turn-rate demand (:func:`turn_response`).
+
+    Attributes
+    ----------
+    turn_lag : float
+        The bank-hold time constant flown (s).
+    rate : float
+        The turn rate demanded from the step on (rad/s).
+    t, omega : ndarray, shape (n,)
+        Time from the step (s) and the yaw rate (rad/s), every integration step.
+    lag : float
+        The first-order lag fitted to the first STEP_FIT s: the tau of least squares of
+        ``omega - rate (1 - exp(-t / tau))`` (s).
+    error : float
+        The integral of ``|omega - rate| / rate`` over the STEP_HOLD s (s): 0 for a turn rate
+        that follows its demand at once; an overshoot, a slow approach or an oscillation add.
+
+    """
+
+    turn_lag: float
+    rate: float
+    t: RealArray
+    omega: RealArray
+    lag: float
+    error: float
+
+
+@lru_cache(maxsize=64)
+def turn_response(flight: Trimmed) -> TurnResponse:
+    """
+    Fly one aircraft from its trim through a step in its turn-rate demand and fit its lag.
+
+    STEP_LEVEL s wings level, then STEP_HOLD s of the turn rate ``g tan(b) / V`` of the bank
+    ``b = STEP_BANK bank_limit`` under the runs' autopilot (:class:`Aircraft`) with
+    ``turn_lag`` of ``flight``.
+    """
+    glide = _checked(flight.jsbsim_aircraft, flight.altitude, flight.airspeed,
+                     flight.dt_integration)
+    plane = Aircraft(flight, MapFrame.at((0.0, 0.0)), 0.0, 0.0, 0.0, 0, glide)
+    dt = flight.dt_integration
+    rate = G * math.tan(STEP_BANK * flight.bank_limit) / flight.airspeed
+    for _ in range(round(STEP_LEVEL / dt)):
+        plane.step(flight.airspeed, 0.0)
+    omega = []
+    for _ in range(round(STEP_HOLD / dt)):
+        plane.step(flight.airspeed, rate)
+        omega.append(-plane.fdm['velocities/psidot-rad_sec'])
+    w, t = np.array(omega), dt * np.arange(1, len(omega) + 1)
+    fit = t <= STEP_FIT
+    taus = np.arange(0.05, STEP_FIT, 0.01)
+    cost = ((w[fit] - rate * (1.0 - np.exp(-t[fit] / taus[:, None]))) ** 2).sum(axis=1)
+    error = float(np.sum(abs(w - rate)) * dt / rate)
+    return TurnResponse(flight.turn_lag, rate, t, w, float(taus[np.argmin(cost)]), error)
+
+
+def identify(sc: Scenario) -> TurnResponse:
+    """
+    Return the turn response of the bank hold of :data:`LAGS` the aircraft follows best.
+
+    Each ``turn_lag`` of LAGS (:func:`turn_response`) at the scenario's aircraft, altitude,
+    airspeed and limits; the one of the least ``error``.
+    """
+    return min((turn_response(Trimmed(sc.jsbsim_aircraft, sc.altitude, sc.airspeed,
+                                      sc.dt_integration, bank_limit=sc.bank_limit,
+                                      roll_rate_limit=sc.roll_rate_limit, turn_lag=lag))
+                for lag in LAGS), key=lambda response: response.error)
+
+
+def tuned(sc: Scenario) -> Scenario:
+    """
+    Return the scenario with the aircraft's own turn_lag and kappa where they are left out.
+
+    With ``plant_backend: jsbsim`` and ``turn_lag`` 0: the identified bank hold
+    (:func:`identify`), and kappa ``1 / turn_lag`` if kappa is at its default (the
+    backstepping rate loop as fast as the bank follows, docs/aircraft.md). Unchanged otherwise,
+    and where the aircraft cannot be flown at all (:func:`check` refuses it).
+    """
+    if not flown(sc) or sc.turn_lag or min(sc.airspeed, sc.altitude) <= 0.0:
+        return sc
+    try:
+        lag = identify(sc).turn_lag
+    except AircraftError:
+        return sc
+    return replace(sc, turn_lag=lag, kappa=1.0 / lag if sc.kappa == DEFAULTS.kappa else sc.kappa)
+
+
+HOLD_SHARE = 0.5
+"""Share of a run, at its end, over which the aircraft must have held airspeed and altitude."""
+
+
+def held(sc: Scenario, t: RealArray, X: RealArray, altitude: RealArray) -> dict[str, Any]:
+    """
+    Return the airspeed and altitude a run's aircraft held, and the bands they left.
+
+    Parameters
+    ----------
+    sc : scenario.Scenario
+        Its airspeed, altitude and aircraft (a glider descends: its altitude is not held).
+    t : array_like, shape (T,)
+        Sample times (s).
+    X : array_like, shape (T, 6, N) or (T, 6, B, N)
+        The recorded states: the airspeed is the horizontal air velocity ``|u + i v|``.
+    altitude : array_like, shape (T, N) or (T, B, N)
+        The recorded altitudes (m).
+
+    Returns
+    -------
+    dict
+        Over the last :data:`HOLD_SHARE` of the run, from ``hold_from`` (s): ``airspeed_held``
+        and ``altitude_held``, [min, max] over time and vehicles (m/s, m; per fleet of a
+        batch); ``holds``, whether both stayed in their bands (``airspeed``:
+        :data:`AIRSPEED_BAND` of ``airspeed``; ``altitude``, powered aircraft:
+        :data:`ALTITUDE_BAND` of ``altitude``); for one run ``flight_unmet``, the names of
+        the bands left, and ``flight``, how, in words.
+
+    """
+    t = np.asarray(t, float)
+    keep = t >= t[-1] - HOLD_SHARE * (t[-1] - t[0])
+    X, h = np.asarray(X, float)[keep], np.asarray(altitude, float)[keep]
+    glider = _checked(sc.jsbsim_aircraft, sc.altitude, sc.airspeed, sc.dt_integration) is not None
+    spans = {'airspeed': (np.hypot(X[:, ROW_U], X[:, ROW_V]), sc.airspeed,
+                          AIRSPEED_BAND * sc.airspeed, 'm/s'),
+             'altitude': (h, sc.altitude, math.inf if glider else ALTITUDE_BAND, 'm')}
+    out: dict[str, Any] = {'hold_from': float(t[keep][0]), 'holds': True}
+    unmet, why = [], []
+    for name, (value, target, band, unit) in spans.items():
+        low, high = np.min(value, axis=(0, -1)), np.max(value, axis=(0, -1))
+        ok = np.maximum(target - low, high - target) <= band
+        out[f'{name}_held'] = np.stack([low, high], axis=-1).tolist()
+        out['holds'] = out['holds'] & ok
+        if not np.all(ok):
+            unmet.append(name)
+            why.append(f'{name} {np.min(low):.4g}-{np.max(high):.4g} {unit} left {target:g} '
+                       f'+- {band:.3g} {unit}')
+    if np.ndim(out['holds']) == 0:
+        out.update(holds=bool(out['holds']), flight_unmet=unmet, flight='; '.join(why))
+    return out
+
+
 def check(sc: Scenario) -> tuple[str, ...]:
     """
     Refuse a jsbsim scenario the aircraft cannot fly (docs/aircraft.md, "Bad input").
 
     A tangent plane within +-80 deg of latitude, airspeed limits that admit the airspeed, a
-    circle within the bank limit, and an aircraft JSBSim has and trims (:func:`check_trim`).
-    No warnings; nothing for the native plant. The native plant's world and the rigid-body
-    parameters, which JSBSim does not read, are refused by :func:`parameters.check_read`.
+    circle within the bank limit, an aircraft JSBSim has and trims (:func:`check_trim`) and
+    that holds the demand (:func:`check_demand`, which warns where it is marginal). Nothing
+    for the native plant. The native plant's world and the rigid-body parameters, which
+    JSBSim does not read, are refused by :func:`parameters.check_read`.
     """
     if not flown(sc):
         return ()
@@ -579,7 +848,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         check_trim(sc)
     except AircraftError as err:
         raise ScenarioError(str(err)) from None
-    return ()
+    return check_demand(sc)
 
 
 class Fleet:

@@ -374,9 +374,10 @@ class Scenario:
                                **_POSITIVE, reads=_JSBSIM)
     roll_rate_limit: float = _param(0.5, 'rad/s', 'jsbsim: roll-rate limit of the autopilot',
                                     **_POSITIVE, reads=_JSBSIM)
-    turn_lag: float = _param(0.5, 's', 'jsbsim: time constant of the bank hold; the '
-                             'second-order turn-rate demand is omega + turn_lag a', **_POSITIVE,
-                             reads=_JSBSIM)
+    turn_lag: float = _param(0.0, 's', 'jsbsim: time constant of the bank hold; the '
+                             'second-order turn-rate demand is omega + turn_lag a', low=0.0,
+                             zero="the aircraft's own, identified from its turn response "
+                             '(kappa at its default then 1/turn_lag)', reads=_JSBSIM)
     turbulence: int = _param(0, '', 'jsbsim: MIL-F-8785C turbulence severity (1-2 light, 3-4 '
                              'moderate, 5-7 severe)', low=0, high=7, zero='none', reads=_JSBSIM)
     turbulence_seed: int = _param(0, '', 'jsbsim: seed of the turbulence (per aircraft: seed '

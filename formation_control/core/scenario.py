@@ -59,7 +59,8 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     params : dict
         Parameter name -> value, as a parameter file or ROS gives them (lists for pairs and
         arrays); names left out take the defaults of :data:`parameters.PARAMETERS`, K that of the
-        formation (-1 parallel, 1 circular).
+        formation (-1 parallel, 1 circular); an aircraft's turn_lag 0 its own
+        (:func:`aircraft.tuned`).
 
     Returns
     -------
@@ -82,6 +83,7 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     sc = replace(DEFAULTS, **values)
     if 'K' not in values:
         sc = replace(sc, K=formations.default_K(sc.formation))
+    sc = aircraft.tuned(sc)
     notes = tuple(note for check in CHECKS for note in check(sc))
     hold, fallback = hold_fallback(sc)
     if fallback:

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from formation_control.core import aircraft
 from formation_control.core.geometry import ComplexArray, RealArray
@@ -117,6 +117,12 @@ class PlantBackend(ABC):
     def spread_tol(cls, sc: Scenario, tol: float) -> float:
         """Return the centre spread (m) a converged circle stays below: ``tol`` by default."""
         return tol
+
+    @classmethod
+    def held(cls, sc: Scenario, t: RealArray, X: RealArray,
+             channels: dict[str, RealArray]) -> dict[str, Any]:
+        """Return what a run's vehicles held beside the formation ({}: nothing to hold)."""
+        return {}
 
 
 class Native(PlantBackend):
@@ -208,6 +214,12 @@ class JSBSim(PlantBackend):
     def spread_tol(cls, sc: Scenario, tol: float) -> float:
         """Return :data:`AIRCRAFT_SPREAD_TOL` of the radius ``1 / |omega0|`` (m)."""
         return AIRCRAFT_SPREAD_TOL / abs(sc.omega0)
+
+    @classmethod
+    def held(cls, sc: Scenario, t: RealArray, X: RealArray,
+             channels: dict[str, RealArray]) -> dict[str, Any]:
+        """Return :func:`aircraft.held`: a run that left its airspeed or altitude band fails."""
+        return aircraft.held(sc, t, X, channels['altitude']) if 'altitude' in channels else {}
 
 
 BACKENDS: dict[str, type[PlantBackend]] = {'native': Native, 'world': NativeInWorld,

@@ -209,6 +209,11 @@ def format_report(title: str, out: Mapping[str, Any], rows: Iterable[Row]) -> st
              f"  {'quantity':20s} {'final':>12s} {'predicted':>12s}  source"]
     if out.get('pattern'):
         lines.insert(2, f"  predicted pattern  {out['pattern']}")
+    if 'airspeed_held' in out:
+        lines.insert(2, f"  held from t = {out['hold_from']:.4g} s: airspeed "
+                        f"{'{:.4g}-{:.4g}'.format(*out['airspeed_held'])} m/s, altitude "
+                        f"{'{:.4g}-{:.4g}'.format(*out['altitude_held'])} m"
+                        + (f" ({out['flight']})" if out['flight'] else ''))
     if out.get('steady_state'):
         lines[2:2] = [f"  band test over the last {out['settle_window']:g} s: steady-state "
                       'error median / p95 (band)'] + [

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 import json
 from os import PathLike
-from typing import Any, overload
+from typing import Any, cast, overload
 
 from formation_control.core import formations, sensors, stability
 from formation_control.core.aircraft import CHANNELS
@@ -403,6 +403,7 @@ class Outcome:
         self.met: list[dict[str, Any]] = []
         self.errors: list[dict[str, Any]] = []
         self.diverged: BoolArray = np.zeros((), bool)
+        self.flown: list[tuple[RealArray, RealArray]] = []
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None,
@@ -417,6 +418,8 @@ class Outcome:
             self.met.append(metrics.conditions(self.sc, self.final))
             self.errors.append(metrics.steady_errors(self.sc, self.final))
             self.X, self.U = X.copy(), U.copy()
+            if channels:
+                self.flown.append((self.X, channels['altitude'].copy()))
 
     def run(self) -> Outcome:
         """Return itself, with ``t`` and ``flags`` as arrays."""
@@ -437,8 +440,17 @@ class Outcome:
         stepper.X[:, fleets] = before[:, fleets]
 
     def converged(self) -> BoolArray:
-        """Return each fleet's :func:`metrics.verdict` (B,); never one that diverged."""
-        return np.asarray(metrics.verdict(self.sc, self.t, self.flags)) & ~self.diverged
+        """
+        Return each fleet's :func:`metrics.verdict` (B,); never one that diverged.
+
+        Nor one whose vehicles left what they hold (aircraft: airspeed and altitude,
+        :meth:`backends.PlantBackend.held`).
+        """
+        ok = np.asarray(metrics.verdict(self.sc, self.t, self.flags)) & ~self.diverged
+        if self.flown:
+            X, altitude = (np.array(rows) for rows in zip(*self.flown))
+            ok = ok & backend_of(self.sc).held(self.sc, self.t, X, {'altitude': altitude})['holds']
+        return ok
 
     def met_conditions(self) -> dict[str, BoolArray]:
         """Return whether each fleet meets each condition: at the end, or over the window."""
@@ -606,7 +618,8 @@ def summary(run: Run) -> dict[str, Any]:
         last ``settle_window``, ``steady_state`` the median, 95th percentile
         and band of each :func:`metrics.steady_errors` over it, and ``settle_window`` (s).
         Circular: ``centre_spread``, ``radius``, ``radius_target``; rigid bodies: ``mean_u``,
-        ``mean_v`` (m/s).
+        ``mean_v`` (m/s). Aircraft: :func:`aircraft.held`; a run that left its airspeed or
+        altitude band is not converged, and ``unmet`` names it.
 
     """
     sc = run.sc
@@ -638,6 +651,11 @@ def summary(run: Run) -> dict[str, Any]:
                                       'band': getattr(sc, metrics.BANDS[name])}
                                for name, (m, q) in ss.items()}
         out['settle_window'] = float(min(sc.settle_window, run.t[-1] - run.t[0]))
+    flight = backend_of(sc).held(sc, run.t, run.X, run.channels)
+    if flight.get('flight_unmet'):
+        flight.update(converged=False, convergence_time=None,
+                      unmet=cast('list[str]', out['unmet']) + flight['flight_unmet'])
+    out.update(flight)
     radius = formations.of(sc).radius(sc)
     if radius is not None:
         out.update(centre_spread=final.spread, radius=final.radius, radius_target=radius)

@@ -26,7 +26,7 @@ from pathlib import Path
 import re
 
 from formation_control import core
-from formation_control.core import graphs, parameters
+from formation_control.core import aircraft, graphs, parameters
 from formation_control.core.errors import ScenarioError
 from formation_control.core.parameters import CHOICES, DEFAULTS, PARAMETERS, READERS
 from formation_control.core.scenario import resolve
@@ -46,7 +46,7 @@ def values_of(axis):
 def probe(name):
     """Return a valid value of parameter ``name`` other than its default."""
     default, spec = getattr(DEFAULTS, name), PARAMETERS[name]
-    special = {'jsbsim_aircraft': 'pa28', 'flow_grid_file': 'flow.npz', 'informed': [1],
+    special = {'jsbsim_aircraft': 'c182', 'flow_grid_file': 'flow.npz', 'informed': [1],
                'graph_offsets': [1, 2], 'graph_edges': [1, 2, 2, 3, 3, 4, 4, 5, 5, 6],
                'graph_degree': 3.0, 'airspeed': 55.0, 'flow_shear': 0.05, 'max_airspeed': 60.0,
                'geodetic_origin': [40.0, -76.94], 'pattern_M': 3}
@@ -95,7 +95,8 @@ COMPANIONS = {'flow_period': {'flow_amplitude': 0.2}, 'flow_shear_width': {'flow
               'flow_radius': {'flow_circulation': 0.5},
               'max_turn_rate': {'controller': 'first_order'},
               'K_P': {'model': 'rigid_couple'}, 'K_I': {'model': 'rigid_couple'},
-              'law_variant': {'model': 'rigid_couple'}}
+              'law_variant': {'model': 'rigid_couple'},
+              'jsbsim_aircraft': {'airspeed': 55.0}}
 """What else a run that reads a parameter needs to be valid (the probe alone is not)."""
 READ_BY_SOME = [name for name, spec in PARAMETERS.items() if spec.reads]
 
@@ -223,8 +224,9 @@ def message_words():
 
 
 def test_the_messages_name_only_parameters_that_exist():
-    functions = {'slot_traps': graphs}               # named in messages as what computes
-    scenarios = {p.stem for p in (Path(__file__).resolve().parents[2] / 'config').glob('*.yaml')}
+    functions = {'slot_traps': graphs, 'fly_demand': aircraft}               # named in messages as what computes
+    config = Path(__file__).resolve().parents[2] / 'config'
+    scenarios = {p.stem for p in config.glob('*.yaml')}
     allowed = (set(PARAMETERS) | {v for c in CHOICES.values() for v in c} | set(MODEL_NAMES)
                | set(functions) | scenarios)
     for name, module in functions.items():
