@@ -224,7 +224,7 @@ def message_words():
 
 
 def test_the_messages_name_only_parameters_that_exist():
-    functions = {'slot_traps': graphs, 'fly_demand': aircraft}               # named in messages as what computes
+    functions = {'slot_traps': graphs, 'fly_demand': aircraft}   # named in messages
     config = Path(__file__).resolve().parents[2] / 'config'
     scenarios = {p.stem for p in config.glob('*.yaml')}
     allowed = (set(PARAMETERS) | {v for c in CHOICES.values() for v in c} | set(MODEL_NAMES)
