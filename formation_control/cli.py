@@ -34,6 +34,7 @@ from formation_control.core import parameters, scenario
 from formation_control.core.errors import UsageError
 from formation_control.ops import security
 from formation_control.protocol import names, node_parameters
+from formation_control.protocol.healing import HEAL_AFTER
 from formation_control.sim import report, simulator
 
 
@@ -71,7 +72,7 @@ def _report(run, source, what, extra=None, summary_path=None):
              f'({sc.controller}), {out["duration"]:g} s {what}')
     print(report.format_report(title, out, rows))
     for key, value in (extra or {}).items():
-        if key in ('faults', 'lost') or key.startswith('survivors'):
+        if key in ('faults', 'lost', 'healed') or key.startswith('survivors'):
             continue
         text = f'{value:.4g}' if isinstance(value, float) else value
         print(f'  {key:20s} {text}')
@@ -155,12 +156,16 @@ def cmd_swarm(args):
     if args.restart_dead is not None and not args.restart_dead >= 0:
         raise UsageError(f'--restart-dead {args.restart_dead:g} is invalid: a delay '
                          f'in fleet seconds, >= 0')
+    if not args.heal_after >= 0:
+        raise UsageError(f'--heal-after {args.heal_after:g} is invalid: wall seconds, '
+                         f'>= 0 (0: never heal)')
     try:
         options = swarm.SwarmOptions(
             real_time_factor=args.real_time_factor, monitor=not args.no_monitor,
             node_params=tuple(_split(args.param)[1]),
             monitor_params=tuple(_live_view(args.foxglove, args.namespace)),
-            restart_dead=args.restart_dead, secure=args.secure, stop=stop)
+            restart_dead=args.restart_dead, secure=args.secure, heal_after=args.heal_after,
+            stop=stop)
         run, out = swarm.run_swarm(sc, options, args.mode, args.vehicles_per_process,
                                    args.namespace, args.bag, args.fault, args.timeout)
     except KeyboardInterrupt:
@@ -170,7 +175,7 @@ def cmd_swarm(args):
         print(f'error: {err}', file=sys.stderr)
         return 1
     extra = {k: out[k] for k in ('mode', 'real_time_factor', 'logs', 'bag', 'faults', 'lost',
-                                 'survivors', 'survivors_converged',
+                                 'healed', 'survivors', 'survivors_converged',
                                  'survivors_convergence_time') if k in out}
     _report(run, args.scenario, 'as ROS 2 processes', extra, args.summary)
     _write(args, run)
@@ -187,6 +192,8 @@ def _fault_lines(out):
         again = '' if p['restarted'] is None else f', restarted at t = {at(p["restarted"])}'
         lines.append(f'  lost  {p["process"]:18s} at t = {at(p["time"])} (exit '
                      f'{p["exit"]}, {p["cause"]}){again}')
+    lines += [f'  healed {h["process"]:17s} at t = {at(h["time"])}: {h["reason"]}'
+              for h in out.get('healed', ())]
     if out['lost'] or out['faults']:
         since = out['survivors_convergence_time']
         state = 'not converged' if not out['survivors_converged'] else (
@@ -433,6 +440,10 @@ def _swarm_parser(sub):
     swarm.add_argument('--restart-dead', type=float, metavar='DELAY',
                        help='start a vehicle or monitor process that died by itself again, '
                             'DELAY fleet seconds later (default: never)')
+    swarm.add_argument('--heal-after', type=float, default=HEAL_AFTER, metavar='SECONDS',
+                       help='restart a live process the fleet has waited on this many wall '
+                            'seconds (a member that never joined, or wedged; at most 3 times; '
+                            f'0: never; default {HEAL_AFTER:g})')
     swarm.add_argument('--secure', metavar='DIR',
                        help='run every process as its member of the TLS fleet made by '
                             '`formation-control secure DIR` (docs/security.md)')

@@ -20,8 +20,10 @@ executables ``ros2 run`` starts).
 """
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+import json
 import os
 from pathlib import Path
+import re
 import shutil
 import signal
 import subprocess
@@ -34,12 +36,14 @@ from formation_control.ops import dds_profile, lifetime, security, signing
 from formation_control.protocol import faults, names
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, ros_arguments,
                                                    SWARM_LABELS, write_params)
+from formation_control.protocol.healing import HEAL_AFTER, Healer, Heard, STARTUP
 from formation_control.sim import simulator
 
 CLOCK_EVENTS = 8
 """Supervisor events handled before each slice of recording (clock samples, service answers)."""
 RECORD_SLICE = 0.005
 """Wall seconds of recording between two looks at the fleet time."""
+VEHICLE_TOPIC = re.compile(r'/vehicle_(\d+)/')
 
 
 def executable(name):
@@ -119,6 +123,9 @@ class SwarmOptions:
     secure : str or Path, optional
         The directory of a TLS fleet (:mod:`formation_control.ops.security`): each process
         runs as its member (the plan made with ``secure=True``).
+    heal_after : float
+        Wall seconds the fleet may wait on a live member before the member is restarted
+        (:mod:`formation_control.protocol.healing`; 0: never).
     stop : threading.Event, optional
         Set, it ends the run as KeyboardInterrupt, every process stopped.
 
@@ -133,6 +140,7 @@ class SwarmOptions:
     env: Mapping[str, str] | None = None
     restart_dead: float | None = None
     secure: str | Path | None = None
+    heal_after: float = HEAL_AFTER
     stop: threading.Event | None = None
 
 
@@ -142,8 +150,9 @@ class Swarm:
 
     A vehicle or monitor process that exits during the run is noted (:meth:`check`: fleet time,
     exit code, cause) and the others carry on; with ``restart_dead`` (fleet seconds) a process
-    that died by itself is started again that long after. Scripted faults act on the processes
-    through :meth:`apply`.
+    that died by itself is started again that long after. A live process the fleet waits on
+    past ``heal_after`` is restarted (:meth:`heal`, noted in :attr:`healed`). Scripted faults
+    act on the processes through :meth:`apply`.
 
     Parameters
     ----------
@@ -190,6 +199,9 @@ class Swarm:
         self.restart_dead, self.restarts = options.restart_dead, []
         self.t = None
         self.lost, self.faults, self.survivors = [], [], None
+        self.healer = Healer(self.members, options.heal_after,
+                             startup=STARTUP * len(self.members))
+        self.healed = []
 
     def _environments(self, plan, count):
         """Return the environment of each process (its member's, in a TLS fleet), checked."""
@@ -242,6 +254,7 @@ class Swarm:
                     continue
         self.group = group or self.procs[i].pid
         self.state[i] = 'running'
+        self.healer.resumed(i, time.monotonic())
 
     @property
     def plant(self):
@@ -287,10 +300,11 @@ class Swarm:
                             'scheduled': fault.time, 'applied': self.t})
         self.say(f'{fault.describe()} ({fault.text})')
 
-    def restart(self, i):
-        """Start process ``i`` again (killed first if it still runs)."""
+    def restart(self, i, cause='restarted'):
+        """Start process ``i`` again (killed first if it still runs, for ``cause``)."""
         if self.procs[i].poll() is None:
-            self.cause[i] = 'restarted'
+            self.cause[i] = cause
+            self.procs[i].send_signal(signal.SIGCONT)
             self.procs[i].kill()
             self.procs[i].wait()
         self.check()
@@ -300,6 +314,28 @@ class Swarm:
                 entry['restarted'] = self.t
                 break
         self.say(f'{self.names[i]} started again')
+
+    def heal(self, plant_status, heard):
+        """
+        Restart the live members the fleet has waited on past ``heal_after`` (:class:`Healer`).
+
+        ``plant_status`` is the plant's (step, {silent id: seconds waited}) just heard, or None;
+        ``heard`` each vehicle's last :class:`Heard` status. A process the fault script froze
+        or killed is left to the script.
+        """
+        if plant_status is None:
+            return
+        running = [i for i in range(1, len(self.procs))
+                   if self.state[i] == 'running' and self.procs[i].poll() is None]
+        given_up = set(self.healer.given_up)
+        for i, reason in self.healer.due(*plant_status, heard, running, time.monotonic()):
+            self.healed.append({'process': self.names[i], 'vehicles': list(self.members[i]),
+                                'time': self.t, 'reason': reason})
+            self.say(f'healing {self.names[i]}: {reason}: restarted')
+            self.restart(i, f'healed: {reason}')
+        for i in sorted(self.healer.given_up - given_up):
+            self.say(f'{self.names[i]} still holds the fleet after {self.healer.limit} '
+                     f'restarts: left as it is')
 
     def apply(self, fault):
         """Apply a scripted process fault (:class:`faults.Fault`) now; record it."""
@@ -318,6 +354,7 @@ class Swarm:
         else:
             self.procs[i].send_signal(signal.SIGSTOP if fault.kind == 'stop' else signal.SIGCONT)
             self.state[i] = 'stopped' if fault.kind == 'stop' else 'running'
+            self.healer.resumed(i, time.monotonic())
 
     def running_vehicles(self):
         """Return the ids of the vehicles whose process runs (not dead, not frozen)."""
@@ -334,7 +371,7 @@ class Swarm:
         out = simulator.summary(run)
         out['real_time_factor'] = run.meta['simulated_time'] / max(run.meta['wall_time'], 1e-9)
         out['mode'] = self.mode
-        out['faults'], out['lost'] = self.faults, self.lost
+        out['faults'], out['lost'], out['healed'] = self.faults, self.lost, self.healed
         out['survivors'] = self.survivors
         out['survivors_converged'], out['survivors_convergence_time'] = \
             faults.survivors_converged(run, self.survivors)
@@ -350,7 +387,7 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
     """
     end = time.monotonic() + timeout
     if supervisor is not None and supervisor.recorder is not None:
-        supervisor.start_when_discovered(timeout, swarm.check)
+        supervisor.start_when_discovered(timeout, swarm)
     while swarm.plant.poll() is None:
         swarm.check()
         if time.monotonic() > end:
@@ -363,6 +400,7 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
         if supervisor.recorder is not None and supervisor.recorder.failure is not None:
             raise RuntimeError(supervisor.recorder.failure)
         swarm.t = supervisor.t
+        swarm.heal(supervisor.take_plant_status(), supervisor.heard)
         for fault in schedule.due(swarm.t) if schedule and swarm.t is not None else ():
             swarm.apply(fault)
             if fault.kind in faults.LINK_KINDS:
@@ -379,7 +417,10 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
 
 class Supervisor:
     """
-    The swarm's own node, on its own context: fleet time, the faults' record, the bag.
+    The swarm's own node, on its own context: fleet time, faults, the bag, whom the fleet awaits.
+
+    Whom the fleet awaits is what the plant and the vehicles say on ``/diagnostics``
+    (:meth:`Swarm.heal`).
 
     Fleet time is the fleet's ``clock`` in lockstep, and in real time vehicle 1's odometry
     stamps from the first one heard (the supervisor exists before the plant starts); every name
@@ -390,6 +431,7 @@ class Supervisor:
     """
 
     def __init__(self, n, mode, bag=None, monitor=True, namespace='/'):
+        from diagnostic_msgs.msg import DiagnosticArray
         from formation_control_msgs.msg import FaultEvent
         from nav_msgs.msg import Odometry
         import rclpy
@@ -421,6 +463,11 @@ class Supervisor:
             self.wire = itf.odom_wire(1)
             self.node.create_subscription(Odometry, prefix + names.topic(1, 'odom'), self._on_odom,
                                           itf.STATE_QOS, raw=True)
+        self.plant_status, self.heard = None, {}
+        status = re.escape(names.status_prefix(namespace) + 'formation_control/')
+        self.status_names = re.compile(status + r'(?:plant|vehicle_(\d+)/links)')
+        self.node.create_subscription(DiagnosticArray, names.DIAGNOSTICS_TOPIC,
+                                      self._on_diagnostics, itf.STREAM_QOS)
         self.params = {}
         self.recorder = None
         if bag is not None:
@@ -453,6 +500,29 @@ class Supervisor:
             self.t0 = got[0]
         self.t = max(self.t or 0.0, 1e-9 * (got[0] - self.t0))
 
+    def _on_diagnostics(self, msg):
+        """Keep the plant's silent vehicles and each vehicle's awaited neighbours."""
+        for s in msg.status:
+            found = self.status_names.fullmatch(s.name)
+            if found is None:
+                continue
+            values = {kv.key: kv.value for kv in s.values}
+            try:
+                if found[1] is None:
+                    ids, waited = json.loads(values['silent']), json.loads(values['silent_for'])
+                    self.plant_status = (int(values['step']),
+                                         dict(zip(map(int, ids), map(float, waited))))
+                else:
+                    self.heard[int(found[1])] = Heard(
+                        time.monotonic(), tuple(json.loads(values.get('awaiting', '[]'))))
+            except (KeyError, ValueError, TypeError):
+                continue
+
+    def take_plant_status(self):
+        """Return the plant's status heard since the last call (or None): each is judged once."""
+        status, self.plant_status = self.plant_status, None
+        return status
+
     def publish(self, fault, record):
         """Publish one applied fault (:class:`faults.Fault`, its record) on the faults topic."""
         from formation_control.ros import interface as itf
@@ -477,12 +547,23 @@ class Supervisor:
             reason = results[0].reason if results else 'no answer'
             print(f'swarm: vehicle {k} refused cut_links: {reason}', file=sys.stderr)
 
-    def start_when_discovered(self, timeout, check):
-        end = time.monotonic() + timeout
-        while any(self.recorder.readers[t].get_publisher_count() == 0 for t in self.topics):
-            check()
+    def start_when_discovered(self, timeout, swarm):
+        """
+        Start the plant once the recorder has matched every topic; heal a member it cannot.
+
+        The vehicles whose topics have no publisher are the fleet's silent ones at step 0
+        (:meth:`Swarm.heal`), the plant not yet started.
+        """
+        start = time.monotonic()
+        end = start + timeout
+        while unmatched := [t for t in self.topics
+                            if self.recorder.readers[t].get_publisher_count() == 0]:
+            swarm.check()
+            ids = sorted({int(m[1]) for t in unmatched if (m := VEHICLE_TOPIC.search(t))})
+            swarm.heal((0, dict.fromkeys(ids, time.monotonic() - start)), self.heard)
             if time.monotonic() > end:
-                raise TimeoutError('the bag recorder did not discover every topic in time')
+                raise TimeoutError('the bag recorder did not discover every topic in time: '
+                                   f'{unmatched[:5]} have no publisher')
             self.spin(0.05)
         self.start.publish(self.Empty())
 

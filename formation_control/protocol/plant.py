@@ -77,6 +77,7 @@ class Plant:
         self.t0_ns, self.wall = 0, 0.0
         self.started = self.finished = self.failed = False
         self.errors: list[str] = []
+        self.created = clock()
 
     def stamp_ns(self, t: float) -> int:
         """Return the stamp (ns) of simulated time ``t`` (s)."""
@@ -229,11 +230,37 @@ class Plant:
             return None
         return waited, (np.flatnonzero(self.gate.missing(self.fleet.stopped)) + 1).tolist()
 
-    def status(self, counts: Mapping[str, int]) -> tuple[str, str, dict[str, Any]]:
+    def silent(self, unmatched: Sequence[int] = ()) -> dict[int, float]:
+        """
+        Return the silent vehicles: id -> wall seconds the fleet has waited on each.
+
+        The vehicles gone (heard, then silent past the command timeout), since each was last
+        heard; in lockstep those the step under way still waits for, as long as it has
+        lasted; in real time before the clock starts, the ``unmatched`` ids (no command
+        publisher matched yet), since the plant was made. What the swarm heals by
+        (:mod:`formation_control.protocol.healing`).
+        """
+        if self.finished:
+            return {}
+        now, out = self.clock(), {}
+        gone = self.gate.gone() & ~self.fleet.stopped
+        for i in np.flatnonzero(gone):
+            out[int(i) + 1] = now - float(self.gate.liveness.last[i])
+        if self.lockstep and self.gate.step_ns is not None:
+            waited = self.gate.waiting_for()
+            for i in np.flatnonzero(self.gate.missing(self.fleet.stopped)):
+                out[int(i) + 1] = max(out.get(int(i) + 1, 0.0), waited)
+        if not self.lockstep and self.pacer is None:
+            out.update(dict.fromkeys(map(int, unmatched), now - self.created))
+        return dict(sorted(out.items()))
+
+    def status(self, counts: Mapping[str, int],
+               unmatched: Sequence[int] = ()) -> tuple[str, str, dict[str, Any]]:
         """
         Return the level ('ok', 'warn' or 'error'), text and values of the plant's status.
 
-        ``counts`` are the node's counts of rejected input, listed among the values.
+        ``counts`` are the node's counts of rejected input, listed among the values, with the
+        silent vehicles (:meth:`silent`, ``unmatched`` its argument).
         """
         gone = (np.flatnonzero(self.gate.gone()) + 1).tolist()
         stopped = (np.flatnonzero(self.fleet.stopped) + 1).tolist()
@@ -242,6 +269,9 @@ class Plant:
             level, text = 'warn', f'vehicles {gone} gone (zero command)'
         if stopped:
             level, text = 'error', f'vehicles {stopped} stopped: non-finite state'
-        values = {'step': self.fleet.n, 'gone': gone, 'stopped': stopped, **counts,
+        silent = self.silent(unmatched)
+        values = {'step': self.fleet.n, 'gone': gone, 'stopped': stopped,
+                  'silent': list(silent), 'silent_for': [round(t, 2) for t in silent.values()],
+                  **counts,
                   'nudges': self.gate.nudges, 'repeated_commands': self.gate.repeated}
         return level, text, values

@@ -257,7 +257,7 @@ class PlantNode(Node):
             self.get_logger().warn(f'step {self.fleet.n}: waiting {stalled[0]:.1f} s for the '
                                    f'commands of vehicles {stalled[1]}',
                                    throttle_duration_sec=5.0)
-        level, text, values = self.plant.status(self.reject.counts)
+        level, text, values = self.plant.status(self.reject.counts, self.missing or ())
         common.publish_diagnostics(self, self.diag_pub, [
             common.status('formation_control/plant', LEVELS[level], text, values)])
 

@@ -244,10 +244,12 @@ class VehicleNode(Node):
                                    f'{stalled[0]:.1f} s for the states of vehicles {stalled[1]}',
                                    throttle_duration_sec=5.0)
         gone, text, values = self.me.status(self.reject.counts)
+        awaiting = stalled[1] if isinstance(stalled, tuple) else []
         common.publish_diagnostics(self, self.diag_pub, [common.status(
             f'formation_control/vehicle_{self.k}/links',
             DiagnosticStatus.WARN if gone else DiagnosticStatus.OK, text,
-            {**values, **self.latency.summary()}, hardware_id=f'vehicle_{self.k}')])
+            {**values, 'awaiting': awaiting, **self.latency.summary()},
+            hardware_id=f'vehicle_{self.k}')])
 
     def _odometry_publishers(self):
         """Return its odometry topic and the number of publishers matched to it."""

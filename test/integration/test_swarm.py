@@ -224,10 +224,13 @@ def _wedged(bag, ids):
 
 
 def _faulty_swarm(ros, tmp_path):
-    """Run :data:`FAULTS` with a bag; return the summary, the output, the bag, the wedged."""
-    tmp_path.mkdir()
+    """
+    Run :data:`FAULTS` with a bag; return the summary, the output, the bag, the wedged.
+
+    Healed after 4 s: a run of 20 fleet seconds here lasts 5-15 s of wall time.
+    """
     bag = tmp_path / 'bag'
-    args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05']
+    args = ['-p', 'num_vehicles:=6', '-p', 'dt_control:=0.05', '--heal-after', '4']
     out, stderr = _swarm(ros, tmp_path, 'particle_parallel', *args, '--duration', '20',
                          '--seed', '2', '--bag', bag, *[a for f in FAULTS for a in ('--fault', f)])
     return out, stderr, bag, _wedged(bag, (1, 3, 4, 5))       # 2 is frozen by a fault
@@ -239,15 +242,13 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
 
     The five converge without 6 (at about 7 s; not the six) and the swarm exits 0; vehicle 2
     is commanded again within 3 s of fleet time once continued; each fault is in the summary
-    and the bag at its fleet time. If the kill or the freeze wedged another
-    vehicle's process in the middleware, the run says nothing of the protocol: it is run once
-    more, and that run must not be wedged.
+    and the bag at its fleet time. If the kill or the freeze wedged another vehicle's process
+    in the middleware (docs/reliability.md), the swarm must have healed it: restarted it, named
+    in the summary.
     """
-    out, stderr, bag, wedged = _faulty_swarm(ros, tmp_path / 'first')
-    if wedged:
-        print(f'vehicles {wedged} wedged after the kill (Fast DDS shared memory): run again')
-        out, stderr, bag, wedged = _faulty_swarm(ros, tmp_path / 'again')
-    assert not wedged, f'vehicles {wedged} wedged after the faults, twice'
+    out, stderr, bag, wedged = _faulty_swarm(ros, tmp_path)
+    healed = {k for h in out['healed'] for k in h['vehicles']}
+    assert set(wedged) <= healed, f'vehicles {wedged} wedged, not healed: {out["healed"]}'
     assert re.search(r'swarm: t = \d+\.\d\d s: kill vehicle 6 \(kill:6@0\.2\)', stderr)
     assert re.search(r'swarm: t = \d+\.\d\d s: vehicle_6 exited with -9 \(SIGKILL\) \(fault '
                      r'kill:6@0\.2\); the others carry on', stderr)
@@ -258,7 +259,7 @@ def test_swarm_survives_scripted_faults(ros, tmp_path):
     records, kinds = _faults_in(bag)
     assert records == out['faults']
     assert kinds == [(1, [6]), (3, [2]), (4, [2]), (5, [1, 3]), (6, [1, 3])]  # KILL .. MEND
-    (lost,) = out['lost']
+    (lost,) = [p for p in out['lost'] if not p['cause'].startswith('healed: ')]
     assert (lost['process'], lost['exit'], lost['cause']) == ('vehicle_6', -9, 'fault kill:6@0.2')
     assert 0.2 <= lost['time'] < 2.0                    # its death is seen a few steps later
     assert out['survivors'] == [1, 2, 3, 4, 5]
