@@ -126,10 +126,10 @@ setup-browser:
 	@command -v npm >/dev/null || { $(call APT_INSTALL,nodejs npm); }
 	cd test/browser && npm ci --no-audit --no-fund --ignore-scripts
 
-# The unit tests but the long simulations (test/unit: pure, no DDS; the tests marked slow
-# are left out), in under a minute.
+# The unit tests but the long simulations and the linters (test/unit: pure, no DDS; the tests
+# marked slow or linter are left out: `make lint` runs the linters), in under a minute.
 test-fast: setup
-	$(PY) -m pytest -q test/unit -m 'not slow'
+	$(PY) -m pytest -q test/unit -m 'not slow and not linter'
 
 # The docs site (docs/: MyST pages and the API reference of core, protocol and sim from the
 # docstrings) in docs/_build/html; any warning (a broken reference, a docstring that does not
