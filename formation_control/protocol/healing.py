@@ -23,7 +23,7 @@ whom it waits for and how long on each (its ``/diagnostics`` values ``silent`` a
 :meth:`~formation_control.protocol.plant.Plant.silent`); each vehicle says which neighbours'
 states it waits for (``awaiting``). From those, :class:`Healer` names the members to stop and
 start again, each with the reason, after :data:`HEAL_AFTER` wall seconds and at most
-:data:`HEAL_LIMIT` times. Pure: the swarm (:mod:`formation_control.swarm`) feeds it what its
+:data:`HEAL_LIMIT` times. Pure: the swarm (``formation_control.swarm``) feeds it what its
 supervisor hears, with the wall clock.
 """
 from __future__ import annotations
