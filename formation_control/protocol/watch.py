@@ -137,7 +137,7 @@ class Sampling:
 
 class Latch:
     """
-    The convergence latch: :attr:`since` is when the formation last entered its test.
+    The convergence latch: ``since`` is when the formation last entered its test.
 
     It counts as converged only once the test has held at every sample for ``hold`` seconds
     (:func:`metrics.hold_window`), the rule of :func:`metrics.verdict` in real time; leaving
