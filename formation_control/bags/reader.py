@@ -126,14 +126,16 @@ def read_run(path: str | Path) -> Run:
     Returns
     -------
     simulator.Run
-        Every ``record_dt`` (and the last) of the steps at which every vehicle's odometry is
-        present, with each vehicle's latest command at that time; its ``meta['skipped']`` is
-        {topic: samples left out} (undecodable, or an odometry or command not finite).
+        Every ``record_dt`` (and the last) of the control periods in which every vehicle's
+        odometry is present (:func:`_periods`: a real-time plant samples the vehicles at
+        staggered steps of each period; the run's time is the period's start), with each
+        vehicle's latest command at its sample; its ``meta['skipped']`` is {topic: samples
+        left out} (undecodable, or an odometry or command not finite).
 
     Raises
     ------
     UsageError
-        No scenario, or no step with the odometry of every vehicle.
+        No scenario, or no control period with the odometry of every vehicle.
 
     """
     prefix = fleet_prefix(path)
@@ -141,39 +143,63 @@ def read_run(path: str | Path) -> Run:
     n = sc.num_vehicles
     index = {prefix + names.topic(k, 'odom'): k - 1 for k in range(1, n + 1)}
     cmd_index = {prefix + names.topic(k, 'cmd'): k - 1 for k in range(1, n + 1)}
-    odom: defaultdict[int, dict[int, RealArray]] = defaultdict(dict)
+    samples: list[tuple[int, int, Any, str]] = []
     cmds: list[list[tuple[int, tuple[float, float]]]] = [[] for _ in range(n)]
-    field = Flowfield(sc)
     skipped: Counter[str] = Counter()
     for topic, msg in messages(path, set(index) | set(cmd_index), skipped):
         if topic in index:
-            pos = msg.pose.pose.position
-            with np.errstate(invalid='ignore'):
-                flow = complex(field(_stamp(msg) * 1e-9, pos.x, pos.y))  # lockstep stamps: t
-            x = state_from_odom(msg, flow, sc.model)
-            if _finite(x, topic, skipped):
-                odom[_stamp(msg)][index[topic]] = x
+            samples.append((_stamp(msg), index[topic], msg, topic))
         else:
             u = input_from_cmd(msg, sc.model)
             if _finite(u, topic, skipped):
                 cmds[cmd_index[topic]].append((_stamp(msg), u))
-    stamps = np.array(sorted(s for s, cols in odom.items() if len(cols) == n), np.int64)
-    if stamps.size == 0:
-        raise UsageError(f'{path}: no step with the odometry of all {n} vehicles')
-    steps = np.rint((stamps - stamps[0]) * 1e-9 / sc.dt_control).astype(int)
+    periods = _periods(sc, samples, skipped, path)
+    steps = np.array(sorted(p for p, cols in periods.items() if len(cols) == n), int)
+    if steps.size == 0:
+        raise UsageError(f'{path}: no control period with the odometry of all {n} vehicles')
+    steps = steps - steps[0]
     keep = (steps % sc.record_every == 0) | (steps == steps[-1])
-    stamps, steps = stamps[keep], steps[keep]
-    X = np.array([np.column_stack([odom[s][k] for k in range(n)]) for s in stamps])
-    U = np.zeros((len(stamps), 2, n))
+    first = min(periods)
+    chosen = [periods[first + p] for p in steps[keep]]
+    steps = steps[keep]
+    X = np.array([np.column_stack([cols[k][1] for k in range(n)]) for cols in chosen])
+    U = np.zeros((len(chosen), 2, n))
     for k, seq in enumerate(cmds):
         seq.sort(key=lambda item: item[0])
         times = np.array([s for s, _ in seq], np.int64)
         values = np.array([u for _, u in seq]).reshape(-1, 2)
-        at = np.searchsorted(times, stamps, side='right') - 1
+        at = np.searchsorted(times, [cols[k][0] for cols in chosen], side='right') - 1
         U[at >= 0, :, k] = values[at[at >= 0]]
     if vehicle_model(sc.model).first_order:
         X[:, ROW_OMEGA] = U[:, 1]
     return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)})
+
+
+def _periods(sc: Scenario, samples: list[tuple[int, int, Any, str]], skipped: Counter[str],
+             path: str | Path) -> dict[int, dict[int, tuple[int, RealArray]]]:
+    """
+    Return {control period: {vehicle index: (odometry stamp, state)}} of the odometry samples.
+
+    In lockstep every vehicle's sample of a period is stamped with its start; in real time
+    the plant samples vehicle k at integration step (k - 1) mod substeps of each period
+    (:func:`~formation_control.protocol.lockstep.sample_slots`): the period is the one the
+    stamp falls in, counted from the first sample (t = 0). The flow a state is taken relative
+    to is the flowfield's at the sample's own time.
+    """
+    if not samples:
+        raise UsageError(f'{path}: the bag has no odometry of the fleet')
+    t0 = min(stamp for stamp, _, _, _ in samples)
+    period_ns, half_step = round(sc.dt_control * 1e9), round(sc.dt_integration * 5e8)
+    field = Flowfield(sc)
+    out: defaultdict[int, dict[int, tuple[int, RealArray]]] = defaultdict(dict)
+    for stamp, k, msg, topic in samples:
+        pos = msg.pose.pose.position
+        with np.errstate(invalid='ignore'):
+            flow = complex(field((stamp - t0) * 1e-9, pos.x, pos.y))
+        x = state_from_odom(msg, flow, sc.model)
+        if _finite(x, topic, skipped):
+            out[(stamp - t0 + half_step) // period_ns].setdefault(k, (stamp, x))
+    return out
 
 
 def _finite(value: Any, topic: str, skipped: Counter[str]) -> bool:

@@ -211,3 +211,74 @@ def markdown() -> str:
         out += [f'## `{node}`', '', *markdown_table(
             ('name', 'default', 'unit', 'allowed', 'meaning'), rows), '']
     return '\n'.join(out)
+
+
+def _float_of(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(f'parameter {name!r} = {value!r} is invalid: a number')
+    return float(value)
+
+
+def as_declared(name: str, value: Any) -> Any:
+    """
+    Return ``value`` of scenario parameter ``name`` in the type the node declares it with.
+
+    An integer for a floating-point parameter (``kappa:=3``) is that float, as the simulator
+    and the launch files take it; an integer array for a floating-point one likewise. Anything
+    else that is not a number where one is declared is refused (ScenarioError, naming it);
+    other parameters are returned as they are.
+    """
+    default = getattr(Scenario(), name, None) if name in parameters.PARAMETERS else None
+    if isinstance(default, float):
+        return _float_of(name, value)
+    if isinstance(default, tuple) and default and isinstance(default[0], float):
+        if not isinstance(value, (list, tuple)):
+            raise ScenarioError(f'parameter {name!r} = {value!r} is invalid: a list of numbers')
+        return [_float_of(name, v) for v in value]
+    return value
+
+
+def _scalar(text: str) -> int | float | str:
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            continue
+    return text
+
+
+def _yaml(value: Any) -> str:
+    if isinstance(value, list):
+        return '[' + ', '.join(map(_yaml, value)) + ']'
+    text = repr(float(value))
+    return text if '.' in text or 'e' not in text else text.replace('e', '.0e', 1)
+
+
+def checked_overrides(argv: list[str]) -> list[str]:
+    """
+    Return the command line with each ``-p NAME:=VALUE`` of a scenario parameter as declared.
+
+    rcl takes ``-p kappa:=3`` as an integer, which a double parameter refuses, and drops
+    ``-p kappa:=abc`` in silence when a parameter file sets kappa: each value is read as YAML
+    and rewritten by :func:`as_declared`, or refused (ScenarioError).
+    """
+    import yaml
+    out, ros, take = [], False, False
+    for arg in argv:
+        if take and ':=' in arg:
+            left, text = arg.split(':=', 1)
+            name = left.rsplit(':', 1)[-1]
+            value = _scalar(text)
+            if isinstance(value, str):
+                try:
+                    value = yaml.safe_load(text)
+                except yaml.YAMLError:
+                    pass
+            fixed = as_declared(name, value)
+            if fixed != value or type(fixed) is not type(value) or (
+                    isinstance(value, list) and any(isinstance(v, int) for v in value)):
+                arg = f'{left}:={_yaml(fixed)}'
+        take = ros and arg in ('-p', '--param')
+        ros = (ros or arg == '--ros-args') and arg != '--'
+        out.append(arg)
+    return out

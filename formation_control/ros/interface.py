@@ -120,6 +120,24 @@ def state_qos_kwargs(reader=False):
     return {'qos_profile': profile, 'qos_overriding_options': OVERRIDABLE}
 
 
+def relaxed(profile, kind):
+    """
+    Return a copy of ``profile`` that a publisher offering less of policy ``kind`` matches.
+
+    A volatile publisher (the ROS default) matches a volatile reader only, a best-effort one
+    (sensor data) a best-effort reader only; None for another policy (no sample is kept
+    then: the reader stays as it is and says why).
+    """
+    out = copy.copy(profile)
+    if kind == QoSPolicyKind.DURABILITY:
+        out.durability = DurabilityPolicy.VOLATILE
+    elif kind == QoSPolicyKind.RELIABILITY:
+        out.reliability = ReliabilityPolicy.BEST_EFFORT
+    else:
+        return None
+    return out
+
+
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)

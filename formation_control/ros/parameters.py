@@ -24,7 +24,7 @@ import copy
 from formation_control.core import formations, parameters, scenario
 from formation_control.core.errors import ScenarioError
 from formation_control.core.parameters import Scenario
-from formation_control.protocol import links
+from formation_control.protocol import links, node_parameters
 from formation_control.protocol.node_parameters import MODES  # noqa: F401 (re-exported)
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
@@ -104,8 +104,13 @@ def declare(node, defaults=Scenario(), runtime=True):
     """
     Declare every scenario parameter on ``node`` with its descriptor and default.
 
-    ``runtime=False``: every one is read-only (the plant, which uses no gain).
+    ``runtime=False``: every one is read-only (the plant, which uses no gain). An integer
+    given for a floating-point one (``-p kappa:=3``) is that float (:func:`as_declared`), then
+    and at run time.
     """
+    overrides = node._parameter_overrides
+    for p in as_declared([p for name, p in overrides.items() if name in parameters.PARAMETERS]):
+        overrides[p.name] = p
     for name in parameters.PARAMETER_NAMES:
         value = _ros_value(getattr(defaults, name))
         d = descriptor(name)
@@ -118,6 +123,26 @@ def declare(node, defaults=Scenario(), runtime=True):
             declare_empty(node, name, EMPTY_TYPES.get(name, Parameter.Type.DOUBLE_ARRAY), d)
         else:
             node.declare_parameter(name, value, d)
+    node.add_pre_set_parameters_callback(as_declared)
+
+
+def as_declared(params):
+    """
+    Pre-set callback: an integer set to a floating-point parameter is that float.
+
+    ``ros2 param set /vehicle_1 kappa 3`` sends an integer, which a double parameter refuses;
+    the simulator and the launch files take it (:func:`node_parameters.as_declared`). A value
+    that is no number is left as it is, for the type check to refuse.
+    """
+    out = []
+    for p in params:
+        try:
+            value = node_parameters.as_declared(p.name, p.value)
+        except ScenarioError:
+            value = p.value
+        out.append(Parameter(p.name, value=value) if value is not p.value and (
+            type(value) is not type(p.value) or isinstance(value, list)) else p)
+    return out
 
 
 def _values(node, changes=()):

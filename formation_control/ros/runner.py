@@ -17,6 +17,7 @@ import contextlib
 import fcntl
 import gc
 import os
+import re
 import signal
 import sys
 import tempfile
@@ -25,11 +26,16 @@ from formation_control.core.errors import ScenarioError, UsageError
 from formation_control.ops.lifetime import die_with_parent, end_within, GRACE
 from formation_control.ops.security import check_environment
 from formation_control.ops.signing import check_member
+from formation_control.protocol.node_parameters import checked_overrides
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+
+WHERE = re.compile(r', at /\S+:\d+')
+"""rcl's source locations in its error text, left out of the one line the user reads."""
 
 
 class _StopFlag:
@@ -85,7 +91,8 @@ def run(make_node, args=None):
 
     The nodes share one events executor until one is done, SIGINT or SIGTERM arrives or the
     context shuts down (exit code 0, or the ``exit_code`` of a node that is done); a bad
-    scenario, or an environment that would open a TLS fleet to anyone
+    scenario or command line (a ``-p`` value of the wrong type, :func:`checked_overrides`; a
+    parameter file rcl cannot read), or an environment that would open a TLS fleet to anyone
     (:func:`~formation_control.ops.security.check_environment`) or a member a signing fleet
     refuses (:func:`~formation_control.ops.signing.check_member`), exits 2 with the reason. A
     process started by a swarm or a launch stops when its starter dies
@@ -99,8 +106,9 @@ def run(make_node, args=None):
         return 2
     nodes, code = [], 0
     try:
+        argv = checked_overrides(list(sys.argv if args is None else args))
         with one_participant_at_a_time():
-            rclpy.init(args=args, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+            rclpy.init(args=argv, signal_handler_options=rclpy.SignalHandlerOptions.NO)
             context = rclpy.get_default_context()
             anchor = _participant(context)
         try:
@@ -120,6 +128,9 @@ def run(make_node, args=None):
     except (ScenarioError, UsageError, InvalidParameterTypeException,
             InvalidParameterValueException) as err:
         print(f'error: {err}', file=sys.stderr)
+        return 2
+    except rclpy_implementation.RCLError as err:      # a parameter file missing or broken
+        print(f'error: {WHERE.sub("", str(err))}', file=sys.stderr)
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

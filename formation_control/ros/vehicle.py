@@ -43,7 +43,9 @@ from formation_control.sim.backends import backend_of
 from formation_control_msgs.msg import FormationState, VehicleCommand
 from geometry_msgs.msg import TwistStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
+from rclpy.qos_overriding_options import QoSPolicyKind
 from std_msgs.msg import String
 
 LINK_PARAMETERS = tuple(name for name in links.PARAMETERS if name != 'command_timeout')
@@ -112,8 +114,9 @@ class VehicleNode(Node):
             self.cmd_vel_wire = itf.cmd_vel_wire(k, frames)
         self.odometry = common.Decoder(intake.odometry(itf.odom_wire(
             k, frames, covariances(sc)), k, frames.world, frames.base(k)), Odometry, self.reject)
-        common.raw_subscription(self, Odometry, names.topic(k, 'odom'), self._on_odom,
-                                self.signed, **qos(reader=True))
+        self.odom_sub = common.raw_subscription(
+            self, Odometry, names.topic(k, 'odom'), self._on_odom, self.signed,
+            **qos(reader=True), **self._odom_events())
         subscribe = common.subscribe_messages
         if sc.flow_source == 'known':
             subscribe(self, Vector3Stamped, names.topic(k, 'flow'), lambda msg: self._measured(
@@ -156,6 +159,40 @@ class VehicleNode(Node):
         """Write the trace of the hot path, if asked (:mod:`formation_control.ros.tracing`)."""
         self.trace.save()
         return super().destroy_node()
+
+    def _odom_events(self):
+        """Event callbacks of the odometry reader: it adapts to a less demanding publisher."""
+        if self.signed is not None:
+            return {}
+        return {'event_callbacks': SubscriptionEventCallbacks(
+            incompatible_qos=self._odom_incompatible)}
+
+    def _odom_incompatible(self, info):
+        """
+        Match an odometry publisher that offers less than the fleet's (volatile, best effort).
+
+        A driver's ordinary odometry (the remap of docs/usage.md) is volatile, often best
+        effort: the reader takes what it offers, once per policy, and says so (a sample
+        published before it joined is then not resent; lockstep asks again).
+        """
+        kind = QoSPolicyKind(info.last_policy_kind)
+        profile = itf.relaxed(self.odom_sub.qos_profile, kind)
+        topic = self.odom_sub.topic_name
+        if profile is None:
+            self.get_logger().error(f'{topic}: a publisher offers an incompatible {kind.name} '
+                                    f'policy: no odometry flows from it',
+                                    throttle_duration_sec=10.0)
+            return
+
+        def resubscribe():
+            self.destroy_timer(timer)
+            self.destroy_subscription(self.odom_sub)
+            self.odom_sub = self.create_subscription(
+                Odometry, topic, self._on_odom, profile, raw=True, **self._odom_events())
+        timer = self.create_timer(0.0, resubscribe, clock=self.wall)
+        self.get_logger().warn(f'{topic}: a publisher offers less {kind.name} than this vehicle '
+                               f'asks: the odometry reader takes {profile.durability.name} '
+                               f'{profile.reliability.name} now')
 
     def _on_odom(self, data):
         self.odom_in = time.perf_counter_ns()

@@ -14,12 +14,13 @@
 
 """Communication graphs through ROS: neighbours only, mutual links, lockstep == simulator."""
 from formation_control.core import scenario
-from formation_control.protocol import names
+from formation_control.protocol import messages, names
 from formation_control.ros import interface as itf
 from formation_control_msgs.msg import FormationMetrics, FormationState, VehicleCommand
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosutil import CONFIG, metric_values
 from runs import assert_equal_runs, offline_run
 from visualization_msgs.msg import MarkerArray
@@ -113,3 +114,22 @@ def test_monitor_reports_the_live_graph_and_draws_its_links(nodes):
     assert nodes.spin_until(lambda: latest('live_links') == n - 2, timeout=30)
     assert latest('algebraic_connectivity') == pytest.approx(
         2 - 2 * np.cos(np.pi / (n - 1)), abs=1e-9)            # a path of n - 1 vehicles
+
+
+@pytest.mark.parametrize('qos', [
+    QoSProfile(depth=10),                                       # the ROS default: volatile
+    QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)],  # sensor data
+    ids=['volatile', 'best_effort'])
+def test_a_vehicle_takes_an_ordinary_odometry_publisher(nodes, qos):
+    """A driver's odometry remapped onto vehicle_1/odom: the vehicle matches it and commands."""
+    cfg = CONFIG / 'particle_parallel.yaml'
+    sc = scenario.load(cfg, ['num_vehicles:=1'])
+    nodes.vehicle(1, cfg, 'num_vehicles:=1')
+    cmds = nodes.collect(VehicleCommand, names.topic(1, 'cmd'), itf.STATE_QOS)
+    odom = nodes.node.create_publisher(Odometry, names.topic(1, 'odom'), qos)
+    assert nodes.spin_until(lambda: odom.get_subscription_count(), timeout=20)
+    x = scenario.initial_state(sc)[:, 0]
+    assert nodes.spin_until(lambda: cmds or odom.publish(itf.odom_msg(1, 0, x, 0j)),
+                            timeout=20)
+    assert messages.stamp_ns(cmds[0].header.stamp) == 0
+    assert any('a publisher offers less' in m.msg for m in nodes.rosout)

@@ -147,3 +147,28 @@ def test_a_swarm_in_a_namespace_with_its_own_frames_is_recorded_there(ros, tmp_p
     assert odom.header.frame_id == 'odom'
     assert len(bagfile.metrics(tmp_path / 'bag')[0]) > 0        # the monitor takes odom frames
     assert 'dropped' not in (tmp_path / 'logs' / 'monitor.log').read_text()
+
+
+def test_an_integer_for_a_floating_point_gain_is_taken_as_ros_gives_it(nodes):
+    """``-p kappa:=3`` at start and ``ros2 param set ... kappa 3`` (an INTEGER) at run time."""
+    node = nodes.vehicle(1, CONFIG / 'particle_parallel.yaml', 'kappa:=3', 'flow:=[0, 0]')
+    assert node.get_parameter('kappa').value == 3.0 and node.sc.kappa == 3.0
+    result = node.set_parameters([Parameter('kappa', Parameter.Type.INTEGER, 4)])[0]
+    assert result.successful, result.reason
+    assert node.get_parameter('kappa').type_ == Parameter.Type.DOUBLE and node.sc.kappa == 4.0
+    refused = node.set_parameters([Parameter('kappa', Parameter.Type.STRING, 'abc')])[0]
+    assert not refused.successful and node.sc.kappa == 4.0
+
+
+@pytest.mark.parametrize('args, says', [
+    (['-p', 'kappa:=abc'], "error: parameter 'kappa' = 'abc' is invalid: a number"),
+    (['-p', 'K_f:=[1]'], "error: parameter 'K_f' = [1] is invalid: a number"),
+    (['--params-file', '/nonexistent.yaml'], "error: failed to initialize rcl: Couldn't parse "
+     "params file: '--params-file /nonexistent.yaml'. Error: Error opening YAML file")])
+def test_a_bad_command_line_exits_2_in_one_line(ros, args, says):
+    """With the fleet's parameter file too: rcl would drop ``kappa:=abc`` in silence."""
+    done = ros.procs.run('vehicle', '--ros-args', '--params-file',
+                         CONFIG / 'particle_parallel.yaml', *args, '-p', 'vehicle_id:=1',
+                         timeout=60)
+    assert done.returncode == 2
+    assert says in done.stderr and 'Traceback' not in done.stderr, done.stderr

@@ -25,6 +25,7 @@ from pathlib import Path
 import re
 import signal
 
+from formation_control.bags import reader as bagfile
 from formation_control.core.scenario import resolve
 from formation_control.protocol import faults, messages, names
 from formation_control.protocol.fleet_plan import auto_per_process, cores
@@ -105,6 +106,34 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
     assert last.header.stamp.sec == 2 and last.header.stamp.nanosec == 0
     assert last.pose.pose.position.x == pytest.approx(fleet.X[-1, 0, 1], abs=1e-12)
     assert last.child_frame_id == 'vehicle_2/base_link'
+
+
+def test_the_package_reads_its_own_real_time_bag(ros, tmp_path):
+    """
+    A real-time bag: the plant samples vehicle k at step (k - 1) mod substeps of each period.
+
+    ``report`` reads it, and each vehicle's state of a period is its own sample in it: within
+    what the vehicle covers in the stagger (speed 1 m/s, 3 integration steps) of the plant's
+    record at the period's start.
+    """
+    bag = tmp_path / 'bag'
+    out, _ = _swarm(ros, tmp_path, 'particle_parallel', '-p', 'num_vehicles:=4', '--mode',
+                    'realtime', '--duration', '6', '--bag', bag)
+    recorded = bagfile.read_run(bag)
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    sc = fleet.sc
+    assert recorded.X.shape[1:] == fleet.X.shape[1:] and len(recorded.t) >= len(fleet.t) - 2
+    common, mine, theirs = np.intersect1d(np.round(recorded.t, 6), np.round(fleet.t, 6),
+                                          return_indices=True)
+    assert len(common) >= len(fleet.t) - 2
+    stagger = (sc.num_vehicles - 1) * sc.dt_integration           # the last slot's lag (s)
+    gap = abs((recorded.X[mine, 0] - fleet.X[theirs, 0])
+              + 1j * (recorded.X[mine, 1] - fleet.X[theirs, 1]))
+    assert gap[:, 0].max() < 1e-9                                 # vehicle 1: slot 0
+    assert gap.max() <= 1.05 * stagger
+    report = ros.procs.run('formation-control', 'report', bag, timeout=120)
+    assert report.returncode == 0, report.stderr
+    assert 'converged' in report.stdout
 
 
 def _fleet_pids(domain_id, parent):
