@@ -143,9 +143,9 @@ def cmd_sweep(args):
 
 def cmd_swarm(args):
     from formation_control import swarm
-    stop = threading.Event()                         # SIGINT, SIGTERM: stop the fleet
+    stop, caught = threading.Event(), []             # SIGINT, SIGTERM: stop the fleet
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+        signal.signal(sig, lambda signum, _: (caught.append(signum), stop.set()))
     if args.foxglove is not None and (args.no_monitor or not 0 < args.foxglove < 65536):
         raise UsageError(f'--foxglove {args.foxglove} is invalid: a TCP port in '
                          f'1..65535, served by the monitor (not with --no-monitor)')
@@ -170,7 +170,7 @@ def cmd_swarm(args):
                                    args.namespace, args.bag, args.fault, args.timeout)
     except KeyboardInterrupt:
         print('interrupted: every process of the fleet was stopped', file=sys.stderr)
-        return 0
+        return 128 + (caught[0] if caught else signal.SIGINT)
     except (RuntimeError, TimeoutError, FileExistsError, FileNotFoundError) as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field, fields, replace
+import difflib
 from functools import cached_property
 import json
 import math
@@ -665,6 +666,25 @@ CHOICES = {name: spec.choices for name, spec in PARAMETERS.items() if spec.choic
 RUNTIME = tuple(name for name, spec in PARAMETERS.items() if spec.runtime)
 """The parameters a running node accepts changes of; every other one is read-only."""
 DEFAULTS = Scenario()
+
+
+def unknown(names: Iterable[str], known: Iterable[str] = PARAMETERS) -> str:
+    """
+    Return the refusal of parameter ``names`` that are not ``known``, each with its near miss.
+
+    One short line: ``unknown parameter 'kapa' (did you mean 'kappa'?); every parameter:
+    formation-control params (docs/parameters.md)``.
+    """
+    known = list(known)
+    shown = []
+    for name in sorted(names):
+        near = (difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+                or difflib.get_close_matches(name.lower(), [k.lower() for k in known], n=1,
+                                             cutoff=0.6))
+        match = next((k for k in known if near and k.lower() == near[0].lower()), None)
+        shown.append(f'{name!r}' + (f' (did you mean {match!r}?)' if match else ''))
+    return (f"unknown parameter{'s' if len(shown) > 1 else ''} {', '.join(shown)}; every "
+            'parameter: formation-control params (docs/parameters.md)')
 
 
 def coerce(name: str, value: Any) -> Any:

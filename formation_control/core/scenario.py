@@ -77,8 +77,7 @@ def resolve(params: Mapping[str, Any]) -> Scenario:
     """
     unknown = sorted(set(params) - set(PARAMETER_NAMES))
     if unknown:
-        raise ScenarioError(f"unknown parameter(s) {', '.join(repr(u) for u in unknown)}; "
-                            f"allowed: {', '.join(PARAMETER_NAMES)}")
+        raise ScenarioError(parameters.unknown(unknown))
     values = {k: coerce(k, v) for k, v in params.items()}
     sc = replace(DEFAULTS, **values)
     if 'K' not in values:

@@ -275,8 +275,7 @@ def checked_overrides(argv: list[str]) -> list[str]:
                 except yaml.YAMLError:
                     pass
             fixed = as_declared(name, value)
-            if fixed != value or type(fixed) is not type(value) or (
-                    isinstance(value, list) and any(isinstance(v, int) for v in value)):
+            if fixed is not value:
                 arg = f'{left}:={_yaml(fixed)}'
         take = ros and arg in ('-p', '--param')
         ros = (ros or arg == '--ros-args') and arg != '--'

@@ -163,7 +163,7 @@ def reject_unknown(node, extra=()):
     unknown = sorted(n for n in node._parameter_overrides
                      if n not in known and not n.startswith('qos_overrides.'))
     if unknown:
-        raise ScenarioError(f"unknown parameter(s) {', '.join(repr(u) for u in unknown)}")
+        raise ScenarioError(parameters.unknown(unknown, known))
 
 
 def choice(node, name, allowed):

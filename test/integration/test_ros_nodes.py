@@ -246,17 +246,18 @@ BAD_AT_START_UP = [
     ('vehicle', ['vehicle_id:=1', 'K:=1.0'], "parameter 'K' = 1.0 is invalid: formation parallel"),
     ('vehicle', ['vehicle_id:=17'], "parameter 'vehicle_id' = 17"),
     ('vehicle', [], "parameter 'vehicle_id'"),
-    ('vehicle', ['vehicle_id:=1', 'kapa:=1.0'], "unknown parameter(s) 'kapa'"),
+    ('vehicle', ['vehicle_id:=1', 'kapa:=1.0'], "unknown parameter 'kapa' (did you mean "
+     "'kappa'?)"),
     ('plant', ['formation:=circle'], "parameter 'formation' = 'circle'"),
     ('plant', ['mode:=fast'], "parameter 'mode' = 'fast'"),
     ('plant', ['num_vehicles:=0'], 'num_vehicles'),
-    ('plant', ['kappa:=abc'], "parameter 'kappa' to 'abc'"),
+    ('plant', ['kappa:=abc'], "parameter 'kappa' = 'abc' is invalid: a number"),
 ]
 AS_PROCESSES = (0, 3, 5, 8)
 """Each way an executable refuses to start: a range (rclpy), the vehicle id (read by the
 ``vehicle`` executable before the node exists), the scenario (the node's own check), a type
-(rclpy). The other cases are refused by the same checks in the node's constructor; they are
-built in process."""
+(the command line's check, before rclpy). The other cases are refused by the same checks in
+the node's constructor; they are built in process."""
 
 
 @pytest.mark.parametrize('exe, params, named', [BAD_AT_START_UP[i] for i in AS_PROCESSES])

@@ -23,11 +23,13 @@ import pytest
 def test_command_line_values_are_taken_in_the_declared_type_or_refused():
     argv = ['vehicle', '--ros-args', '--params-file', 'f.yaml', '-p', 'kappa:=3', '-p',
             'flow:=[0, 1]', '-p', 'vehicle_id:=2', '-p', 'K_f:=1e-5', '-p', 'K:=-2', '-p',
-            'vehicle_1:omega0:=2', '--param', 'model:=rigid', '--', '-p', 'kappa:=abc']
+            'vehicle_1:omega0:=2', '--param', 'model:=rigid', '-p', 'vehicle_ids:=[1, 2, 3]', '--',
+            '-p', 'kappa:=abc']
     assert checked_overrides(argv) == [
         'vehicle', '--ros-args', '--params-file', 'f.yaml', '-p', 'kappa:=3.0', '-p',
         'flow:=[0.0, 1.0]', '-p', 'vehicle_id:=2', '-p', 'K_f:=1e-5', '-p', 'K:=-2.0', '-p',
-        'vehicle_1:omega0:=2.0', '--param', 'model:=rigid', '--', '-p', 'kappa:=abc']
+        'vehicle_1:omega0:=2.0', '--param', 'model:=rigid', '-p', 'vehicle_ids:=[1, 2, 3]',
+        '--', '-p', 'kappa:=abc']
     for bad, text in (('kappa:=abc', "'kappa' = 'abc' is invalid: a number"),
                       ('kappa:=true', "'kappa' = True is invalid: a number"),
                       ('flow:=1.0', "'flow' = 1.0 is invalid: a list of numbers")):
