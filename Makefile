@@ -127,9 +127,10 @@ setup-browser:
 	cd test/browser && npm ci --no-audit --no-fund --ignore-scripts
 
 # The unit tests but the long simulations and the linters (test/unit: pure, no DDS; the tests
-# marked slow or linter are left out: `make lint` runs the linters), in under a minute.
+# marked slow or linter are left out: `make lint` runs the linters), in under a minute on the
+# JOBS workers.
 test-fast: setup
-	$(PY) -m pytest -q test/unit -m 'not slow and not linter'
+	$(PY) -m pytest -q -n $(JOBS) test/unit -m 'not slow and not linter'
 
 # The docs site (docs/: MyST pages and the API reference of core, protocol and sim from the
 # docstrings) in docs/_build/html; any warning (a broken reference, a docstring that does not

@@ -118,6 +118,7 @@ setup(
             'vehicles = formation_control.ros.vehicle:main_many',
             'monitor = formation_control.ros.monitor:main',
             'recorder = formation_control.ros.bag:main',
+            'warden = formation_control.ros.warden:main',
         ],
     },
 )

@@ -20,7 +20,6 @@ executables ``ros2 run`` starts).
 """
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-import json
 import os
 from pathlib import Path
 import re
@@ -36,7 +35,7 @@ from formation_control.ops import dds_profile, lifetime, security, signing
 from formation_control.protocol import faults, names
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, ros_arguments,
                                                    SWARM_LABELS, write_params)
-from formation_control.protocol.healing import HEAL_AFTER, Healer, Heard, STARTUP
+from formation_control.protocol.healing import HEAL_AFTER, Healer, Hearing, STARTUP
 from formation_control.sim import simulator
 
 CLOCK_EVENTS = 8
@@ -320,8 +319,8 @@ class Swarm:
         Restart the live members the fleet has waited on past ``heal_after`` (:class:`Healer`).
 
         ``plant_status`` is the plant's (step, {silent id: seconds waited}) just heard, or None;
-        ``heard`` each vehicle's last :class:`Heard` status. A process the fault script froze
-        or killed is left to the script.
+        ``heard`` each vehicle's last :class:`~formation_control.protocol.healing.Heard`
+        status. A process the fault script froze or killed is left to the script.
         """
         if plant_status is None:
             return
@@ -400,7 +399,7 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
         if supervisor.recorder is not None and supervisor.recorder.failure is not None:
             raise RuntimeError(supervisor.recorder.failure)
         swarm.t = supervisor.t
-        swarm.heal(supervisor.take_plant_status(), supervisor.heard)
+        swarm.heal(supervisor.hearing.take_plant_status(), supervisor.hearing.heard)
         for fault in schedule.due(swarm.t) if schedule and swarm.t is not None else ():
             swarm.apply(fault)
             if fault.kind in faults.LINK_KINDS:
@@ -463,9 +462,7 @@ class Supervisor:
             self.wire = itf.odom_wire(1)
             self.node.create_subscription(Odometry, prefix + names.topic(1, 'odom'), self._on_odom,
                                           itf.STATE_QOS, raw=True)
-        self.plant_status, self.heard = None, {}
-        status = re.escape(names.status_prefix(namespace) + 'formation_control/')
-        self.status_names = re.compile(status + r'(?:plant|vehicle_(\d+)/links)')
+        self.hearing = Hearing(namespace)
         self.node.create_subscription(DiagnosticArray, names.DIAGNOSTICS_TOPIC,
                                       self._on_diagnostics, itf.STREAM_QOS)
         self.params = {}
@@ -502,26 +499,9 @@ class Supervisor:
 
     def _on_diagnostics(self, msg):
         """Keep the plant's silent vehicles and each vehicle's awaited neighbours."""
+        now = time.monotonic()
         for s in msg.status:
-            found = self.status_names.fullmatch(s.name)
-            if found is None:
-                continue
-            values = {kv.key: kv.value for kv in s.values}
-            try:
-                if found[1] is None:
-                    ids, waited = json.loads(values['silent']), json.loads(values['silent_for'])
-                    self.plant_status = (int(values['step']),
-                                         dict(zip(map(int, ids), map(float, waited))))
-                else:
-                    self.heard[int(found[1])] = Heard(
-                        time.monotonic(), tuple(json.loads(values.get('awaiting', '[]'))))
-            except (KeyError, ValueError, TypeError):
-                continue
-
-    def take_plant_status(self):
-        """Return the plant's status heard since the last call (or None): each is judged once."""
-        status, self.plant_status = self.plant_status, None
-        return status
+            self.hearing.hear(s.name, {kv.key: kv.value for kv in s.values}, now)
 
     def publish(self, fault, record):
         """Publish one applied fault (:class:`faults.Fault`, its record) on the faults topic."""
@@ -560,7 +540,7 @@ class Supervisor:
                             if self.recorder.readers[t].get_publisher_count() == 0]:
             swarm.check()
             ids = sorted({int(m[1]) for t in unmatched if (m := VEHICLE_TOPIC.search(t))})
-            swarm.heal((0, dict.fromkeys(ids, time.monotonic() - start)), self.heard)
+            swarm.heal((0, dict.fromkeys(ids, time.monotonic() - start)), self.hearing.heard)
             if time.monotonic() > end:
                 raise TimeoutError('the bag recorder did not discover every topic in time: '
                                    f'{unmatched[:5]} have no publisher')

@@ -19,8 +19,9 @@ A fleet: the plant, one vehicle node per vehicle and the monitor, from a scenari
 
 Arguments (`ros2 launch formation_control fleet.launch.py --show-args`): scenario, namespace,
 mode, num_vehicles, duration, vehicles_per_process, monitor, record (a bag directory),
-record_path, world_frame, base_frame. The launch ends when the plant has run the scenario's
-duration; Ctrl-C stops every node.
+record_path, params_file, world_frame, base_frame, secure, heal_after. The warden (heal_after > 0)
+restarts a vehicle process the fleet waits on past heal_after seconds (docs/reliability.md). The
+launch ends when the plant has run the scenario's duration; Ctrl-C stops every node.
 """
 from formation_control.ros.launching import fleet_actions
 from launch import LaunchDescription

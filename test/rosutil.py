@@ -14,6 +14,7 @@
 
 """Test harness for ROS 2 nodes: a private domain, processes, in-process nodes, probes."""
 import contextlib
+from importlib.metadata import entry_points
 import itertools
 import math
 import os
@@ -223,6 +224,19 @@ class Nodes(Probe):
             node.destroy_node()
         self.nodes, self.silent = [], []
         super().close()
+
+
+def ament_prefix(root):
+    """Return an ament prefix where launch_ros finds this package's nodes (the venv's scripts)."""
+    index = root / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    index.mkdir(parents=True)
+    (index / 'formation_control').touch()
+    lib = root / 'lib' / 'formation_control'
+    lib.mkdir(parents=True)
+    for script in entry_points(group='console_scripts'):
+        if script.value.startswith('formation_control.ros.'):
+            (lib / script.name).symlink_to(BIN / script.name)
+    return root
 
 
 def shm_clean(env):

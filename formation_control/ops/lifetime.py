@@ -46,6 +46,8 @@ import time
 PARENT_ENV = 'FORMATION_CONTROL_PARENT'
 """The environment variable holding the starter's pid."""
 GROUP_ENV = 'FORMATION_CONTROL_GROUP'
+MEMBER_ENV = 'FORMATION_CONTROL_MEMBER'
+"""The environment variable naming a launched process's member of the fleet (``vehicle_3``)."""
 """The environment variable saying (``1``) that this process's group is the fleet's own."""
 PR_SET_PDEATHSIG = 1
 """prctl option: the signal sent to this process when its parent dies (linux/prctl.h)."""
@@ -128,6 +130,28 @@ def end_within(seconds):
     a thread holding the interpreter's lock nor a wait in the middleware delays it.
     """
     signal.alarm(max(1, math.ceil(seconds)))
+
+
+def members(starter, proc='/proc'):
+    """
+    Return ``{member: pid}`` of the live processes a starter (its pid) started as members.
+
+    A process counts when its environment holds :data:`PARENT_ENV` = ``starter`` and a
+    :data:`MEMBER_ENV` (Linux: ``/proc/<pid>/environ``); others' processes, and those that
+    end while read, are passed over.
+    """
+    out = {}
+    for entry in os.scandir(proc):
+        if not entry.name.isdigit():
+            continue
+        try:
+            with open(os.path.join(entry.path, 'environ'), 'rb') as f:
+                env = dict(v.split(b'=', 1) for v in f.read().split(b'\0') if b'=' in v)
+        except OSError:
+            continue
+        if env.get(PARENT_ENV.encode()) == str(starter).encode() and MEMBER_ENV.encode() in env:
+            out[env[MEMBER_ENV.encode()].decode(errors='replace')] = int(entry.name)
+    return out
 
 
 def die_with_parent(environ=None):

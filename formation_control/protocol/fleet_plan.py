@@ -78,8 +78,8 @@ class Process(NamedTuple):
     Attributes
     ----------
     name : str
-        ``plant``, ``vehicle_3``, ``vehicles_1-4``, ``monitor`` or ``recorder``: the name of
-        its log and, but for the recorder (``swarm``), of its member of a TLS fleet.
+        ``plant``, ``vehicle_3``, ``vehicles_1-4``, ``monitor``, ``recorder`` or ``warden``:
+        the name of its log and (:meth:`member`) of its member of a TLS fleet.
     executable : str
         The console script (``ros2 run formation_control <executable>``).
     vehicles : tuple of int
@@ -102,8 +102,12 @@ class Process(NamedTuple):
 
     @property
     def member(self) -> str:
-        """Return the member of a TLS fleet the process runs as."""
-        return 'swarm' if self.name == 'recorder' else self.name
+        """
+        Return the member of a TLS fleet the process runs as.
+
+        The recorder is the swarm's; the warden, which only listens, is a client: the operator.
+        """
+        return {'recorder': 'swarm', 'warden': 'operator'}.get(self.name, self.name)
 
 
 PROCESSES_PER_CORE = 1
@@ -262,6 +266,12 @@ class FleetPlan:
         """Return the monitor: the frames and the fleet's time, not the fleet's file."""
         return Process('monitor', 'monitor', (), {**self.frames, **parameters, **self.sim_time},
                        fleet=False, clock=True)
+
+    def warden(self, heal_after: float) -> Process:
+        """Return the warden of a launched fleet (:mod:`formation_control.ros.warden`)."""
+        return Process('warden', 'warden', (), {
+            'num_vehicles': self.num_vehicles, 'vehicles_per_process': self.per_process,
+            'heal_after': float(heal_after)}, fleet=False)
 
     def recorder(self, bag: str, monitor: bool) -> Process:
         """Return the bag recorder of ``bag`` (recording the monitor's topics if ``monitor``)."""

@@ -30,7 +30,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+import json
 import math
+import re
+
+from formation_control.protocol import names
 
 HEAL_AFTER = 15.0
 """Wall seconds the fleet waits on a member before it is restarted: past a TLS fleet's start
@@ -61,6 +65,43 @@ class Heard:
 
     at: float
     awaiting: tuple[int, ...] = ()
+
+
+class Hearing:
+    """
+    What the plant and the vehicles of the fleet in ``namespace`` last said on ``/diagnostics``.
+
+    The plant's status (``formation_control/plant``) says its step and whom it waits on, each
+    vehicle's links status (``formation_control/vehicle_<k>/links``) whom it awaits; other
+    statuses, and values that do not parse, are passed over.
+    """
+
+    def __init__(self, namespace: str = '/') -> None:
+        prefix = re.escape(names.status_prefix(namespace) + 'formation_control/')
+        self.pattern = re.compile(prefix + r'(?:plant|vehicle_(\d+)/links)')
+        self.plant_status: tuple[int, dict[int, float]] | None = None
+        self.heard: dict[int, Heard] = {}
+
+    def hear(self, name: str, values: Mapping[str, str], now: float) -> None:
+        """Take one status ``name`` with its key/value pairs, heard at wall ``now``."""
+        found = self.pattern.fullmatch(name)
+        if found is None:
+            return
+        try:
+            if found[1] is None:
+                ids, waited = json.loads(values['silent']), json.loads(values['silent_for'])
+                self.plant_status = (int(values['step']),
+                                     dict(zip(map(int, ids), map(float, waited))))
+            else:
+                self.heard[int(found[1])] = Heard(
+                    now, tuple(map(int, json.loads(values.get('awaiting', '[]')))))
+        except (KeyError, ValueError, TypeError):
+            return
+
+    def take_plant_status(self) -> tuple[int, dict[int, float]] | None:
+        """Return the plant's status heard since the last call (or None): each is judged once."""
+        status, self.plant_status = self.plant_status, None
+        return status
 
 
 @dataclass

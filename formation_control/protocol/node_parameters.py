@@ -29,6 +29,7 @@ from typing import Any
 from formation_control.core import parameters, scenario
 from formation_control.core.errors import ScenarioError
 from formation_control.core.parameters import markdown_table, Scenario, Spec
+from formation_control.protocol.healing import HEAL_AFTER
 from formation_control.protocol.links import PARAMETERS as LINKS
 from formation_control.protocol.names import BASE_FRAME, base_frame, WORLD_FRAME
 
@@ -167,7 +168,17 @@ MONITOR = {
 }
 """``monitor``."""
 
-NODES = {'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR}
+WARDEN = {
+    'num_vehicles': (1, Spec('', 'the vehicles of the fleet it heals', low=1, high=10_000)),
+    'vehicles_per_process': (1, Spec('', "the launch's vehicle nodes per process", low=1,
+                                     high=10_000)),
+    'heal_after': (HEAL_AFTER, Spec('s', 'wall seconds the fleet waits on a live vehicle '
+                                    'process before it is restarted (plus 2.5 s per process at '
+                                    'step 0)', low=0.5, high=3600.0)),
+}
+"""``warden`` (``fleet.launch.py`` sets them: :mod:`formation_control.ros.warden`)."""
+
+NODES = {'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR, 'warden': WARDEN}
 
 
 def _number(x: float) -> str:

@@ -30,6 +30,7 @@ from formation_control.core.errors import UsageError
 from formation_control.ops import dds_profile, lifetime, security
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, LAUNCH_LABELS,
                                                    write_params)
+from formation_control.protocol.healing import HEAL_AFTER, HEAL_LIMIT
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -52,6 +53,8 @@ FLEET_ARGUMENTS = {
     'base_frame': ('vehicle_{id}/base_link', "each vehicle's base frame; {id} = its id"),
     'secure': ('', 'run each node as its member of the TLS fleet in this directory '
                '(formation-control secure; docs/security.md); empty = the default transports'),
+    'heal_after': (str(HEAL_AFTER), 'wall seconds the fleet waits on a live vehicle process '
+                   'before the warden restarts it (at most 3 times); 0 = no warden'),
 }
 VEHICLE_ARGUMENTS = {
     'scenario': FLEET_ARGUMENTS['scenario'],
@@ -98,15 +101,17 @@ def _scenario(a, recorded=False):
     return sc, files
 
 
-def _node(executable, a, params, member, **kwargs):
+def _node(executable, a, params, member, name=None, **kwargs):
     """
     Return the Node of ``executable``; with a ``secure`` fleet it runs as ``member``.
 
     The node stops when the launch dies, even by SIGKILL
-    (:func:`~formation_control.ops.lifetime.die_with_parent`).
+    (:func:`~formation_control.ops.lifetime.die_with_parent`); the warden finds it by ``name``.
     """
     env = security.environment(a['secure'], member) if a['secure'] else dict(a['profile'])
     env[lifetime.PARENT_ENV] = str(os.getpid())
+    if name:
+        env[lifetime.MEMBER_ENV] = name
     return Node(package=PACKAGE, executable=executable, namespace=a['namespace'] or None,
                 parameters=params, output='screen', emulate_tty=True, additional_env=env,
                 **kwargs)
@@ -124,20 +129,41 @@ def _fleet(context):
         processes.append(plan.monitor())
     if record:
         processes.append(plan.recorder(record, _true(a['monitor'])))
+    heal_after = _heal_after(a['heal_after'])
+    if heal_after:
+        processes.append(plan.warden(heal_after))
     check_discovery(len(processes) + 1, sc.num_vehicles, plan.per_process, LAUNCH_LABELS[0],
                     os.environ)
-    return [_process_node(p, a, plan, files) for p in processes]
+    return [_process_node(p, a, plan, files, bool(heal_after)) for p in processes]
 
 
-def _process_node(process, a, plan, files):
-    """Return the launch Node of a :class:`~formation_control.protocol.fleet_plan.Process`."""
+def _heal_after(text):
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not (value == 0 or 0.5 <= value <= 3600):
+        raise UsageError(f'heal_after {text!r} is invalid: seconds in [0.5, 3600], or 0 (no '
+                         f'warden)')
+    return value
+
+
+def _process_node(process, a, plan, files, healed):
+    """
+    Return the launch Node of a :class:`~formation_control.protocol.fleet_plan.Process`.
+
+    With the warden (``healed``), a vehicle process that ends is started again, at most
+    :data:`~formation_control.protocol.healing.HEAL_LIMIT` times.
+    """
     params = [*files, {**plan.common, **process.parameters}] if process.fleet else [
         process.parameters]
     extra = {'remappings': [plan.clock]} if process.clock else {}
     if process.name == 'plant':
         extra['on_exit'] = Shutdown(reason='the plant has finished the run')
+    if process.vehicles and healed:
+        extra.update(respawn=True, respawn_max_retries=HEAL_LIMIT)
     member = None if process.executable == 'vehicles' else process.member
-    return _node(process.executable, a, params, member, **extra)
+    return _node(process.executable, a, params, member, process.name, **extra)
 
 
 def _vehicle(context):

@@ -21,16 +21,23 @@ that is what a member whose TLS links never formed, or one wedged in the middlew
 like. The summary must name the restart and its reason, and the fleet must converge.
 """
 import os
+from pathlib import Path
 import re
 import signal
+import subprocess
+import tempfile
 import threading
 import time
 
 from formation_control.core import scenario
+from formation_control.ops import lifetime
 from formation_control.protocol.fleet_plan import FleetPlan
+from formation_control.sim import simulator
 from formation_control.swarm import Supervisor, Swarm, SwarmOptions, wait_plant
 import pytest
-from rosutil import CONFIG
+from rosutil import ament_prefix, BIN, CONFIG, output
+
+LAUNCH = Path(__file__).resolve().parents[2] / 'launch' / 'fleet.launch.py'
 
 HEAL_AFTER = 4.0
 
@@ -85,3 +92,35 @@ def test_a_member_that_stops_answering_is_restarted_and_the_fleet_reconverges(ro
     assert found and float(found[1]) > HEAL_AFTER and healed['time'] > 2.0, healed
     assert int(found[2]) == pytest.approx(healed['time'] / 0.02, abs=25)
     assert out['converged'] and out['survivors'] == [1, 2, 3, 4], out
+
+
+@pytest.mark.skipif(not (BIN / 'ros2').exists(), reason='the ros2 command line is not in the '
+                    'venv (make setup installs it from ../shared/ros2-tools)')
+def test_a_launched_fleet_heals_a_member_that_never_joined(ros, tmp_path):
+    """
+    ``ros2 launch ... heal_after:=4``: the warden restarts the frozen vehicle.
+
+    The launch starts it again (respawn), and the run ends whole and converged.
+    """
+    env = {**ros.env, 'AMENT_PREFIX_PATH': str(ament_prefix(tmp_path / 'prefix'))}
+    log = tempfile.TemporaryFile('w+')
+    launch = subprocess.Popen(
+        [str(BIN / 'ros2'), 'launch', str(LAUNCH), 'scenario:=particle_parallel',
+         'num_vehicles:=4', 'duration:=30', 'vehicles_per_process:=1', 'monitor:=false',
+         f'heal_after:={HEAL_AFTER}', f'record_path:={tmp_path / "run.npz"}'],
+        env=env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    launch.log = log
+    ros.procs.procs.append(launch)
+    end = time.monotonic() + 60
+    while 'vehicle_2' not in lifetime.members(launch.pid) and time.monotonic() < end:
+        time.sleep(0.05)
+    os.kill(lifetime.members(launch.pid)['vehicle_2'], signal.SIGSTOP)
+    launch.wait(timeout=240)
+    out = output(launch)
+    assert launch.returncode == 0, out[-3000:]
+    healed = re.findall(r'healing (\S+): (vehicles \[2\] never joined: the plant waited '
+                        r'(\d+\.\d) s on them): restarted', out)
+    assert [h[0] for h in healed] == ['vehicle_2'] and float(healed[0][2]) > HEAL_AFTER, out
+    run = simulator.load_run(tmp_path / 'run.npz')
+    assert run.meta['complete'] and run.t[-1] == pytest.approx(30.0)
+    assert simulator.summary(run)['converged']

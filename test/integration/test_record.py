@@ -37,7 +37,7 @@ from formation_control.sim import simulator
 from mcap.reader import make_reader
 import pytest
 from rosgraph_msgs.msg import Clock
-from rosutil import BIN, CONFIG, output
+from rosutil import ament_prefix, BIN, CONFIG, output
 
 ORPHAN_DEADLINE = 20.0
 """Seconds the fleet has to be gone once its starter is killed (SIGTERM, then GRACE 10 s)."""
@@ -168,22 +168,10 @@ def test_swarm_killed_leaves_no_process_and_a_bag_repair_makes_readable(ros, tmp
     assert partial.t[-1] >= run.t[-1]                   # written on its SIGTERM, at the kill
 
 
-def _ament_prefix(root):
-    """Return an ament prefix where launch_ros finds this package's executables (the venv's)."""
-    index = root / 'share' / 'ament_index' / 'resource_index' / 'packages'
-    index.mkdir(parents=True)
-    (index / 'formation_control').touch()
-    lib = root / 'lib' / 'formation_control'
-    lib.mkdir(parents=True)
-    for exe in ('plant', 'vehicle', 'vehicles', 'monitor', 'recorder'):
-        (lib / exe).symlink_to(BIN / exe)
-    return root
-
-
 @pytest.mark.skipif(not (BIN / 'ros2').exists(), reason='the ros2 command line is not in the '
                     'venv (make setup installs it from ../shared/ros2-tools)')
 def test_a_launch_killed_leaves_no_process_and_its_bag_repairs(ros, tmp_path):
-    env = {**ros.env, 'AMENT_PREFIX_PATH': str(_ament_prefix(tmp_path / 'prefix'))}
+    env = {**ros.env, 'AMENT_PREFIX_PATH': str(ament_prefix(tmp_path / 'prefix'))}
     bag = tmp_path / 'B'
     launch_file = Path(__file__).resolve().parents[2] / 'launch' / 'fleet.launch.py'
     log = tempfile.TemporaryFile('w+')
@@ -196,7 +184,7 @@ def test_a_launch_killed_leaves_no_process_and_its_bag_repairs(ros, tmp_path):
     ros.procs.procs.append(launch)
     _wait_for_fleet_time(ros, 4)
     fleet = _children(launch.pid)
-    assert len(fleet) == 8, (fleet, output(launch)[-2000:])   # and the recorder
+    assert len(fleet) == 9, (fleet, output(launch)[-2000:])   # the recorder, the warden
     launch.kill()
     launch.wait()
     left = _gone(fleet)

@@ -318,7 +318,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     assert 'kappa' in reasons[3]
     assert run_rc == 2 and "parameter 'vehicle_id' = 9 is invalid" in run_out, run_out
     assert bad_launch[0] != 0 and "scenario 'rigid_parralel' not found" in bad_launch[1]
-    assert too_many[0] != 0 and ('vehicles_per_process 1 makes 43 DDS participants on this '
+    assert too_many[0] != 0 and ('vehicles_per_process 1 makes 44 DDS participants on this '
                                  'host' in too_many[1]), too_many[1]
     for rc, text in dumps:
         _check_dump(tmp_path, rc, text)

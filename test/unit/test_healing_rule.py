@@ -14,7 +14,7 @@
 
 """The healing rule (protocol/healing.py) and what the plant says it waits on (Plant.silent)."""
 from formation_control.core import scenario
-from formation_control.protocol.healing import Healer, Heard
+from formation_control.protocol.healing import Healer, Heard, Hearing
 from formation_control.protocol.plant import Plant
 import pytest
 
@@ -136,3 +136,25 @@ def test_real_time_plant_is_silent_on_the_unmatched_before_it_starts_then_on_the
     plant.command(2, 0, [0.0] * 4)
     clock.t = 10.5
     assert plant.silent() == pytest.approx({3: 3.5})
+
+
+def test_the_hearing_keeps_the_plant_and_the_vehicles_of_its_namespace_only():
+    hearing = Hearing('/fleet_a')
+    plant = {'step': '12', 'silent': '[2, 3]', 'silent_for': '[4.5, 0.5]'}
+    hearing.hear('formation_control/plant', plant, 1.0)               # another fleet's
+    hearing.hear('fleet_a/formation_control/vehicle_3/links', {'awaiting': '[2]'}, 2.0)
+    hearing.hear('fleet_a/formation_control/vehicle_4', {'awaiting': '[1]'}, 2.0)  # no links
+    assert hearing.take_plant_status() is None
+    hearing.hear('fleet_a/formation_control/plant', plant, 3.0)
+    assert hearing.take_plant_status() == (12, {2: 4.5, 3: 0.5})
+    assert hearing.take_plant_status() is None                          # judged once
+    assert hearing.heard == {3: Heard(2.0, (2,))}
+
+
+@pytest.mark.parametrize('values', [{}, {'step': 'x', 'silent': '[]', 'silent_for': '[]'},
+                                    {'step': '1', 'silent': '[1', 'silent_for': '[]'}])
+def test_a_status_that_does_not_parse_is_passed_over(values):
+    hearing = Hearing()
+    hearing.hear('formation_control/plant', values, 1.0)
+    hearing.hear('formation_control/vehicle_2/links', {'awaiting': 'nope'}, 1.0)
+    assert hearing.take_plant_status() is None and hearing.heard == {}

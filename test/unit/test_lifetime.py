@@ -135,3 +135,20 @@ def test_an_untied_process_is_left_alone():
     assert lifetime.die_with_parent({}) is None
     env = lifetime.tied_env({'A': '1', lifetime.GROUP_ENV: '1'})
     assert env == {'A': '1', lifetime.PARENT_ENV: str(os.getpid())}
+
+
+def test_the_members_of_a_starter_are_found_by_their_environment():
+    base = {**os.environ, lifetime.PARENT_ENV: str(os.getpid())}
+    envs = {'vehicle_2': {**base, lifetime.MEMBER_ENV: 'vehicle_2'},
+            'vehicles_3-4': {**base, lifetime.MEMBER_ENV: 'vehicles_3-4'},
+            'none': base,                                                 # no member name
+            'other': {**base, lifetime.PARENT_ENV: '1', lifetime.MEMBER_ENV: 'vehicle_1'}}
+    procs = {name: subprocess.Popen(['sleep', '30'], env=env) for name, env in envs.items()}
+    try:
+        assert lifetime.members(os.getpid()) == {
+            'vehicle_2': procs['vehicle_2'].pid, 'vehicles_3-4': procs['vehicles_3-4'].pid}
+    finally:
+        for proc in procs.values():
+            proc.kill()
+            proc.wait()
+    assert lifetime.members(os.getpid()) == {}
