@@ -27,6 +27,7 @@ import argparse
 import json
 from pathlib import Path
 import signal
+import socket
 import sys
 import threading
 
@@ -206,6 +207,13 @@ def _live_view(port, namespace='/'):
     """Return the monitor parameters of ``swarm --foxglove PORT`` and say where to connect."""
     if port is None:
         return []
+    with socket.socket() as probe:                    # as the live view binds it
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(('127.0.0.1', port))
+        except OSError as err:
+            raise UsageError(f'--foxglove {port}: cannot serve the Foxglove live view on '
+                             f'127.0.0.1:{port} ({err.strerror}): give a free port') from None
     ns = names.namespace_of(namespace)
     layout = 'formation-control layout' + (f' --namespace {ns}' if ns != '/' else '')
     print(f'Foxglove live view: open ws://127.0.0.1:{port} in the Foxglove app, Foxglove Studio '

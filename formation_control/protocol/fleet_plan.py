@@ -33,6 +33,7 @@ from typing import Any, NamedTuple
 from formation_control.core.errors import ScenarioError
 from formation_control.core.parameters import Scenario
 from formation_control.protocol import names
+from formation_control.protocol.node_parameters import MODES
 import yaml
 
 RECORDED_DEPTH = 500
@@ -218,8 +219,8 @@ class FleetPlan:
     Raises
     ------
     ScenarioError
-        ``per_process`` is not an integer >= 1 or ``'auto'``, or not 1 with ``secure`` or
-        ``process_faults``.
+        ``mode`` is not one of :data:`MODES`; ``per_process`` is not an integer >= 1 or
+        ``'auto'``, or not 1 with ``secure`` or ``process_faults``.
 
     """
 
@@ -227,6 +228,8 @@ class FleetPlan:
                  namespace: str = '/', secure: bool = False, recorded: bool = False,
                  labels: tuple[str, str] = SWARM_LABELS,
                  frames: Mapping[str, str] | None = None, process_faults: bool = False) -> None:
+        if mode not in MODES:
+            raise ScenarioError(f"mode {mode!r} is invalid: {' or '.join(MODES)}")
         self.per_process = (auto_per_process(num_vehicles, cores(), secure or process_faults)
                             if per_process == 'auto' else _count(per_process, labels[0]))
         if secure and self.per_process != 1:

@@ -119,8 +119,9 @@ class Healer:
     limit : int
         :data:`HEAL_LIMIT`.
     startup : float
-        Wall seconds added to ``after`` at step 0, while the fleet starts (the swarm gives
-        :data:`STARTUP` per process).
+        Wall seconds added to ``after`` at step 0, while the fleet starts, and after a process
+        is started again until it answers (:meth:`grace`; the swarm gives :data:`STARTUP` per
+        process).
 
     """
 
@@ -133,7 +134,7 @@ class Healer:
     given_up: set[int] = field(default_factory=set)
 
     def resumed(self, process: int, now: float) -> None:
-        """Note that ``process`` was started or continued at wall ``now``: it has ``after`` s."""
+        """Note that ``process`` was started or continued at wall ``now`` (:meth:`grace`)."""
         self.last[process] = now
 
     def culprits(self, silent: Iterable[int], heard: Mapping[int, Heard],
@@ -181,16 +182,28 @@ class Healer:
         running = set(running)
         out = []
         for i in sorted({process[k] for k in ids if k in process} & running):
-            if now - self.last.get(i, -math.inf) <= self.after or i in self.given_up:
+            mine = [k for k in ids if process.get(k) == i]
+            if i in self.given_up or now - self.last.get(i, -math.inf) <= self.grace(
+                    i, min(silent[k] for k in mine), now):
                 continue
             if self.restarts.get(i, 0) >= self.limit:
                 self.given_up.add(i)
                 continue
             self.restarts[i] = self.restarts.get(i, 0) + 1
             self.last[i] = now
-            mine = [k for k in ids if process.get(k) == i]
             out.append((i, self.reason(step, mine, max(silent[k] for k in mine))))
         return out
+
+    def grace(self, process: int, silent_for: float, now: float) -> float:
+        """
+        Return the wall seconds ``process`` is left alone after its last (re)start.
+
+        ``after``, once the plant has heard it since (it is silent for less than the time since
+        its start); until then ``after + startup``: a process started again on a loaded machine
+        may take as long to join as the whole fleet at its start.
+        """
+        answered = silent_for < now - self.last.get(process, -math.inf)
+        return self.after + (0.0 if answered else self.startup)
 
     @staticmethod
     def reason(step: int, ids: Sequence[int], silent_for: float) -> str:

@@ -120,6 +120,8 @@ def _node(executable, a, params, member, name=None, **kwargs):
 def _fleet(context):
     a = _values(context, FLEET_ARGUMENTS)
     record = a['record']
+    if record and Path(record).exists():
+        raise UsageError(f'record {record!r} exists already: give a new bag directory')
     sc, files = _scenario(a, recorded=bool(record))
     plan = FleetPlan(sc.num_vehicles, a['mode'], a['vehicles_per_process'],
                      a['namespace'] or '/', bool(a['secure']), bool(record), LAUNCH_LABELS,

@@ -271,6 +271,9 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         ['launch', 'formation_control', 'vehicle.launch.py', 'scenario:=rigid_parralel'],
         ['launch', 'formation_control', 'fleet.launch.py', 'scenario:=particle_circular',
          'num_vehicles:=40', 'vehicles_per_process:=1', 'namespace:=fleet_c'],
+        ['launch', 'formation_control', 'fleet.launch.py', 'mode:=fast', 'namespace:=fleet_c'],
+        ['launch', 'formation_control', 'fleet.launch.py', f'record:={tmp_path}',
+         'namespace:=fleet_c'],
     )
     assert launch_b.wait(timeout=180) == 0, (tmp_path / 'fleet_b.log').read_text()
     window = time.time_ns()
@@ -278,8 +281,8 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     window = (window, time.time_ns())                                  # batch loads the CPUs
     cli.probe.spin_for(0.5)
     (_, nodes), odom, state, cmd, metric, info, kind, *dumps = out
-    dumps, refusals, (run_rc, run_out), bad_launch, too_many = (
-        dumps[:3], dumps[3:7], dumps[7], dumps[8], dumps[9])
+    dumps, refusals, (run_rc, run_out), bad_launch, too_many, bad_mode, old_bag = (
+        dumps[:3], dumps[3:7], *dumps[7:])
     fleet = {'/fleet_a/plant', '/fleet_a/formation_monitor',
              *(f'/fleet_a/vehicle_{k}' for k in range(1, 5))}
     for _ in range(3):                  # the daemon's graph may lag behind under a load
@@ -320,6 +323,9 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     assert bad_launch[0] != 0 and "scenario 'rigid_parralel' not found" in bad_launch[1]
     assert too_many[0] != 0 and ('vehicles_per_process 1 makes 44 DDS participants on this '
                                  'host' in too_many[1]), too_many[1]
+    assert bad_mode[0] != 0 and "mode 'fast' is invalid: lockstep or realtime" in bad_mode[1]
+    assert old_bag[0] != 0 and (f"record '{tmp_path}' exists already: give a new bag "
+                                'directory' in old_bag[1]), old_bag[1]
     for rc, text in dumps:
         _check_dump(tmp_path, rc, text)
     _check_lockstep_fleet(launch_b, tmp_path, fleet_b)

@@ -24,6 +24,7 @@ import math
 from pathlib import Path
 import re
 import signal
+import socket
 
 from formation_control.bags import reader as bagfile
 from formation_control.core.scenario import resolve
@@ -368,6 +369,20 @@ def test_a_fleet_beyond_localhost_discovery_is_refused_before_any_start(ros):
         'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST rmw_fastrtps discovers at most 32 (the rest '
         'would never match each other): use --vehicles-per-process 2 or more (or auto), or a '
         'discovery server (ROS_DISCOVERY_SERVER)')
+    assert 'started' not in result.stdout + result.stderr
+
+
+def test_a_live_view_on_a_busy_port_is_refused_before_any_start(ros):
+    with socket.socket() as busy:
+        busy.bind(('127.0.0.1', 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        result = ros.procs.run('formation-control', 'swarm', CONFIG / 'particle_parallel.yaml',
+                               '--foxglove', str(port))
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines()[-1] == (
+        f'error: --foxglove {port}: cannot serve the Foxglove live view on 127.0.0.1:{port} '
+        f'(Address already in use): give a free port')
     assert 'started' not in result.stdout + result.stderr
 
 

@@ -59,6 +59,22 @@ def test_a_member_just_started_or_continued_has_the_deadline_before_it_is_judged
     assert [i for i, _ in healer.due(40, W([2], 30.0), {}, RUNNING, 105.5)] == [2]
 
 
+def test_a_restarted_member_has_the_start_up_allowance_too():
+    """A process started again on a loaded machine may take as long as the fleet's start."""
+    healer = Healer(MEMBERS, after=4.0, startup=15.0)
+    assert [i for i, _ in healer.due(200, W([3], 4.5), {}, RUNNING, 100.0)] == [3]
+    assert healer.due(300, W([3], 30.0), {}, RUNNING, 118.9) == []      # not heard since
+    assert [i for i, _ in healer.due(300, W([3], 30.0), {}, RUNNING, 119.1)] == [3]
+    healer.resumed(3, 200.0)
+    assert [i for i, _ in healer.due(400, W([3], 4.5), {}, RUNNING, 210.0)] == [3]  # it was
+
+
+def test_a_member_that_answered_since_its_start_has_no_start_up_allowance():
+    healer = Healer(MEMBERS, after=4.0, startup=15.0)
+    healer.resumed(3, 100.0)
+    assert [i for i, _ in healer.due(300, W([3], 4.5), {}, RUNNING, 106.0)] == [3]
+
+
 def test_each_vehicle_is_judged_by_its_own_silence():
     """A step under way waits a moment on everyone: only the long-silent vehicle is late."""
     due = Healer(MEMBERS, after=10.0).due(9, {1: 0.01, 2: 0.01, 3: 12.0}, {}, RUNNING, 100.0)
