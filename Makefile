@@ -58,6 +58,7 @@ $(STAMP): setup.py package.xml $(CONSTRAINTS) formation_control/core/_rk4.c
 	$(PY) -m pip install -c $(CONSTRAINTS) pip setuptools wheel
 	$(PY) -m pip install -c $(CONSTRAINTS) --no-build-isolation -e '$(EXTRAS)'
 	$(PY) tools/check_pins.py $(CONSTRAINTS)
+	$(PY) tools/ament_register.py $(VENV)
 	if [ -n "$(ROS2_TOOLS)" ]; then PIP_CONSTRAINT=$(abspath $(CONSTRAINTS)) \
 		"$(ROS2_TOOLS)/install.sh" $(PY); \
 	else echo 'ros2-tools not found: the tests that need the ros2 CLI will skip'; fi

@@ -335,7 +335,8 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
         for m in diagnostics for s in m.status), 30)
     assert launch.poll() is None
     children = _children(launch.pid)
-    assert len(children) == 2 + math.ceil(4 / auto_per_process(4, cores()))  # plant, monitor
+    vehicles = math.ceil(4 / auto_per_process(4, cores()))
+    assert len(children) == 3 + vehicles                     # the plant, monitor and warden
     launch.send_signal(signal.SIGINT)
     assert launch.wait(timeout=30) == 0
     assert not [c for c in children if Path(f'/proc/{c}').exists()]
@@ -410,3 +411,21 @@ def test_launched_nodes_get_the_fleets_fast_dds_profile_unless_one_is_named(monk
     _, files = launching._scenario(args)
     assert 'FASTRTPS_DEFAULT_PROFILES_FILE' not in _env_of(
         launching._node('vehicle', args, files, 'vehicle_1'))
+
+
+@pytest.mark.skipif(not (BIN / 'ros2').exists(), reason='the ros2 command line is not in the '
+                    'venv (make setup installs it from ../shared/ros2-tools)')
+def test_the_venvs_ros2_finds_the_package_as_the_readme_uses_it(tmp_path):
+    """``make setup`` registers the package in the venv: ``.venv/bin/ros2 launch|run`` find it."""
+    env = {k: v for k, v in ros_environment(0).items() if k != 'AMENT_PREFIX_PATH'}
+    prefix = subprocess.run([str(BIN / 'ros2'), 'pkg', 'prefix', 'formation_control'], env=env,
+                            capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert prefix.stdout.strip() == str(Path(sys.prefix)), prefix.stderr
+    found = subprocess.run([str(BIN / 'ros2'), 'pkg', 'executables', 'formation_control'],
+                           env=env, capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert {'plant', 'vehicle', 'vehicles', 'monitor', 'recorder', 'warden'} <= {
+        line.split()[-1] for line in found.stdout.splitlines()}, found.stderr
+    shown = subprocess.run([str(BIN / 'ros2'), 'launch', 'formation_control', 'fleet.launch.py',
+                            '--show-args'], env=env, capture_output=True, text=True, timeout=60,
+                           cwd=tmp_path)
+    assert shown.returncode == 0 and "'heal_after':" in shown.stdout, shown.stderr
