@@ -30,6 +30,7 @@ import signal
 import socket
 import sys
 import threading
+import zipfile
 
 from formation_control.core import parameters, scenario
 from formation_control.core.errors import UsageError
@@ -259,7 +260,10 @@ def load_source(path):
         try:
             return simulator.load_run(path)
         except (OSError, ValueError, KeyError) as err:
-            raise UsageError(f'{path}: not a run .npz ({err})') from None
+            reason = err if zipfile.is_zipfile(path) else 'no .npz archive'
+            raise UsageError(f'{path}: not a run .npz ({reason}); the run is the .npz of '
+                             f'--out or a bag directory (a --summary .json is printed '
+                             f'already)') from None
     from formation_control.bags.repair import unclosed
     raise UsageError(unclosed(path) or f'SOURCE {path!r} is neither a run .npz nor a rosbag2 '
                      f'bag directory (one with metadata.yaml)')

@@ -301,6 +301,13 @@ def test_plot_and_report_refuse_a_source_that_is_no_run(tmp_path, command):
                               capture_output=True, text=True, timeout=60)
         assert proc.returncode == 2, proc.stderr
         assert str(source) in proc.stderr and 'error:' in proc.stderr
+        assert 'pickle' not in proc.stderr and len(proc.stderr.splitlines()) == 1
+    (tmp_path / 'run.json').write_text('{"converged": true}')
+    told = subprocess.run([str(CLI), command, str(tmp_path / 'run.json'), *extra],
+                          capture_output=True, text=True, timeout=60)
+    assert told.stderr.strip() == (
+        f'error: {tmp_path / "run.json"}: not a run .npz (no .npz archive); the run is the '
+        '.npz of --out or a bag directory (a --summary .json is printed already)')
 
 
 def test_report_of_an_npz_repeats_the_figures_of_the_run(particle_run):
