@@ -288,9 +288,9 @@ def _path_error(t: RealArray, P: RealArray) -> float:
 
 
 def positions(X: RealArray, altitude: ArrayLike | None = None) -> RealArray:
-    """Return positions (..., N, 3) from states (..., 6, N) and an altitude (..., N) (m, or 0)."""
-    z = np.zeros_like(X[..., ROW_X, :]) if altitude is None else np.asarray(altitude, float)
-    return np.stack([X[..., ROW_X, :], X[..., ROW_Y, :], z], axis=-1)
+    """Return positions (..., N, 3) from states (6, ..., N) and an altitude (..., N) (m, or 0)."""
+    z = np.zeros_like(X[ROW_X]) if altitude is None else np.asarray(altitude, float)
+    return np.stack([X[ROW_X], X[ROW_Y], z], axis=-1)
 
 
 def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf) -> Separation:
@@ -338,7 +338,7 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf) -> Se
 def of_run(run: Run) -> Separation:
     """Return :func:`of_samples` of a recorded run, by its scenario's :func:`separation.limits`."""
     lim = separation.limits(run.sc)
-    P = positions(run.X, run.channels.get('altitude'))
+    P = positions(np.moveaxis(run.X, 1, 0), run.channels.get('altitude'))
     return of_samples(run.t, P, lim.d_min, lim.d_min_vertical)
 
 
