@@ -20,8 +20,8 @@ positions, so the relative position of a pair is linear in time over the interva
 distance squared a quadratic: the closest approach in the interval is exact
 (:func:`_closest`), and so is the set of times a pair is too close (:func:`_too_close`: closer
 than d_min horizontally and than d_min_vertical in altitude). A vehicle's flown path leaves
-the chord by at most ``a dt^2 / 8`` for an acceleration a over an interval dt (exact for a
-constant one); :attr:`Separation.path_error` estimates it from the samples, for a pair.
+the chord by at most ``sqrt(L^2 - c^2) / 2`` if it flies at most L between samples a chord c
+apart; :attr:`Separation.path_error` is this for a pair at the top ground speed.
 
 :func:`of_samples` takes the samples of one run, :func:`of_run` a :class:`simulator.Run`;
 :class:`Tracker` the samples of a batch of runs as they come (the sweep's
@@ -35,7 +35,8 @@ from typing import Any, TYPE_CHECKING
 
 from formation_control.core import separation
 from formation_control.core.geometry import BoolArray, IntArray, RealArray
-from formation_control.core.models import ROW_X, ROW_Y
+from formation_control.core.flow import flowfield
+from formation_control.core.models import ROW_U, ROW_V, ROW_X, ROW_Y
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -69,8 +70,9 @@ class Separation:
     kept_apart : bool
         No pair was ever too close: not at a sample, not between two.
     path_error : float
-        How far a pair's flown path may leave the chords between its samples (m), estimated
-        as ``2 max |a| dt^2 / 8`` from the samples' second differences.
+        How far a pair's flown path may leave the chords between its samples (m), at the top
+        ground speed (:func:`_path_error`); the distances between samples are exact on the
+        chords and within it of the flown ones.
 
     """
 
@@ -269,22 +271,20 @@ def _union(f: IntArray, lo: RealArray, hi: RealArray, count: int) -> RealArray:
     return np.bincount(f, np.maximum(hi - np.maximum(lo, before), 0.0), minlength=count)
 
 
-def _path_error(t: RealArray, P: RealArray) -> float:
+def _path_error(t: RealArray, P: RealArray, speed: float) -> float:
     """
-    Return ``2 max |a| dt^2 / 8`` (m): how far a pair's path may leave its chords.
+    Return how far a pair's flown path may leave the chords between its samples (m).
 
-    ``a`` the acceleration of each vehicle from the second differences of positions P (T, N, 3)
-    at times t (T,), dt the longer interval beside it; 0 with fewer than three samples.
+    A vehicle that flies at most ``L = speed dt`` between two samples a chord c apart stays
+    within ``sqrt(L^2 - c^2) / 2`` of the chord (the path is in the ellipse with the samples
+    for foci and L for major axis); a pair within twice the largest of these. P (T, N, 3) at
+    times t (T,); 0 with fewer than two samples.
     """
-    if len(t) < 3:
+    if len(t) < 2:
         return 0.0
-    dt = np.diff(t)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        v = np.diff(P, axis=0) / dt[:, None, None]
-        accel = 2.0 * np.diff(v, axis=0) / (dt[1:] + dt[:-1])[:, None, None]
-    step = np.maximum(dt[1:], dt[:-1])[:, None]
-    error = np.sqrt(np.sum(accel ** 2, axis=-1)) * step ** 2 / 4.0
-    return float(np.nanmax(error, initial=0.0))
+    flown = (speed * np.diff(t)) ** 2
+    chord = np.sum(np.diff(P, axis=0) ** 2, axis=-1)
+    return float(np.max(np.sqrt(np.maximum(flown[:, None] - chord, 0.0))))
 
 
 def positions(X: RealArray, altitude: ArrayLike | None = None) -> RealArray:
@@ -293,7 +293,8 @@ def positions(X: RealArray, altitude: ArrayLike | None = None) -> RealArray:
     return np.stack([X[ROW_X], X[ROW_Y], z], axis=-1)
 
 
-def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf) -> Separation:
+def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf,
+               speed: float = 0.0) -> Separation:
     """
     Return the separation of one run from its samples.
 
@@ -305,6 +306,8 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf) -> Se
         Positions (m): x, y and the altitude (2: one altitude).
     d, dv : float
         The horizontal and vertical separation (m); dv inf: horizontal distance alone.
+    speed : float, optional
+        The vehicles' top ground speed (m/s), for :attr:`Separation.path_error` (0: none).
 
     Returns
     -------
@@ -332,14 +335,21 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf) -> Se
     return Separation(d, dv if math.isfinite(dv) else None, *best[3], *best[2],
                       separation.closest_pair(last)[0],
                       separation.closest_pair(last[:, :2])[0],
-                      float(np.sum(fr.below * span)), not close, _path_error(t, P))
+                      float(np.sum(fr.below * span)), not close, _path_error(t, P, speed))
 
 
 def of_run(run: Run) -> Separation:
-    """Return :func:`of_samples` of a recorded run, by its scenario's :func:`separation.limits`."""
+    """
+    Return :func:`of_samples` of a recorded run, by its scenario's :func:`separation.limits`.
+
+    The top ground speed is the largest recorded speed through the flow ``|u + i v|`` plus the
+    flow's largest ``max |f|``.
+    """
     lim = separation.limits(run.sc)
     P = positions(np.moveaxis(run.X, 1, 0), run.channels.get('altitude'))
-    return of_samples(run.t, P, lim.d_min, lim.d_min_vertical)
+    speed = float(np.max(np.hypot(run.X[:, ROW_U], run.X[:, ROW_V]))) + flowfield(
+        run.sc).max_speed
+    return of_samples(run.t, P, lim.d_min, lim.d_min_vertical, speed)
 
 
 class Tracker:
