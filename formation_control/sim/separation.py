@@ -64,6 +64,8 @@ class Separation:
         The same, horizontally.
     final, final_2d : float
         The smallest 3-D and horizontal distance at the last sample.
+    final_too_close : bool
+        A pair is too close at the last sample.
     below : float
         How long some pair was too close (s): closer than d_min horizontally and than
         d_min_vertical in altitude.
@@ -86,6 +88,7 @@ class Separation:
     closest_2d_time: float
     final: float
     final_2d: float
+    final_too_close: bool
     below: float
     kept_apart: bool
     path_error: float
@@ -335,6 +338,7 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf,
     return Separation(d, dv if math.isfinite(dv) else None, *best[3], *best[2],
                       separation.closest_pair(last)[0],
                       separation.closest_pair(last[:, :2])[0],
+                      bool(frames(last[None], last[None], d, dv).close[0]),
                       float(np.sum(fr.below * span)), not close, _path_error(t, P, speed))
 
 
