@@ -30,7 +30,8 @@ vehicles may touch once their centres are closer than it. The scenario's separat
   plus d_min.
 
 :func:`check` refuses what cannot hold together: a sensing range below d_min, a splay whose
-chord is below d_min. :func:`pairs_within` and :func:`closest_pair` find the pairs of a fleet
+chord is below d_min (:func:`chord`: no placement of N vehicles on a circle keeps them further
+apart, so a free-phase circle below it cannot keep them apart either, but promises nothing). :func:`pairs_within` and :func:`closest_pair` find the pairs of a fleet
 within a distance, and the closest, in 2-D or 3-D, without the N^2 table of all pairs.
 """
 from __future__ import annotations
@@ -49,7 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 MAX_CELLS = 1 << 19
-"""Grid cells per axis at most (:func:`pairs_within`): a key of three axes fits an int64."""
+"""Grid cells per axis at most, so that a cell key of three axes fits an int64."""
 
 
 @dataclass(frozen=True)
@@ -123,15 +124,11 @@ def chord(sc: Scenario) -> float | None:
 
 def check(sc: Scenario) -> tuple[str, ...]:
     """
-    Refuse a separation that cannot hold; warn where the formation does not keep it.
+    Refuse a separation that cannot hold.
 
-    Returns
-    -------
-    tuple of str
-        A note where a circle's steady state cannot keep d_min: clusters of a symmetric
-        pattern (vehicles of one cluster coincide), or a free-phase circle too small for N
-        vehicles d_min apart (the phases are free: nothing spaces them, but no placement
-        could).
+    A free-phase circle or a symmetric pattern promises no spacing (their vehicles may end
+    anywhere on the circle, or stacked in clusters): a run's verdict says whether they kept
+    apart (:mod:`sim.separation`), no check does.
 
     Raises
     ------
@@ -146,22 +143,11 @@ def check(sc: Scenario) -> tuple[str, ...]:
         _fail('sensing_range', sc.sensing_range, f'must be >= d_min = {lim.d_min:.4g} m'
               f'{derived}: a vehicle must hear every vehicle it could come too close to')
     spaced = chord(sc)
-    if spaced is None:
-        return ()
-    circle = (f'{sc.num_vehicles} vehicles on the circle of radius {1 / abs(sc.omega0):.4g} m '
-              f'(1/|omega0|)')
-    if sc.pattern == 'splay' and spaced < lim.d_min:
+    if sc.pattern == 'splay' and spaced is not None and spaced < lim.d_min:
         _fail('d_min', sc.d_min, f'{lim.d_min:.4g} m{derived} is more than the splay keeps: '
-              f'{circle} are a chord 2 R sin(pi/N) = {spaced:.4g} m apart; d_min must be <= '
-              f'that (or fewer vehicles, or a larger circle)')
-    if sc.pattern == 'symmetric':
-        return (f'pattern symmetric stacks {sc.num_vehicles // sc.pattern_M} vehicles at each of '
-                f'{sc.pattern_M} places on the circle: in its steady state they coincide, closer '
-                f'than d_min = {lim.d_min:.4g} m (kept apart: no)',)
-    if sc.pattern == 'none' and spaced < lim.d_min:
-        return (f'no placement of {circle} keeps d_min = {lim.d_min:.4g} m{derived}: the '
-                f'largest smallest distance is the chord {spaced:.4g} m (kept apart: no, once '
-                f'the circle is reached)',)
+              f'{sc.num_vehicles} vehicles on the circle of radius {1 / abs(sc.omega0):.4g} m '
+              f'(1/|omega0|) are a chord 2 R sin(pi/N) = {spaced:.4g} m apart; d_min must be '
+              f'<= that (or fewer vehicles, or a larger circle)')
     return ()
 
 

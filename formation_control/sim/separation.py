@@ -18,12 +18,12 @@ The separation of a recorded run: how close its vehicles came, when, and whether
 Between two samples each vehicle is taken to fly the straight chord between its recorded
 positions, so the relative position of a pair is linear in time over the interval and its
 distance squared a quadratic: the closest approach in the interval is exact
-(:func:`_closest`), and so is the set of times a pair is too close (:func:`_too_close`: closer
+(``_closest``), and so is the set of times a pair is too close (``_too_close``: closer
 than d_min horizontally and than d_min_vertical in altitude). A vehicle's flown path leaves
 the chord by at most ``sqrt(L^2 - c^2) / 2`` if it flies at most L between samples a chord c
-apart; :attr:`Separation.path_error` is this for a pair at the top ground speed.
+apart; ``path_error`` is this for a pair at the top ground speed.
 
-:func:`of_samples` takes the samples of one run, :func:`of_run` a :class:`simulator.Run`;
+:func:`of_samples` takes the samples of one run, :func:`of_run` a recorded run;
 :class:`Tracker` the samples of a batch of runs as they come (the sweep's
 :class:`simulator.Outcome`).
 """
@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 import math
-from typing import Any, TYPE_CHECKING
+from typing import Any
 
 from formation_control.core import separation
 from formation_control.core.geometry import BoolArray, IntArray, RealArray
@@ -39,9 +39,6 @@ from formation_control.core.flow import flowfield
 from formation_control.core.models import ROW_U, ROW_V, ROW_X, ROW_Y
 import numpy as np
 from numpy.typing import ArrayLike
-
-if TYPE_CHECKING:
-    from formation_control.sim.simulator import Run
 
 ROWS = 1 << 16
 """Pairs x intervals evaluated at once, at most (all pairs of a small fleet, many intervals)."""
@@ -73,7 +70,7 @@ class Separation:
         No pair was ever too close: not at a sample, not between two.
     path_error : float
         How far a pair's flown path may leave the chords between its samples (m), at the top
-        ground speed (:func:`_path_error`); the distances between samples are exact on the
+        ground speed (``_path_error``); the distances between samples are exact on the
         chords and within it of the flown ones.
 
     """
@@ -222,7 +219,7 @@ def frames(P0: RealArray, P1: RealArray, d: float, dv: float) -> Frames:
     vertical separation (dv inf: horizontal alone). An interval of zero length (P0 = P1)
     gives the separation of one sample. A small fleet's pairs are all evaluated, intervals
     :data:`ROWS` pairs at a time; a large one's, interval by interval, only those that may
-    matter (:func:`_near`).
+    matter (``_near``).
     """
     F, n = P0.shape[:2]
     out = Frames(np.full(F, np.inf), np.full((F, 2), -1), np.zeros(F), np.full(F, np.inf),
@@ -310,7 +307,7 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf,
     d, dv : float
         The horizontal and vertical separation (m); dv inf: horizontal distance alone.
     speed : float, optional
-        The vehicles' top ground speed (m/s), for :attr:`Separation.path_error` (0: none).
+        The vehicles' top ground speed (m/s), for ``path_error`` (0: none).
 
     Returns
     -------
@@ -342,12 +339,13 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf,
                       float(np.sum(fr.below * span)), not close, _path_error(t, P, speed))
 
 
-def of_run(run: Run) -> Separation:
+def of_run(run: Any) -> Separation:
     """
     Return :func:`of_samples` of a recorded run, by its scenario's :func:`separation.limits`.
 
-    The top ground speed is the largest recorded speed through the flow ``|u + i v|`` plus the
-    flow's largest ``max |f|``.
+    ``run`` is a :class:`simulator.Run` (its ``sc``, ``t``, ``X`` (T, 6, N) and the altitude
+    among its ``channels``, if any). The top ground speed is the largest recorded speed
+    through the flow ``|u + i v|`` plus the flow's largest ``max |f|``.
     """
     lim = separation.limits(run.sc)
     P = positions(np.moveaxis(run.X, 1, 0), run.channels.get('altitude'))

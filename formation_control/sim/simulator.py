@@ -379,7 +379,7 @@ class Outcome:
     Every ``record_dt`` and at the last step (the samples of :class:`Recorder`) it evaluates
     :func:`metrics.converged` on :func:`metrics.snapshot` of each fleet, which are computed
     per fleet (the minimum separation at the last step only), and follows each fleet's
-    separation (:class:`separation.Tracker`, :attr:`apart`); the states are not kept.
+    separation (:class:`separation.Tracker`, ``apart``); the states are not kept.
 
     Attributes
     ----------

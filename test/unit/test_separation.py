@@ -83,12 +83,10 @@ def test_a_separation_that_cannot_hold_is_refused_naming_the_parameter(values, n
     assert f"parameter '{name}'" in str(err.value) and words in str(err.value)
 
 
-def test_a_splay_that_holds_d_min_is_taken_and_a_circle_that_cannot_is_warned_about():
+def test_a_splay_that_holds_d_min_is_taken_and_circles_that_promise_no_spacing_too():
     assert resolve(dict(SPLAY, d_min=0.99 * CHORD_12)).warnings == ()
-    free = resolve({'formation': 'circular', 'num_vehicles': 12, 'd_min': 0.6})
-    assert any('no placement of 12 vehicles' in w for w in free.warnings)
-    clusters = load(CONFIG / 'particle_circular_symmetric.yaml')
-    assert any('stacks 4 vehicles at each of 3 places' in w for w in clusters.warnings)
+    assert resolve({'formation': 'circular', 'num_vehicles': 12, 'd_min': 0.6}).warnings == ()
+    assert load(CONFIG / 'particle_circular_symmetric.yaml').warnings == ()
 
 
 def test_pairs_within_finds_exactly_the_pairs_of_the_definition():
