@@ -52,7 +52,7 @@ def study(name, seeds, overrides):
     radius = 1.0 / abs(base.omega0)
     print(f'| {name} | {base.num_vehicles} | {runs[0].d_min:.4g} m | {end} | '
           f'{len(runs) - kept} | {kept / len(runs):.2f} [{low:.2f}, {high:.2f}] | '
-          f"{np.median([r.below for r in runs]):.4g} s | {closest.closest:.3g} m "
+          f'{np.median([r.below for r in runs]):.4g} s | {closest.closest:.3g} m '
           f'({closest.closest / runs[0].d_min:.2g} d_min, {closest.closest / radius:.2%} R) | '
           f'{max(r.path_error for r in runs):.2g} m | {time.perf_counter() - start:.0f} s |',
           flush=True)

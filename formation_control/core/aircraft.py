@@ -195,7 +195,7 @@ LENGTH_UNITS = {'FT': FT, 'M': 1.0, 'IN': 0.0254}
 @lru_cache(maxsize=16)
 def wingspan(name: str) -> float:
     """
-    Return the wingspan (m) of JSBSim aircraft ``name`` (its ``metrics/wingspan``).
+    Return the wingspan of the JSBSim aircraft ``name`` (m), its ``metrics/wingspan``.
 
     Raises
     ------

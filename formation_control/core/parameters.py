@@ -457,7 +457,7 @@ class Scenario:
     sensing_range: float = _param(0.0, 'm', 'range within which a vehicle hears every other '
                                   'vehicle (the safety layer)', low=0.0,
                                   zero='derived: d_min + twice the top ground speed over one '
-                                  "time constant of the formation law", rule='>= d_min')
+                                  'time constant of the formation law', rule='>= d_min')
     # The run
     seed: int = _param(0, '', 'random seed of the initial state', low=0)
     dt_control: float = _param(0.02, 's', 'control period: each command is held this long',

@@ -27,7 +27,7 @@ from dataclasses import replace
 from os import PathLike
 from typing import Any
 
-from formation_control.core import (aircraft, flow, formations, parameters, separation, sensors,
+from formation_control.core import (aircraft, flow, formations, parameters, sensors, separation,
                                     steering, world)
 from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import RealArray

@@ -31,8 +31,9 @@ vehicles may touch once their centres are closer than it. The scenario's separat
 
 :func:`check` refuses what cannot hold together: a sensing range below d_min, a splay whose
 chord is below d_min (:func:`chord`: no placement of N vehicles on a circle keeps them further
-apart, so a free-phase circle below it cannot keep them apart either, but promises nothing). :func:`pairs_within` and :func:`closest_pair` find the pairs of a fleet
-within a distance, and the closest, in 2-D or 3-D, without the N^2 table of all pairs.
+apart, so a free-phase circle below it cannot keep them apart either, but promises nothing).
+:func:`pairs_within` and :func:`closest_pair` find the pairs of a fleet within a distance, and
+the closest, in 2-D or 3-D, without the N^2 table of all pairs.
 """
 from __future__ import annotations
 

@@ -34,8 +34,8 @@ import math
 from typing import Any
 
 from formation_control.core import separation
-from formation_control.core.geometry import BoolArray, IntArray, RealArray
 from formation_control.core.flow import flowfield
+from formation_control.core.geometry import BoolArray, IntArray, RealArray
 from formation_control.core.models import ROW_U, ROW_V, ROW_X, ROW_Y
 import numpy as np
 from numpy.typing import ArrayLike
@@ -91,7 +91,7 @@ class Separation:
     path_error: float
 
     def values(self) -> dict[str, Any]:
-        """Return the fields as plain values (a summary's ``separation``)."""
+        """Return the fields as plain values, a summary's ``separation``."""
         return asdict(self)
 
     def text(self) -> str:
@@ -288,7 +288,7 @@ def _path_error(t: RealArray, P: RealArray, speed: float) -> float:
 
 
 def positions(X: RealArray, altitude: ArrayLike | None = None) -> RealArray:
-    """Return positions (..., N, 3) from states (6, ..., N) and an altitude (..., N) (m, or 0)."""
+    """Return the positions x, y, z (..., N, 3) of states (6, ..., N) at an altitude (..., N)."""
     z = np.zeros_like(X[ROW_X]) if altitude is None else np.asarray(altitude, float)
     return np.stack([X[ROW_X], X[ROW_Y], z], axis=-1)
 

@@ -38,8 +38,8 @@ from formation_control.core.models import (ground_velocity, ROW_THETA, ROW_U, RO
                                            ROW_Y, STATE_NAMES)
 from formation_control.core.parameters import Scenario
 from formation_control.core.scenario import initial_state, practical, resolve
-from formation_control.core.separation import limits
 from formation_control.core.sensors import Sample, Sensors
+from formation_control.core.separation import limits
 from formation_control.core.vehicles import vehicle_model
 from formation_control.sim import metrics, separation
 from formation_control.sim.allocator import keep_freed_memory

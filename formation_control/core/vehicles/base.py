@@ -183,7 +183,7 @@ class VehicleModel:
 
     def size(self, sc: Any) -> float:
         """
-        Return the vehicle's size (m): the diameter of the disc that holds it, seen from above.
+        Return the vehicle's size: the diameter of the disc that holds it from above (m).
 
         Two vehicles of this size may touch once their centres are closer than it; the
         separation distance ``d_min`` is derived from it (:func:`separation.limits`). ``sc``
