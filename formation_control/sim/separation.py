@@ -56,7 +56,7 @@ class Separation:
         the vehicles fly one altitude (a pair is too close on horizontal distance alone).
     closest, closest_pair, closest_time : float, list of int, float
         The smallest 3-D distance between two vehicles over the run (on the chords between
-        samples), the pair and when.
+        samples), the pair and when; nan, None, nan with one vehicle.
     closest_2d, closest_2d_pair, closest_2d_time : float, list of int, float
         The same, horizontally.
     final, final_2d : float
@@ -78,10 +78,10 @@ class Separation:
     d_min: float
     d_min_vertical: float | None
     closest: float
-    closest_pair: list[int]
+    closest_pair: list[int] | None
     closest_time: float
     closest_2d: float
-    closest_2d_pair: list[int]
+    closest_2d_pair: list[int] | None
     closest_2d_time: float
     final: float
     final_2d: float
@@ -234,9 +234,9 @@ def frames(P0: RealArray, P1: RealArray, d: float, dv: float) -> Frames:
             _add(out, np.repeat(f, i.size), np.tile(i, f.size), np.tile(j, f.size), P0, P1,
                  d, dv)
         return out
-    for f in range(F):
-        i, j = _near(P0[f], P1[f], d)
-        _add(out, np.full(i.size, f), i, j, P0, P1, d, dv)
+    for frame in range(F):
+        near_i, near_j = _near(P0[frame], P1[frame], d)
+        _add(out, np.full(near_i.size, frame), near_i, near_j, P0, P1, d, dv)
     return out
 
 
@@ -268,7 +268,8 @@ def _union(f: IntArray, lo: RealArray, hi: RealArray, count: int) -> RealArray:
     f, lo, hi = f[order], lo[order] + 2.0 * f[order], hi[order] + 2.0 * f[order]
     reach = np.maximum.accumulate(hi)
     before = np.r_[-np.inf, reach[:-1]]
-    return np.bincount(f, np.maximum(hi - np.maximum(lo, before), 0.0), minlength=count)
+    covered = np.maximum(hi - np.maximum(lo, before), 0.0)
+    return np.asarray(np.bincount(f, covered, minlength=count), float)
 
 
 def _path_error(t: RealArray, P: RealArray, speed: float) -> float:
@@ -323,7 +324,7 @@ def of_samples(t: ArrayLike, P: ArrayLike, d: float, dv: float = math.inf,
     span = np.diff(t) if len(t) > 1 else np.zeros(1)
     start = t[:-1] if len(t) > 1 else t
     close = bool(fr.close.any())
-    best = {}
+    best: dict[int, tuple[float, list[int] | None, float]] = {}
     for dims, (low, pair, at) in ((3, (fr.min3, fr.pair3, fr.at3)),
                                   (2, (fr.min2, fr.pair2, fr.at2))):
         k = int(np.argmin(low))
