@@ -121,7 +121,7 @@ def crossing(d_min):
 def test_a_pair_that_passes_too_close_between_two_samples_is_not_kept_apart():
     out = crossing(0.5)
     assert out.final == out.final_2d == math.hypot(2.0, 0.1)     # both samples far apart
-    assert not out.kept_apart
+    assert not out.kept_apart and not out.final_too_close
     assert out.closest == pytest.approx(0.1) and out.closest_time == pytest.approx(0.5)
     assert out.closest_pair == [1, 2]
     assert out.below == pytest.approx(math.sqrt(0.5 ** 2 - 0.1 ** 2) / 2.0)   # |x| < 0.245 m
