@@ -73,6 +73,7 @@ import os
 from pathlib import Path
 import re
 from typing import Any, Protocol
+from xml.etree import ElementTree
 
 from formation_control.core import formations
 from formation_control.core.errors import refuse as _fail, ScenarioError
@@ -185,6 +186,32 @@ def installed() -> tuple[str, ...]:
     """Return the names of the aircraft models the jsbsim package ships, sorted."""
     root = Path(_jsbsim().get_default_root_dir()) / 'aircraft'
     return tuple(sorted(d.name for d in root.iterdir() if (d / f'{d.name}.xml').is_file()))
+
+
+LENGTH_UNITS = {'FT': FT, 'M': 1.0, 'IN': 0.0254}
+"""Metres per unit of a JSBSim length (``<wingspan unit="FT">``)."""
+
+
+@lru_cache(maxsize=16)
+def wingspan(name: str) -> float:
+    """
+    Return the wingspan of the JSBSim aircraft ``name`` (m), its ``metrics/wingspan``.
+
+    Raises
+    ------
+    AircraftError
+        The aircraft is not installed or gives no wingspan, naming ``jsbsim_aircraft``.
+
+    """
+    path = Path(_jsbsim().get_default_root_dir()) / 'aircraft' / name / f'{name}.xml'
+    try:
+        span = ElementTree.parse(path).find('metrics/wingspan')
+    except (OSError, ElementTree.ParseError):
+        span = None
+    if span is None or span.get('unit', 'FT').upper() not in LENGTH_UNITS:
+        raise AircraftError(f"parameter 'jsbsim_aircraft' = {name!r} is invalid: no wingspan "
+                            f'in {path} (an aircraft of: {", ".join(installed())})')
+    return float(span.text or 'nan') * LENGTH_UNITS[span.get('unit', 'FT').upper()]
 
 
 def bank_for_turn(airspeed: RealArray | float, rate: RealArray | float) -> RealArray:

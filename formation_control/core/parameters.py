@@ -444,6 +444,20 @@ class Scenario:
                                       'second_order', **_LIMIT, reads=('model second_order',))
     max_turn_rate: float = _param(0.0, 'rad/s', 'turn-rate command limit, first_order',
                                   **_LIMIT, reads=('model first_order',))
+    # Separation (core/separation.py, docs/separation.md)
+    d_min: float = _param(0.0, 'm', 'separation distance: two vehicles closer than this '
+                          'horizontally are too close (aircraft: and closer than '
+                          'd_min_vertical in altitude)', low=0.0,
+                          zero="derived: the vehicle's size (its length; an aircraft's "
+                          'wingspan)', rule='a splay must space its vehicles at least this far '
+                          '(chord 2 sin(pi/N) / |omega0|)')
+    d_min_vertical: float = _param(0.0, 'm', 'jsbsim: vertical separation, the half-height of '
+                                   "the protected volume (TCAS' ALIM)", low=0.0, zero='d_min',
+                                   reads=_JSBSIM)
+    sensing_range: float = _param(0.0, 'm', 'range within which a vehicle hears every other '
+                                  'vehicle (the safety layer)', low=0.0,
+                                  zero='derived: d_min + twice the top ground speed over one '
+                                  'time constant of the formation law', rule='>= d_min')
     # The run
     seed: int = _param(0, '', 'random seed of the initial state', low=0)
     dt_control: float = _param(0.02, 's', 'control period: each command is held this long',

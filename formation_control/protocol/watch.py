@@ -26,7 +26,7 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable, Mapping
 from typing import Any, TypeAlias
 
-from formation_control.core import graphs, laws
+from formation_control.core import graphs, laws, separation
 from formation_control.core.control import Controller
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
 from formation_control.core.models import ground_velocity, position, ROW_X, ROW_Y
@@ -228,6 +228,33 @@ def formation_level(t: float, since: float | None, converge_within: float) -> tu
     return OK, 'converging'
 
 
+def separation_level(distance: float, pair: tuple[int, int], d_min: float) -> tuple[int, str]:
+    """
+    Return the separation's status level and message: ERROR below d_min, WARN below 2 d_min.
+
+    Parameters
+    ----------
+    distance : float
+        The smallest distance between two vehicles (m); nan with fewer than two.
+    pair : (int, int)
+        Their ids (from 1).
+    d_min : float
+        The separation distance (m), :func:`separation.limits`.
+
+    Returns
+    -------
+    (int, str)
+        E.g. ``(ERROR, 'vehicles 2 and 5 0.31 m apart: below d_min = 1 m')``.
+
+    """
+    if not distance < 2.0 * d_min:
+        return OK, 'kept apart' if np.isfinite(distance) else 'one vehicle'
+    where = f'vehicles {pair[0]} and {pair[1]} {distance:.3g} m apart'
+    if distance < d_min:
+        return ERROR, f'{where}: below d_min = {d_min:.4g} m'
+    return WARN, f'{where}: below 2 d_min = {2.0 * d_min:.4g} m'
+
+
 HISTORY = 16
 """Odometry samples and commands kept per vehicle, so that a sample takes each vehicle's as of
 its stamp: a monitor that joins late gets each vehicle's last samples at once (transient local),
@@ -302,6 +329,8 @@ class Watch:
         self.values: dict[str, float] = {}
         self.deaf: set[tuple[int, int]] = set()     # (k, j): k's latest state does not hear j
         self.shown: tuple[int, float, RealArray, RealArray] | None = None
+        self.d_min = separation.limits(sc).d_min
+        self.closest: tuple[float, int, int] = (np.nan, -1, -1)
 
     @property
     def sc(self) -> Scenario:
@@ -315,6 +344,7 @@ class Watch:
         """Follow the gains the fleet agreed on (:meth:`GainAgreement.announce`; ScenarioError)."""
         self.ctrl = Controller(self.gains.take(agreed))
         self.latch.hold = metrics.hold_window(self.sc)
+        self.d_min = separation.limits(self.sc).d_min
 
     def flow(self, x: RealArray, y: RealArray) -> ComplexArray:
         """Return the flow at (x, y) at the time of the last sample."""
@@ -367,6 +397,7 @@ class Watch:
         flow = self.flow(X[ROW_X], X[ROW_Y])
         self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(X, U[1], flow))
         self.saturated = self.ctrl.saturated(U)
+        self.closest = separation.closest_pair(np.stack([X[ROW_X], X[ROW_Y]], axis=-1))
         return self.values, self.latch.update(bool(metrics.converged(self.sc, snap)), self.t)
 
     def vehicle_status(self, i: int) -> Status:
@@ -395,9 +426,22 @@ class Watch:
         level, message = formation_level(self.t, self.latch.since, self.converge_within)
         return 'formation', level, message, values
 
+    def separation_status(self) -> Status:
+        """
+        Return the separation's status at the last sample (:func:`separation_level`).
+
+        Horizontal distances: the odometry carries no altitude.
+        """
+        distance, i, j = self.closest
+        level, message = separation_level(distance, (i + 1, j + 1), self.d_min)
+        values: dict[str, StatusValue] = {'d_min': f'{self.d_min:.6g}'}
+        if np.isfinite(distance):
+            values.update(closest=f'{distance:.6g}', pair=f'{i + 1} {j + 1}')
+        return 'separation', level, message, values
+
     def statuses(self, rejected: int) -> list[Status]:
-        """Return the formation's status, then every vehicle's."""
-        return [self.formation_status(rejected)] + [
+        """Return the formation's status, the separation's, then every vehicle's."""
+        return [self.formation_status(rejected), self.separation_status()] + [
             self.vehicle_status(i) for i in range(self.sc.num_vehicles)]
 
     def picture(self) -> Picture | None:

@@ -30,7 +30,7 @@ from formation_control.core.models import (ground_velocity, ROW_OMEGA, ROW_THETA
                                            ROW_Y)
 from formation_control.core.parameters import Scenario
 from formation_control.core.vehicles import vehicle_model
-from formation_control.sim import metrics
+from formation_control.sim import metrics, separation
 from formation_control.sim.simulator import Run, summary
 import numpy as np
 from numpy.typing import NDArray
@@ -219,6 +219,8 @@ def format_report(title: str, out: Mapping[str, Any], rows: Iterable[Row]) -> st
                       'error median / p95 (band)'] + [
             f"    {name:18s} {v['median']:.4g} / {v['p95']:.4g} ({v['band']:g})"
             for name, v in out['steady_state'].items()]
+    if out.get('separation'):
+        lines.insert(2, f"  separation         {separation.text(out['separation'])}")
     for name, value, predicted, source in rows:
         pred = '' if predicted is None else f'{predicted:12.6g}'
         lines.append(f'  {name:20s} {value:12.6g} {pred:>12s}  {source}'.rstrip())

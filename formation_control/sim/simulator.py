@@ -39,8 +39,9 @@ from formation_control.core.models import (ground_velocity, ROW_THETA, ROW_U, RO
 from formation_control.core.parameters import Scenario
 from formation_control.core.scenario import initial_state, practical, resolve
 from formation_control.core.sensors import Sample, Sensors
+from formation_control.core.separation import limits
 from formation_control.core.vehicles import vehicle_model
-from formation_control.sim import metrics
+from formation_control.sim import metrics, separation
 from formation_control.sim.allocator import keep_freed_memory
 from formation_control.sim.backends import backend_of
 from formation_control.sim.onboard import OnboardStep
@@ -377,7 +378,8 @@ class Outcome:
 
     Every ``record_dt`` and at the last step (the samples of :class:`Recorder`) it evaluates
     :func:`metrics.converged` on :func:`metrics.snapshot` of each fleet, which are computed
-    per fleet (the minimum separation at the last step only); the states are not kept.
+    per fleet (the minimum separation at the last step only), and follows each fleet's
+    separation (:class:`separation.Tracker`, ``apart``); the states are not kept.
 
     Attributes
     ----------
@@ -391,6 +393,8 @@ class Outcome:
         The fleets whose state diverged in the world (:meth:`stop`), held since.
     final : metrics.Snapshot
         The metrics at the last step, arrays of shape (B,).
+    apart : separation.Tracker
+        Each fleet's separation over the run, between samples too.
 
     """
 
@@ -404,6 +408,8 @@ class Outcome:
         self.errors: list[dict[str, Any]] = []
         self.diverged: BoolArray = np.zeros((), bool)
         self.flown: list[tuple[RealArray, RealArray]] = []
+        lim = limits(sc)
+        self.apart = separation.Tracker(lim.d_min, lim.d_min_vertical)
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None,
@@ -411,13 +417,15 @@ class Outcome:
         """Evaluate the convergence test of step n (X (6, B, N), U (2, B, N)) if recorded."""
         if n % self.sc.record_every == 0 or n == self.steps:
             t = n * self.sc.dt_control
-            separation = n == self.steps or metrics.needs_separation(self.sc)
-            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=separation)
+            every = n == self.steps or metrics.needs_separation(self.sc)
+            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=every)
             self.times.append(t)
             self.samples.append(np.asarray(metrics.converged(self.sc, self.final)))
             self.met.append(metrics.conditions(self.sc, self.final))
             self.errors.append(metrics.steady_errors(self.sc, self.final))
             self.X, self.U = X.copy(), U.copy()
+            P = separation.positions(X, (channels or {}).get('altitude'))
+            self.apart.add(t, P.reshape(-1, *P.shape[-2:]))
             if channels:
                 self.flown.append((self.X, channels['altitude'].copy()))
 
@@ -619,7 +627,8 @@ def summary(run: Run) -> dict[str, Any]:
         and band of each :func:`metrics.steady_errors` over it, and ``settle_window`` (s).
         Circular: ``centre_spread``, ``radius``, ``radius_target``; rigid bodies: ``mean_u``,
         ``mean_v`` (m/s). Aircraft: :func:`aircraft.held`; a run that left its airspeed or
-        altitude band is not converged, and ``unmet`` names it.
+        altitude band is not converged, and ``unmet`` names it. ``separation``: how close the
+        vehicles came and whether they kept apart (:func:`separation.of_run`, its values).
 
     """
     sc = run.sc
@@ -627,9 +636,9 @@ def summary(run: Run) -> dict[str, Any]:
     flags: list[Any] = []
     met: list[dict[str, Any]] = []
     errors: list[dict[str, Any]] = []
-    separation, last = metrics.needs_separation(sc), len(run.t) - 1
+    every, last = metrics.needs_separation(sc), len(run.t) - 1
     for i, (t, X, U) in enumerate(zip(run.t, run.X, run.U)):
-        final = metrics.snapshot(ctrl, X, U, t, separation or i == last)
+        final = metrics.snapshot(ctrl, X, U, t, every or i == last)
         flags.append(metrics.converged(sc, final))
         met.append(metrics.conditions(sc, final))
         errors.append(metrics.steady_errors(sc, final))
@@ -640,7 +649,8 @@ def summary(run: Run) -> dict[str, Any]:
            'convergence_time': verdict.since if verdict.converged else None,
            'held': verdict.held, 'hold_window': verdict.hold,
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
-           'max_turn_rate': final.max_rate}
+           'max_turn_rate': final.max_rate,
+           'separation': separation.of_run(run).values()}
     if practical(sc):
         keep = metrics.window(sc, run.t)
         out['unmet'] = [name for name in met[-1] if not all(

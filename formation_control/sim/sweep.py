@@ -240,8 +240,10 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
         :func:`metrics.conditions` (at the end; with the band test over the last window),
         with the band test ``ss_median_<error>`` and ``ss_p95_<error>`` of each
         :func:`metrics.steady_errors` over the last window, ``diverged`` (a fleet in the world
-        whose state diverged, :meth:`simulator.Outcome.stop`), and ``final_x``, ``final_y``,
-        ``final_theta`` (runs, N).
+        whose state diverged, :meth:`simulator.Outcome.stop`), ``kept_apart`` (no pair ever
+        too close, :class:`separation.Tracker`), ``separation_closest`` (m) and
+        ``separation_time_too_close`` (s), and ``final_x``, ``final_y``, ``final_theta``
+        (runs, N).
 
     """
     sc = scenario.resolve(params)
@@ -254,6 +256,8 @@ def run_batch(params: Mapping[str, Any], seeds: Sequence[int]) -> Rows:
     for name, ok in out.met_conditions().items():
         rows[f'met_{name}'] = np.broadcast_to(ok, (len(seeds),)).copy()
     rows.update(out.final.values())
+    rows.update({f'separation_{k}' if k != 'kept_apart' else k: v
+                 for k, v in out.apart.rows().items()})
     if scenario.practical(sc):
         for name, (median, p95) in out.steady_state().items():
             rows[f'ss_median_{name}'] = np.broadcast_to(median, (len(seeds),)).copy()
@@ -599,7 +603,9 @@ def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
         runs that fail each convergence condition (``met_<condition>`` false; NaN where a
         grid point has no such condition), by name; ``steady``, with the band test, the
         median and 95th percentile over the runs of each run's steady-state error (its 95th
-        percentile over the last window, ``ss_p95_<error>``), by name.
+        percentile over the last window, ``ss_p95_<error>``), by name; ``kept_apart``, the
+        runs that kept apart, with ``apart_low``, ``apart_high`` the Wilson interval of their
+        share (absent from a sweep that has no such column).
 
     """
     axes = json.loads(str(data['axes']))
@@ -622,20 +628,28 @@ def table(data: Mapping[str, NDArray[Any]]) -> list[dict[str, Any]]:
                      'fraction': float(ok.mean()), 'low': low, 'high': high,
                      't10': float(q[0]), 't50': float(q[1]), 't90': float(q[2]),
                      'failed': {k: v for k, v in failed.items() if v}, 'steady': steady})
+        if 'kept_apart' in data:
+            apart = data['kept_apart'][mine] == 1
+            rows[-1].update(zip(('kept_apart', 'apart_low', 'apart_high'),
+                                (int(apart.sum()), *wilson(int(apart.sum()), int(apart.size)))))
     return rows
 
 
 def format_table(rows: Sequence[Mapping[str, Any]]) -> str:
     """Return the table of :func:`table` as text, one line per grid point."""
     width = max(len('grid point'), *(len(r['label']) for r in rows))
+    apart = all('kept_apart' in r for r in rows)
     lines = [f"{'grid point':{width}s}  {'runs':>5s}  {'converged':>9s}  {'95% CI':>13s}  "
-             f"{'t10 (s)':>8s}  {'median':>8s}  {'t90 (s)':>8s}  failed on"]
+             f"{'t10 (s)':>8s}  {'median':>8s}  {'t90 (s)':>8s}  "
+             + (f"{'kept apart':>10s}  {'95% CI':>13s}  " if apart else '') + 'failed on']
     for r in rows:
         failed = ', '.join(f'{k} {v}' for k, v in r.get('failed', {}).items())
         steady = ', '.join(f'{k} {m:.3g}/{q:.3g}' for k, (m, q) in r.get('steady', {}).items())
+        kept = (f"{r['kept_apart'] / r['runs']:10.3f}  [{r['apart_low']:.3f}, "
+                f"{r['apart_high']:.3f}]  " if apart else '')
         lines.append(f"{r['label']:{width}s}  {r['runs']:5d}  {r['fraction']:9.3f}  "
                      f"[{r['low']:.3f}, {r['high']:.3f}]  {r['t10']:8.2f}  {r['t50']:8.2f}  "
-                     f"{r['t90']:8.2f}  {failed}".rstrip()
+                     f"{r['t90']:8.2f}  {kept}{failed}".rstrip()
                      + (f'  steady-state p95 median/p95: {steady}' if steady else ''))
     return '\n'.join(lines)
 

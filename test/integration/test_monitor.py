@@ -123,7 +123,8 @@ def test_formation_status_turns_converged_with_the_time_it_took(recorded):
     took = float(first[0][3]['convergence_time'])
     assert took == pytest.approx(out['convergence_time'], abs=0.1)
     assert first[0][1] == 0
-    vehicles = first[1:]
+    assert first[1][0] == 'formation_control/separation'
+    vehicles = first[2:]
     assert [name for name, *_ in vehicles] == [
         f'formation_control/vehicle_{k}' for k in range(1, out['num_vehicles'] + 1)]
     assert all(level == 0 and msg == 'ok' for _, level, msg, _ in vehicles), vehicles

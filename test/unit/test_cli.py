@@ -38,7 +38,7 @@ CONFIG = Path(__file__).resolve().parents[2] / 'config'
 STATE_KEYS = ('x', 'y', 'theta', 'omega', 'u', 'v')
 SUMMARY_KEYS = {'num_vehicles', 'duration', 'converged', 'unmet', 'convergence_time',
                 'held', 'hold_window', 'order_parameter', 'lyapunov', 'max_turn_rate', 'final',
-                'predicted'}
+                'predicted', 'separation'}
 PARTICLE_OVERRIDES = ['num_vehicles:=4', 'duration:=5.0', 'flow:=[0.2, 0.1]', 'kappa:=4.0']
 AMENT_CASES = pytest.mark.parametrize('ament', [
     pytest.param(True, id='ament_prefix_set'),
@@ -61,7 +61,7 @@ def _printed_figures(stdout):
     figures = {}
     for line in stdout.splitlines():
         words = line.split()
-        if line.startswith('  ') and words[0] not in ('converged', 'quantity'):
+        if line.startswith('  ') and words[0] not in ('converged', 'separation', 'quantity'):
             predicted = words[2] if len(words) > 2 else None
             figures[words[0]] = (words[1], predicted)
     return figures
@@ -111,6 +111,8 @@ def test_sim_exits_zero_and_prints_convergence_figures(particle_run):
     assert {k: v[1] for k, v in printed.items() if v[1] is not None} == {
         k: f'{v:.6g}' for k, v in summary['predicted'].items()}
     assert summary['final']['order_parameter'] == summary['order_parameter']
+    assert f"separation         {'kept apart' if summary['separation']['kept_apart'] else 'no'}" \
+        in proc.stdout
     assert f"converged          {'yes' if summary['converged'] else 'no'}" in proc.stdout
     assert summary['num_vehicles'] == 4
     assert summary['duration'] == 5.0

@@ -181,6 +181,16 @@ class VehicleModel:
         """Return the yaw acceleration of a drag moment, h' (A.13) (rad/s^2); 0 without one."""
         return np.zeros(np.shape(X)[1:])
 
+    def size(self, sc: Any) -> float:
+        """
+        Return the vehicle's size: the diameter of the disc that holds it from above (m).
+
+        Two vehicles of this size may touch once their centres are closer than it; the
+        separation distance ``d_min`` is derived from it (:func:`separation.limits`). ``sc``
+        is the scenario (a model's size may depend on its parameters).
+        """
+        raise NotImplementedError
+
     def surge_mode(self, sc: Any) -> tuple[str, float] | None:
         """
         Return the formula and rate (1/s) of its open-loop surge mode at the speed ``sc.u0``.

@@ -21,20 +21,36 @@ rows u, v stay at 1, 0.
 """
 from __future__ import annotations
 
+from typing import Any
+
 from formation_control.core import _rk4  # type: ignore[attr-defined]
 from formation_control.core.geometry import RealArray
 from formation_control.core.vehicles.base import (Params, ROW_OMEGA, ROW_THETA, ROW_X, ROW_Y,
                                                   VehicleModel)
 import numpy as np
 
+PARTICLE_SIZE = 0.1
+"""The size of a unit-speed particle (m): the thesis' particle is a point flying 1 m/s, so a
+small robot a tenth of the distance it covers in a second (a 92 mm Crazyflie-class quadrotor
+or a small wheeled robot); on the thesis' unit circle it leaves 0.1 of the radius."""
 
-class FirstOrder(VehicleModel):
+
+class Particle(VehicleModel):
+    """A unit-speed particle (1.1), (1.3): ``u = 1, v = 0`` always, the input in ``U[1]``."""
+
+    particle = True
+    backends = ('native', 'jsbsim')                  # JSBSim aircraft fly the particle laws
+
+    def size(self, sc: Any) -> float:
+        """Return :data:`PARTICLE_SIZE` (m); a JSBSim aircraft's is its wingspan (separation)."""
+        return PARTICLE_SIZE
+
+
+class FirstOrder(Particle):
     """The first-order particle (1.1): its input is the turn rate theta' (rad/s)."""
 
     name = 'first_order'
     text = 'first_order (1.1)'
-    particle = True
-    backends = ('native', 'jsbsim')                  # JSBSim aircraft fly the particle laws
     first_order = True
     command_fields = ('', 'turn_rate')
     kernel = _rk4.FIRST_ORDER
@@ -51,13 +67,11 @@ class FirstOrder(VehicleModel):
         raise ValueError('model first_order takes a turn rate: controller first_order')
 
 
-class SecondOrder(VehicleModel):
+class SecondOrder(Particle):
     """The second-order particle (1.3): its input is the angular acceleration omega' (rad/s^2)."""
 
     name = 'second_order'
     text = 'second_order (1.3)'
-    particle = True
-    backends = ('native', 'jsbsim')                  # JSBSim aircraft fly the particle laws
     command_fields = ('', 'angular_acceleration')
     kernel = _rk4.SECOND_ORDER
 

@@ -109,6 +109,15 @@ class Rigid(VehicleModel):
             dw = dw - self.drag_moment_accel(X, p)
         return -p.I0 * dw / p.l
 
+    def size(self, sc: Any) -> float:
+        """
+        Return ``2 l`` (m): the body reaches the arm l behind its centre of mass, as far ahead.
+
+        The thesis' l = 0.5 m gives 1 m, the length of a uniform rod of its m0 = 1 kg and
+        I0 = 0.1 kg m^2 to 10 % (``sqrt(12 I0 / m0)`` = 1.095 m).
+        """
+        return 2.0 * float(sc.l)
+
     def surge_mode(self, sc: Any) -> tuple[str, float] | None:
         """Return the surge drag ``2 h u0 / m0`` (1/s): the drag's slope at u0 over the mass."""
         return '2 h u0 / m0', 2.0 * sc.h * sc.u0 / sc.m0

@@ -64,6 +64,8 @@ from formation_control.core.vehicles.base import (Params, ROW_OMEGA, ROW_U, ROW_
 
 COEFFICIENTS = ('X_udot', 'Y_vdot', 'N_rdot', 'X_u', 'X_uu', 'Y_v', 'Y_vv', 'N_r', 'N_rr')
 """The vessel's hydrodynamic derivatives, scenario parameters (CyberShip II's by default)."""
+LENGTH = 1.255
+"""CyberShip II's length overall (m), whose coefficients are the defaults."""
 
 
 class Vessel(VehicleModel):
@@ -122,6 +124,10 @@ class Vessel(VehicleModel):
         """Return ``tau_r = m33 r' - (m11 - m22) u v + d33 r`` (N m), the moment for r' = dw."""
         m11, m22, m33 = self.masses(p)
         return m33 * dw - (m11 - m22) * X[ROW_U] * X[ROW_V] + self.damping(X, p)[2]
+
+    def size(self, sc: Any) -> float:
+        """Return :data:`LENGTH` (m), CyberShip II's length overall (its beam is 0.29 m)."""
+        return LENGTH
 
     def surge_mode(self, sc: Any) -> tuple[str, float] | None:
         """Return the surge damping's slope at u0 over the surge mass (1/s)."""
