@@ -36,6 +36,7 @@ from formation_control.protocol import faults, names
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, ros_arguments,
                                                    SWARM_LABELS, write_params)
 from formation_control.protocol.healing import HEAL_AFTER, Healer, Hearing, STARTUP
+from formation_control.protocol.onboard import vehicle_topics
 from formation_control.sim import simulator
 
 CLOCK_EVENTS = 8
@@ -429,7 +430,8 @@ class Supervisor:
     with a publisher of its topic (not merely discovered it), so the bag misses nothing.
     """
 
-    def __init__(self, n, mode, bag=None, monitor=True, namespace='/'):
+    def __init__(self, n, mode, bag=None, monitor=True, namespace='/',
+                 vehicle_topics=names.KNOWN_FLOW_TOPICS):
         from diagnostic_msgs.msg import DiagnosticArray
         from formation_control_msgs.msg import FaultEvent
         from nav_msgs.msg import Odometry
@@ -469,7 +471,8 @@ class Supervisor:
         self.recorder = None
         if bag is not None:
             monitored = [prefix + t for t in (names.METRICS_TOPIC, names.MARKERS_TOPIC)]
-            topics = [t for t in fleet_topics(n, prefix) if monitor or t[0] not in monitored]
+            topics = [t for t in fleet_topics(n, prefix, vehicle_topics)
+                      if monitor or t[0] not in monitored]
             topics.append((prefix + names.FAULTS_TOPIC, FAULT_EVENT, itf.FAULTS_QOS))
             self.topics = [t for t, _, _ in topics
                            if mode == 'lockstep' or t != prefix + names.CLOCK_TOPIC]
@@ -622,7 +625,8 @@ def run_swarm(sc, options=SwarmOptions(), mode='lockstep', per_process=1, namesp
         for name in security.UNSET:
             os.environ.pop(name, None)
     with dds_profile.given(None if secure else swarm.dir):
-        supervisor = Supervisor(sc.num_vehicles, mode, bag, options.monitor, namespace)
+        supervisor = Supervisor(sc.num_vehicles, mode, bag, options.monitor, namespace,
+                                vehicle_topics(sc))
     try:
         with swarm:
             wait_plant(swarm, timeout, supervisor, schedule)

@@ -23,7 +23,7 @@ into command lines, ``fleet.launch.py`` into launch Nodes.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 import math
 import os
 from os import PathLike
@@ -276,11 +276,16 @@ class FleetPlan:
             'num_vehicles': self.num_vehicles, 'vehicles_per_process': self.per_process,
             'heal_after': float(heal_after)}, fleet=False)
 
-    def recorder(self, bag: str, monitor: bool) -> Process:
-        """Return the bag recorder of ``bag`` (recording the monitor's topics if ``monitor``)."""
+    def recorder(self, bag: str, monitor: bool, vehicle_topics: Sequence[str]) -> Process:
+        """
+        Return the bag recorder of ``bag`` (recording the monitor's topics if ``monitor``).
+
+        ``vehicle_topics``: each vehicle's topics the fleet publishes
+        (:func:`~formation_control.protocol.onboard.vehicle_topics`).
+        """
         return Process('recorder', 'recorder', (), {
             'bag': bag, 'num_vehicles': self.num_vehicles, 'monitor': monitor,
-            **self.sim_time}, fleet=False, clock=True)
+            'vehicle_topics': list(vehicle_topics), **self.sim_time}, fleet=False, clock=True)
 
 
 def ros_arguments(parameters: Mapping[str, Any]) -> list[str]:

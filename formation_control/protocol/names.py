@@ -39,6 +39,9 @@ it (``/fleet_a/formation/scene``)."""
 VEHICLE_TOPICS = ('odom', 'flow', 'water_velocity', 'formation_state', 'cmd', 'cmd_vel')
 """The topics of each vehicle k, ``vehicle_k/<name>`` (:func:`topic`); ``cmd_vel``: an
 aircraft's autopilot demand (geometry_msgs/TwistStamped), plant_backend jsbsim only."""
+KNOWN_FLOW_TOPICS = ('odom', 'flow', 'formation_state', 'cmd')
+"""Those of a vehicle of a fleet of particles or rigid bodies in a known flow (the bag
+recorder's default; :func:`~formation_control.protocol.onboard.vehicle_topics` in general)."""
 
 
 def namespace_prefix(namespace: str) -> str:

@@ -34,7 +34,9 @@ from formation_control.core.laws import View
 from formation_control.core.models import ROW_U, ROW_V
 from formation_control.core.parameters import Scenario
 from formation_control.core.vehicles import vehicle_model
+from formation_control.protocol import names
 from formation_control.protocol.messages import state_from_odom_values, ViewRow
+from formation_control.sim.backends import backend_of
 from formation_control.sim.onboard import OnboardStep
 import numpy as np
 
@@ -82,6 +84,20 @@ def needs_second_sensor(sc: Scenario) -> str | None:
     if sc.flow_source == 'known':
         return None if sc.flow_model == 'uniform' else 'flow'
     return 'water' if vehicle_model(sc.model).rigid else None
+
+
+def vehicle_topics(sc: Scenario) -> tuple[str, ...]:
+    """
+    Return the topics of each vehicle k a fleet flying ``sc`` publishes (``vehicle_k/<name>``).
+
+    Always its odometry, formation state and command; ``flow`` when the flow is known (latched
+    or with each odometry), ``water_velocity`` when it pairs its odometry with it
+    (:func:`needs_second_sensor`), ``cmd_vel`` when its plant flies an autopilot demand.
+    """
+    extra = {'flow': sc.flow_source == 'known',
+             'water_velocity': needs_second_sensor(sc) == 'water',
+             'cmd_vel': backend_of(sc).takes_demand}
+    return tuple(t for t in names.VEHICLE_TOPICS if extra.get(t, True))
 
 
 def sampled_state(second: str | None, values: Sequence[float], other: Any, flow: complex,

@@ -45,8 +45,25 @@ FLUSH_PERIOD = 1.0
 """Wall seconds between two finished chunks of the bag: what a kill can lose."""
 
 
-def fleet_topics(n, namespace='/'):
-    """Return (topic, ROS type name, QoS) of every topic of a fleet of n in ``namespace``."""
+VEHICLE_TOPIC_TYPES = {
+    'odom': ('nav_msgs/msg/Odometry', itf.STATE_QOS),
+    'flow': ('geometry_msgs/msg/Vector3Stamped', itf.LATCHED_QOS),
+    'water_velocity': ('geometry_msgs/msg/TwistStamped', itf.STATE_QOS),
+    'formation_state': (FORMATION_STATE, itf.STATE_QOS),
+    'cmd': (VEHICLE_COMMAND, itf.STATE_QOS),
+    'cmd_vel': ('geometry_msgs/msg/TwistStamped', itf.STATE_QOS),
+}
+"""The ROS type and QoS of each topic of
+:data:`~formation_control.protocol.names.VEHICLE_TOPICS`."""
+
+
+def fleet_topics(n, namespace='/', vehicle_topics=names.KNOWN_FLOW_TOPICS):
+    """
+    Return (topic, ROS type name, QoS) of every topic of a fleet of n in ``namespace``.
+
+    ``vehicle_topics``: the topics of each vehicle the fleet publishes
+    (:func:`~formation_control.protocol.onboard.vehicle_topics` of its scenario).
+    """
     prefix = names.namespace_prefix(namespace)
     topics = [(prefix + names.CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', itf.LATCHED_QOS),
               (prefix + names.SCENARIO_TOPIC, 'std_msgs/msg/String', itf.LATCHED_QOS),
@@ -55,12 +72,8 @@ def fleet_topics(n, namespace='/'):
               (prefix + names.MARKERS_TOPIC, 'visualization_msgs/msg/MarkerArray',
                itf.STREAM_QOS)]
     for k in range(1, n + 1):
-        topics += [(prefix + names.topic(k, 'odom'), 'nav_msgs/msg/Odometry', itf.STATE_QOS),
-                   (prefix + names.topic(k, 'flow'), 'geometry_msgs/msg/Vector3Stamped',
-                    itf.LATCHED_QOS),
-                   (prefix + names.topic(k, 'formation_state'), FORMATION_STATE,
-                    itf.STATE_QOS),
-                   (prefix + names.topic(k, 'cmd'), VEHICLE_COMMAND, itf.STATE_QOS)]
+        topics += [(prefix + names.topic(k, name), *VEHICLE_TOPIC_TYPES[name])
+                   for name in vehicle_topics]
     return topics
 
 
@@ -200,12 +213,13 @@ class FleetRecorder(BagRecorder):
     the node is destroyed (Ctrl-C, or the launch shutting down).
     """
 
-    def __init__(self, path, n, prefix='/', monitor=True, **kwargs):
+    def __init__(self, path, n, prefix='/', monitor=True,
+                 vehicle_topics=names.KNOWN_FLOW_TOPICS, **kwargs):
         from std_msgs.msg import Empty
 
         left_out = () if monitor else [prefix + t
                                        for t in (names.METRICS_TOPIC, names.MARKERS_TOPIC)]
-        topics = [t for t in fleet_topics(n, prefix) if t[0] not in left_out]
+        topics = [t for t in fleet_topics(n, prefix, vehicle_topics) if t[0] not in left_out]
         super().__init__(path, topics, **kwargs)
         if not self.get_parameter('use_sim_time').value:
             self.readers.pop(prefix + names.CLOCK_TOPIC)
@@ -229,7 +243,13 @@ class FleetRecorder(BagRecorder):
 
 
 def main(args=None):
-    """Record a fleet: ``recorder --ros-args -p bag:=DIR -p num_vehicles:=N``."""
+    """
+    Record a fleet: ``recorder --ros-args -p bag:=DIR -p num_vehicles:=N``.
+
+    ``-p vehicle_topics:="[odom, formation_state, cmd]"``: the topics of each vehicle its fleet
+    publishes (:data:`~formation_control.protocol.names.KNOWN_FLOW_TOPICS`; the launch gives
+    those of its scenario).
+    """
     from formation_control.core.errors import UsageError
     from formation_control.protocol import names
     from formation_control.ros.runner import run
@@ -241,6 +261,8 @@ def main(args=None):
             bag = probe.declare_parameter('bag', '').value
             n = probe.declare_parameter('num_vehicles', 0).value
             monitor = probe.declare_parameter('monitor', True).value
+            topics = probe.declare_parameter('vehicle_topics',
+                                             list(names.KNOWN_FLOW_TOPICS)).value
             prefix = names.namespace_prefix(probe.get_namespace())
         finally:
             probe.destroy_node()
@@ -249,5 +271,9 @@ def main(args=None):
                              'num_vehicles:=N')
         if Path(bag).exists():
             raise UsageError(f'parameter {"bag"!r} = {bag!r} is invalid: it exists already')
-        return FleetRecorder(bag, n, prefix, monitor, context=context)
+        unknown = sorted(set(topics) - set(VEHICLE_TOPIC_TYPES))
+        if unknown:
+            raise UsageError(f"parameter 'vehicle_topics' = {topics!r} is invalid: each one of "
+                             f"{', '.join(VEHICLE_TOPIC_TYPES)} ({unknown[0]!r} is not)")
+        return FleetRecorder(bag, n, prefix, monitor, tuple(topics), context=context)
     return run(make, args)

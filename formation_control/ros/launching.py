@@ -31,6 +31,7 @@ from formation_control.ops import dds_profile, lifetime, security
 from formation_control.protocol.fleet_plan import (check_discovery, FleetPlan, LAUNCH_LABELS,
                                                    write_params)
 from formation_control.protocol.healing import HEAL_AFTER, HEAL_LIMIT
+from formation_control.protocol.onboard import vehicle_topics
 from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -130,7 +131,7 @@ def _fleet(context):
     if _true(a['monitor']):
         processes.append(plan.monitor())
     if record:
-        processes.append(plan.recorder(record, _true(a['monitor'])))
+        processes.append(plan.recorder(record, _true(a['monitor']), vehicle_topics(sc)))
     heal_after = _heal_after(a['heal_after'])
     if heal_after:
         processes.append(plan.warden(heal_after))

@@ -84,7 +84,14 @@ def test_a_member_that_never_joined_is_restarted_and_the_fleet_runs(ros, tmp_pat
 
 
 def test_a_member_that_stops_answering_is_restarted_and_the_fleet_reconverges(ros, tmp_path):
-    out = _healed_run(ros, tmp_path, 'lockstep', freeze=3, when=2.0, duration=40.0)
+    """
+    Frozen at t = 2 s, restarted past ``HEAL_AFTER`` wall seconds, the four converge again.
+
+    In lockstep the fleet runs on without the silent vehicle at 400-1000 steps a wall second
+    here: 40 s of fleet time ended about when it was healed (within the plant's 1 Hz status),
+    so the run is 120 s long.
+    """
+    out = _healed_run(ros, tmp_path, 'lockstep', freeze=3, when=2.0, duration=120.0)
     assert [(h['process'], h['vehicles']) for h in out['healed']] == [('vehicle_3', [3])], out
     healed = out['healed'][0]
     found = re.fullmatch(r'vehicles \[3\] stopped answering: silent (\d+\.\d) s at step (\d+)',

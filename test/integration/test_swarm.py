@@ -109,6 +109,25 @@ def test_bag_holds_every_vehicle_odometry_and_command(ros, tmp_path):
     assert last.child_frame_id == 'vehicle_2/base_link'
 
 
+def test_a_bag_of_an_estimating_fleet_records_what_it_publishes_and_reads_back(ros, tmp_path):
+    """
+    Rigid bodies that estimate the flow publish no ``flow`` but their ``water_velocity``.
+
+    The recorder waits for the topics the fleet publishes (it waited for ``flow`` for good),
+    and the bag holds each vehicle's through-water velocity and reads back as the plant's run.
+    """
+    bag = tmp_path / 'bag'
+    out, _ = _swarm(ros, tmp_path, 'rigid_circular_flow', '-p', 'num_vehicles:=3', '-p',
+                    'flow_source:=estimated', '--duration', '2', '--bag', bag)
+    with AnyReader([bag]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+    for k in (1, 2, 3):
+        assert f'/vehicle_{k}/flow' not in counts
+        assert counts[f'/vehicle_{k}/water_velocity'] >= counts[f'/vehicle_{k}/odom'] > 50
+    fleet = simulator.load_run(Path(out['logs']) / 'run.npz')
+    np.testing.assert_allclose(bagfile.read_run(bag).X[-1], fleet.X[-1], atol=1e-9)
+
+
 def test_the_package_reads_its_own_real_time_bag(ros, tmp_path):
     """
     A real-time bag: the plant samples vehicle k at step (k - 1) mod substeps of each period.

@@ -14,10 +14,13 @@
 
 """The fleet described once: its processes and their parameters (swarm and launch files)."""
 from formation_control.core.errors import ScenarioError
+from formation_control.core.scenario import load
 from formation_control.protocol import fleet_plan
 from formation_control.protocol.fleet_plan import (auto_per_process, FleetPlan, LAUNCH_LABELS,
                                                    ros_arguments, SWARM_LABELS)
+from formation_control.protocol.onboard import vehicle_topics
 import pytest
+from runs import CONFIG
 
 
 def test_one_vehicle_process_each_by_default():
@@ -50,10 +53,10 @@ def test_the_plant_and_vehicles_take_the_fleet_file_the_monitor_and_recorder_the
     assert not monitor.fleet and monitor.clock
     assert monitor.parameters == {'world_frame': 'odom', 'base_frame': 'b{id}',
                                   'foxglove_port': 8765, 'use_sim_time': True}
-    recorder = plan.recorder('bag', monitor=False)
+    recorder = plan.recorder('bag', monitor=False, vehicle_topics=('odom', 'cmd'))
     assert (recorder.member, recorder.fleet, recorder.clock) == ('swarm', False, True)
     assert recorder.parameters == {'bag': 'bag', 'num_vehicles': 2, 'monitor': False,
-                                   'use_sim_time': True}
+                                   'vehicle_topics': ['odom', 'cmd'], 'use_sim_time': True}
 
 
 def test_in_real_time_nothing_takes_the_fleet_time_and_the_plant_does_not_wait():
@@ -125,3 +128,17 @@ def test_more_participants_than_localhost_discovery_reaches_are_refused_with_the
                                      {**LOCALHOST, 'RMW_IMPLEMENTATION': 'rmw_cyclonedds_cpp'}])
 def test_the_limit_is_localhost_discovery_of_rmw_fastrtps_only(environ):
     fleet_plan.check_discovery(65, 64, 1, '--vehicles-per-process', environ)
+
+
+@pytest.mark.parametrize('overrides, topics', [
+    ((), ('odom', 'flow', 'formation_state', 'cmd')),
+    (('flow_source:=estimated',), ('odom', 'water_velocity', 'formation_state', 'cmd')),
+    (('model:=second_order', 'flow_source:=estimated'), ('odom', 'formation_state', 'cmd')),
+    (('flow_model:=vortex', 'flow_circulation:=2.0'), ('odom', 'flow', 'formation_state',
+                                                       'cmd')),
+])
+def test_each_vehicle_publishes_the_topics_its_scenario_needs(overrides, topics):
+    sc = load(CONFIG / 'rigid_circular_flow.yaml', list(overrides))
+    assert vehicle_topics(sc) == topics
+    aircraft = load(CONFIG / 'aircraft_circular.yaml', [])
+    assert vehicle_topics(aircraft) == ('odom', 'flow', 'formation_state', 'cmd', 'cmd_vel')
