@@ -181,6 +181,8 @@ class Pacer:
         self.substeps = substeps
         self.t0_wall = t0_wall
         self.tick = 0
+        self.behind = 0.0
+        """Wall seconds the simulated time has slipped so far (:meth:`due`)."""
 
     def due(self, now: float) -> int:
         """
@@ -194,6 +196,7 @@ class Pacer:
         behind = due - self.tick - self.substeps
         if behind > 0:
             self.t0_wall += behind / self.tick_rate
+            self.behind += behind / self.tick_rate
             due -= behind
         return max(0, due - self.tick)
 

@@ -223,6 +223,10 @@ class Plant:
         self.finished = True
         self.gate.close()
 
+    def behind(self) -> float:
+        """Real time: the wall seconds the simulated time has slipped from its pace (else 0)."""
+        return 0.0 if self.pacer is None else self.pacer.behind
+
     def stalled(self, limit: float) -> tuple[float, list[int]] | None:
         """Lockstep: (seconds waited, ids of the vehicles missing) past ``limit`` s, else None."""
         waited = self.gate.waiting_for()
@@ -270,7 +274,13 @@ class Plant:
         if stopped:
             level, text = 'error', f'vehicles {stopped} stopped: non-finite state'
         silent = self.silent(unmatched)
+        behind = self.behind()
+        if behind > 0 and level == 'ok':
+            pace = self.pacer.tick_rate * self.sc.dt_integration
+            level, text = 'warn', (f'{behind:.1f} s behind the wall clock: the machine does not '
+                                   f'keep the pace asked (real_time_factor {pace:g})')
         values = {'step': self.fleet.n, 'gone': gone, 'stopped': stopped,
+                  'behind': round(behind, 2),
                   'silent': list(silent), 'silent_for': [round(t, 2) for t in silent.values()],
                   **counts,
                   'nudges': self.gate.nudges, 'repeated_commands': self.gate.repeated}

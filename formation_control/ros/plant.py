@@ -73,6 +73,8 @@ REJECTS = ('non_finite', 'wrong_frame', 'stale', 'malformed', 'foreign_id', 'wro
            'interface_version')
 SNAPSHOT_PERIOD = 2.0
 """Wall seconds between two snapshots of the record (at least; see :meth:`PlantNode._snapshot`)."""
+BEHIND = 0.5
+"""Wall seconds the real-time plant may slip more between two warnings."""
 LEVELS = {'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
           'error': DiagnosticStatus.ERROR}
 
@@ -101,6 +103,7 @@ class PlantNode(Node):
         common.clock_bytes(self, self.reject, self.signed)
         self.missing = self.fleet_timer = None
         self.done = self.ended = False
+        self.behind = 0.0
         self.exit_code = 0
         self._create_topics()
         self.get_logger().info(f'plant: {sc.num_vehicles} x {sc.model}, {sc.formation} '
@@ -258,6 +261,12 @@ class PlantNode(Node):
                                    f'commands of vehicles {stalled[1]}',
                                    throttle_duration_sec=5.0)
         level, text, values = self.plant.status(self.reject.counts, self.missing or ())
+        if values['behind'] > self.behind + BEHIND:
+            self.behind = values['behind']
+            self.get_logger().warn(f'real time: {self.behind:.1f} s behind the wall clock so far, '
+                                   f'the machine does not keep the pace: lower num_vehicles or '
+                                   f'the real_time_factor, or run in lockstep',
+                                   throttle_duration_sec=10.0)
         common.publish_diagnostics(self, self.diag_pub, [
             common.status('formation_control/plant', LEVELS[level], text, values)])
 

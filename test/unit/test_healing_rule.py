@@ -154,6 +154,21 @@ def test_real_time_plant_is_silent_on_the_unmatched_before_it_starts_then_on_the
     assert plant.silent() == pytest.approx({3: 3.5})
 
 
+def test_a_real_time_plant_that_falls_behind_the_wall_clock_says_so():
+    clock = Clock()
+    plant = _plant(False, clock)
+    plant.start_clock(0, 2.0)
+    assert plant.status({})[:2] == ('ok', 'step 0') and plant.status({})[2]['behind'] == 0.0
+    clock.t = 3.0                                        # 3 s without a tick: one period kept
+    for _ in plant.ticks():
+        pass
+    slipped = 3.0 - plant.sc.dt_control / 2.0
+    level, text, values = plant.status({})
+    assert values['behind'] == pytest.approx(slipped, abs=0.01) and level == 'warn'
+    assert text == (f'{values["behind"]:.1f} s behind the wall clock: the machine does not keep '
+                    f'the pace asked (real_time_factor 2)')
+
+
 def test_the_hearing_keeps_the_plant_and_the_vehicles_of_its_namespace_only():
     hearing = Hearing('/fleet_a')
     plant = {'step': '12', 'silent': '[2, 3]', 'silent_for': '[4.5, 0.5]'}
