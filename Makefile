@@ -103,8 +103,10 @@ upgrade:
 	mv "$$tmp/constraints" $(CONSTRAINTS)
 	$(MAKE) setup
 
+# The demo's domain is the user's own (1 + uid mod 100) unless ROS_DOMAIN_ID is set: two
+# users of one host do not share it; a second fleet in one domain is refused by the swarm.
 demo: setup
-	ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-37} $(VENV)/bin/formation-control swarm \
+	ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((1 + $$(id -u) % 100))} $(VENV)/bin/formation-control swarm \
 		config/rigid_circular.yaml --duration 60 --out demo.npz --plot demo.png
 
 # Two pytest workers (pytest-xdist), each taking whole test files: the integration tests wait

@@ -181,6 +181,12 @@ def cmd_swarm(args):
                                  'survivors_convergence_time') if k in out}
     _report(run, args.scenario, 'as ROS 2 processes', extra, args.summary)
     _write(args, run)
+    failed = sorted({p['process'] for p in out['lost']
+                     if p['cause'] == 'not scripted' and p['restarted'] is None})
+    if failed:
+        print(f"error: {', '.join(failed)} exited (not scripted) and did not come back: the "
+              f"run failed; their logs are in {out['logs']}", file=sys.stderr)
+        return 1
     return 0
 
 

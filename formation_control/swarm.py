@@ -44,6 +44,9 @@ CLOCK_EVENTS = 8
 RECORD_SLICE = 0.005
 """Wall seconds of recording between two looks at the fleet time."""
 VEHICLE_TOPIC = re.compile(r'/vehicle_(\d+)/')
+GRAPH_PERIOD = 3.0
+"""Wall seconds within which two plants heard in one namespace are two fleets (a plant speaks
+on /diagnostics every second)."""
 
 
 def executable(name):
@@ -557,6 +560,7 @@ class Supervisor:
         The recorder has its own executor: behind a lockstep fleet's stream of samples it may
         lag, and fleet time must not lag with it.
         """
+        self.check_alone()
         if self.recorder is None:
             return self.executor.spin_once(timeout_sec=timeout)
         for _ in range(CLOCK_EVENTS):
@@ -564,6 +568,22 @@ class Supervisor:
         end = time.monotonic() + min(timeout, RECORD_SLICE)
         while time.monotonic() < end:
             self.recording.spin_once(timeout_sec=max(0.0, end - time.monotonic()))
+
+    def check_alone(self):
+        """
+        Raise if another fleet's plant speaks in this fleet's namespace of the domain.
+
+        Two plants heard within :data:`GRAPH_PERIOD` wall seconds (their statuses' ``run``
+        identities differ) publish the same vehicles' odometry: each fleet's vehicles would fly
+        on both, and refuse the other's scenario.
+        """
+        plants = self.hearing.plants_within(GRAPH_PERIOD, time.monotonic())
+        if len(plants) > 1:
+            raise RuntimeError(
+                f'another fleet runs in ROS_DOMAIN_ID {self.context.get_domain_id()}, namespace '
+                f'{names.namespace_of(self.prefix)} (plants {", ".join(plants)} both speak): '
+                f'both fleets publish the same topics; give one another ROS_DOMAIN_ID or '
+                f'--namespace')
 
     def spin(self, seconds):
         end = time.monotonic() + seconds

@@ -81,6 +81,8 @@ class Hearing:
         self.pattern = re.compile(prefix + r'(?:plant|vehicle_(\d+)/links)')
         self.plant_status: tuple[int, dict[int, float]] | None = None
         self.heard: dict[int, Heard] = {}
+        self.plants: dict[str, float] = {}
+        """Each plant's ``run`` identity -> when its status last came (wall s)."""
 
     def hear(self, name: str, values: Mapping[str, str], now: float) -> None:
         """Take one status ``name`` with its key/value pairs, heard at wall ``now``."""
@@ -89,6 +91,7 @@ class Hearing:
             return
         try:
             if found[1] is None:
+                self.plants[values.get('run', '')] = now
                 ids, waited = json.loads(values['silent']), json.loads(values['silent_for'])
                 self.plant_status = (int(values['step']),
                                      dict(zip(map(int, ids), map(float, waited))))
@@ -97,6 +100,10 @@ class Hearing:
                     now, tuple(map(int, json.loads(values.get('awaiting', '[]')))))
         except (KeyError, ValueError, TypeError):
             return
+
+    def plants_within(self, seconds: float, now: float) -> list[str]:
+        """Return the ``run`` identities of the plants heard within ``seconds`` of ``now``."""
+        return sorted(run for run, at in self.plants.items() if now - at <= seconds)
 
     def take_plant_status(self) -> tuple[int, dict[int, float]] | None:
         """Return the plant's status heard since the last call (or None): each is judged once."""

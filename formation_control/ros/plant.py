@@ -104,6 +104,9 @@ class PlantNode(Node):
         self.missing = self.fleet_timer = None
         self.done = self.ended = False
         self.behind = 0.0
+        self.run_id = os.urandom(4).hex()
+        """This run's identity in the plant's status (``run``): two in one namespace are two
+        fleets on the same topics (the swarm refuses to go on)."""
         self.exit_code = 0
         self._create_topics()
         self.get_logger().info(f'plant: {sc.num_vehicles} x {sc.model}, {sc.formation} '
@@ -261,6 +264,7 @@ class PlantNode(Node):
                                    f'commands of vehicles {stalled[1]}',
                                    throttle_duration_sec=5.0)
         level, text, values = self.plant.status(self.reject.counts, self.missing or ())
+        values['run'] = self.run_id
         if values['behind'] > self.behind + BEHIND:
             self.behind = values['behind']
             self.get_logger().warn(f'real time: {self.behind:.1f} s behind the wall clock so far, '

@@ -21,20 +21,23 @@ run, Ctrl-C stops every process.
 """
 import json
 import math
+import os
 from pathlib import Path
 import re
 import signal
 import socket
 
+from diagnostic_msgs.msg import DiagnosticArray
 from formation_control.bags import reader as bagfile
 from formation_control.core.scenario import resolve
 from formation_control.protocol import faults, messages, names
 from formation_control.protocol.fleet_plan import auto_per_process, cores
+from formation_control.ros.interface import STREAM_QOS
 from formation_control.sim import simulator
 import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
-from rosutil import CONFIG
+from rosutil import CONFIG, output
 from runs import assert_equal_runs, offline_run
 import yaml
 
@@ -403,6 +406,55 @@ def test_a_live_view_on_a_busy_port_is_refused_before_any_start(ros):
         f'error: --foxglove {port}: cannot serve the Foxglove live view on 127.0.0.1:{port} '
         f'(Address already in use): give a free port')
     assert 'started' not in result.stdout + result.stderr
+
+
+def test_two_fleets_in_one_domain_and_namespace_stop_saying_why(ros):
+    """A second swarm on the first one's topics: both end, exit 1, naming the cause."""
+    diagnostics = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    first = ros.procs.start('formation-control', 'swarm', 'particle_parallel', '--mode',
+                            'realtime', '--duration', '120', '--no-monitor')
+    assert ros.probe.spin_until(lambda: any(
+        s.name == 'formation_control/plant' for m in diagnostics for s in m.status),
+        timeout=60), output(first)
+    second = ros.procs.run('formation-control', 'swarm', 'particle_parallel', '--mode',
+                           'realtime', '--duration', '120', '--no-monitor', timeout=120)
+    assert ros.probe.spin_until(lambda: first.poll() is not None, timeout=60), output(first)
+    line = re.compile(rf'error: another fleet runs in ROS_DOMAIN_ID {ros.domain_id}, '
+                      r'namespace / \(plants \w{8}, \w{8} both speak\): both fleets publish '
+                      r'the same topics; give one another ROS_DOMAIN_ID or --namespace')
+    assert second.returncode == 1 and line.fullmatch(second.stderr.strip().splitlines()[-1])
+    assert first.returncode == 1 and line.search(output(first)), output(first)
+
+
+def test_a_swarm_that_lost_a_vehicle_it_did_not_script_exits_1_naming_it(ros):
+    diagnostics = ros.probe.collect(DiagnosticArray, '/diagnostics', STREAM_QOS)
+    swarm = ros.procs.start('formation-control', 'swarm', 'particle_parallel', '-p',
+                            'num_vehicles:=3', '--mode', 'realtime', '--duration', '8',
+                            '--vehicles-per-process', '1', '--no-monitor')
+    assert ros.probe.spin_until(lambda: any(
+        s.name == 'formation_control/plant' for m in diagnostics for s in m.status),
+        timeout=60), output(swarm)
+    vehicle = next(pid for pid in map(int, filter(str.isdigit, os.listdir('/proc')))
+                   if ' vehicle_id:=2 ' in _cmdline(pid) + ' ' and _parent(pid) == swarm.pid)
+    os.kill(vehicle, signal.SIGKILL)
+    assert ros.probe.spin_until(lambda: swarm.poll() is not None, timeout=120), output(swarm)
+    assert swarm.returncode == 1
+    assert re.search(r'error: vehicle_2 exited \(not scripted\) and did not come back: the run '
+                     r'failed; their logs are in \S+\n*$', output(swarm)), output(swarm)
+
+
+def _cmdline(pid):
+    try:
+        return Path(f'/proc/{pid}/cmdline').read_bytes().replace(b'\0', b' ').decode().strip()
+    except OSError:
+        return ''
+
+
+def _parent(pid):
+    try:
+        return int(Path(f'/proc/{pid}/stat').read_text().rsplit(') ', 1)[1].split()[1])
+    except (OSError, IndexError, ValueError):
+        return None
 
 
 def test_the_default_swarm_groups_vehicle_nodes_by_the_cores(ros, tmp_path):

@@ -189,3 +189,14 @@ def test_a_status_that_does_not_parse_is_passed_over(values):
     hearing.hear('formation_control/plant', values, 1.0)
     hearing.hear('formation_control/vehicle_2/links', {'awaiting': 'nope'}, 1.0)
     assert hearing.take_plant_status() is None and hearing.heard == {}
+
+
+def test_the_hearing_tells_two_plants_of_one_namespace_apart_by_their_run():
+    hearing = Hearing()
+    status = {'step': '1', 'silent': '[]', 'silent_for': '[]'}
+    hearing.hear('formation_control/plant', {**status, 'run': 'a'}, 10.0)
+    hearing.hear('formation_control/plant', {**status, 'run': 'a'}, 11.0)
+    assert hearing.plants_within(3.0, 11.5) == ['a']
+    hearing.hear('formation_control/plant', {**status, 'run': 'b'}, 12.0)
+    assert hearing.plants_within(3.0, 12.5) == ['a', 'b']
+    assert hearing.plants_within(3.0, 14.5) == ['b']          # a's last status is 3.5 s old
