@@ -27,7 +27,7 @@ import re
 
 from formation_control.core.errors import ScenarioError
 
-from formation_control.core.parameters import PLANT_ONLY
+from formation_control.core.parameters import PLANT_ONLY, RUNTIME
 
 from formation_control.core.scenario import resolve
 from formation_control.ops.security import check_environment as check_security
@@ -225,26 +225,49 @@ def _same(a, b):
 
 
 def check_parameters(facts):
-    """Check each vehicle's scenario parameters against the plant's latched scenario."""
+    """
+    Check each vehicle's scenario parameters: the fixed ones against the plant's scenario.
+
+    A run-time parameter (``formation-control set``) is the vehicles' to change: they must
+    agree with each other; where they all differ from the plant's scenario, one note says so.
+    """
     if facts.scenario is None:
         return []
     plant = resolve(facts.scenario).to_dict()
-    out = []
+    out, mine = [], {}
     for node, values in sorted(facts.parameters.items()):
         if values is None:
             out.append(Finding(WARNING, node, 'its parameters could not be read (no parameter '
                                'service answered)'))
             continue
         try:
-            mine = resolve(values).to_dict()
+            mine[node] = resolve(values).to_dict()
         except ScenarioError as err:
             out.append(Finding(ERROR, node, f'its scenario parameters do not resolve: {err}'))
-            continue
+    for node, values in mine.items():
         for name in plant:
-            if not _same(mine[name], plant[name]):
+            if name not in RUNTIME and not _same(values[name], plant[name]):
                 level = NOTE if name in PLANT_ONLY else ERROR
-                out.append(Finding(level, node, f'{name} = {mine[name]!r}, the plant has '
+                out.append(Finding(level, node, f'{name} = {values[name]!r}, the plant has '
                                    f'{plant[name]!r}'))
+    return out + _runtime_findings(mine, plant)
+
+
+def _runtime_findings(mine, plant):
+    """Return the findings on run-time parameters: vehicles that disagree, or one note."""
+    out = []
+    for name in RUNTIME:
+        values = [(node, v[name]) for node, v in mine.items()]
+        if not values:
+            continue
+        first_node, first = values[0]
+        others = [(node, v) for node, v in values[1:] if not _same(v, first)]
+        out += [Finding(ERROR, node, f'{name} = {v!r}, {first_node} has {first!r}: the fleet '
+                        f'runs two gains (formation-control set {name}:=... sets every one)')
+                for node, v in others]
+        if not others and not _same(first, plant[name]):
+            out.append(Finding(NOTE, 'fleet', f'{name} = {first!r} on every vehicle (set at run '
+                               f'time); the scenario of the plant says {plant[name]!r}'))
     return out
 
 

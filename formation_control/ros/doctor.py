@@ -162,8 +162,18 @@ class Gatherer:
         facts.scenario_publishers = [_fq(i.node_name, i.node_namespace)
                                      for i in node.get_publishers_info_by_topic(scenario_topic)]
 
+    def _fleet_seen(self, facts, topic, n):
+        """Take the graph into ``facts``; return whether it shows every vehicle node 1..n."""
+        self._graph(facts, topic)
+        return set(range(1, n + 1)) <= set(doctor.vehicle_ids(facts))
+
     def gather(self, listen=2.0, discover=5.0):
-        """Return the :class:`doctor.Facts` of the fleet (waits ``discover`` s for the plant)."""
+        """
+        Return the :class:`doctor.Facts` of the fleet.
+
+        It waits up to ``discover`` s for the plant's scenario, then as long for the graph to
+        show every vehicle node (discovery takes 1-3 s: a node not seen yet is not missing).
+        """
         node = self.node
         facts = doctor.Facts(namespace=node.get_namespace(),
                              env={k: os.environ[k] for k in ENVIRONMENT if k in os.environ})
@@ -184,7 +194,7 @@ class Gatherer:
         facts.state_topics = {k: node.resolve_topic_name(names.topic(k, 'formation_state'))
                               for k in range(1, sc.num_vehicles + 1)}
         self._listen(facts, sc, listen)
-        self._graph(facts, topic)
+        self.spin_until(lambda: self._fleet_seen(facts, topic, sc.num_vehicles), discover)
         for ids in doctor.vehicle_ids(facts).values():
             for name in set(ids):
                 facts.parameters[name] = self._parameters(name, PARAMETER_NAMES, 2.0)

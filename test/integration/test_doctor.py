@@ -78,12 +78,27 @@ def test_a_vehicle_whose_scenario_differs_from_the_plants_is_an_error():
     facts.parameters['/vehicle_3'] = None
     findings = doctor.diagnose(facts, qos_check_compatible)
     assert _problems(facts) == [
-        ('error', '/vehicle_2', 'kappa = 2.5, the plant has 5.0'),
         ('warning', '/vehicle_3', 'its parameters could not be read (no parameter service '
-                                  'answered)')]
+                                  'answered)'),
+        ('error', '/vehicle_2', 'kappa = 2.5, /vehicle_1 has 5.0: the fleet runs two gains '
+                                '(formation-control set kappa:=... sets every one)')]
     assert ('note', '/vehicle_2', 'duration = 1.0, the plant has 100.0') in [
         (f.level, f.subject, f.text) for f in findings]
     assert doctor.exit_status(findings) == 1
+
+
+def test_gains_set_at_run_time_on_every_vehicle_are_a_note_not_a_problem():
+    """``formation-control set kappa:=3 K:=0.5`` on every vehicle: the plant keeps its own."""
+    facts = _healthy()
+    for values in facts.parameters.values():
+        values.update(kappa=3.0, K=0.5)
+    findings = doctor.diagnose(facts, qos_check_compatible)
+    assert _problems(facts) == [] and doctor.exit_status(findings) == 0
+    notes = [(f.subject, f.text) for f in findings if f.level == doctor.NOTE]
+    assert ('fleet', 'K = 0.5 on every vehicle (set at run time); the scenario of the plant '
+                     'says 1.0') in notes
+    assert ('fleet', 'kappa = 3.0 on every vehicle (set at run time); the scenario of the plant '
+                     'says 5.0') in notes
 
 
 def test_incompatible_qos_pairs_are_named_with_rclpys_reason():
@@ -214,5 +229,6 @@ def test_doctor_finds_the_missing_and_the_misconfigured_vehicle_of_a_real_fleet(
     assert '/fleet_a/clock' in {e.topic for e in facts.endpoints}
     found = _problems(facts)
     assert ('error', 'fleet', 'vehicles [3] of the 3 are missing (no node vehicle_k)') in found
-    assert ('error', '/fleet_a/vehicle_2', 'kappa = 2.5, the plant has 5.0') in found
+    assert ('error', '/fleet_a/vehicle_2', 'kappa = 2.5, /fleet_a/vehicle_1 has 5.0: the '
+            'fleet runs two gains (formation-control set kappa:=... sets every one)') in found
     assert not [f for f in found if f[1] in ('/fleet_a/vehicle_1', '/vehicle_3')], found
