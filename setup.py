@@ -13,8 +13,11 @@
 # limitations under the License.
 
 from glob import glob
+import sys
 
 from setuptools import Extension, find_packages, setup
+from setuptools.command.develop import develop
+from setuptools.command.install import install
 
 package_name = 'formation_control'
 
@@ -87,8 +90,33 @@ aircraft_requires = ['jsbsim']                          # plant_backend: jsbsim 
 rk4 = Extension('formation_control.core._rk4', ['formation_control/core/_rk4.c'],
                 extra_compile_args=['-O3', '-ffp-contract=off', '-std=gnu99'])
 
+# colcon builds an ament_python package with `setup.py install` (or `develop`, with
+# --symlink-install), and does not look inside a package for another: a plain `colcon build`
+# of a workspace holding this repository finds formation_control alone. Its nodes need
+# formation_control_msgs (nested here), so such a build stops at once with what to run, rather
+# than installing nodes that die on their first import. pip (bdist_wheel, editable_wheel) does
+# not come here: `make setup` builds the interface package after the Python one.
+MSGS_MISSING = ('formation_control_msgs is not built and not installed: colcon does not look '
+                'inside a package, so name both: colcon build --base-paths '
+                'src/formation_control src/formation_control/formation_control_msgs')
+
+
+def _check_msgs(command):
+    """Return ``command`` (a setuptools command class) that first imports the messages."""
+    class Checked(command):
+        def run(self):
+            if {'install', 'develop'} & set(sys.argv[1:]):
+                try:
+                    import formation_control_msgs.msg  # noqa: F401
+                except ImportError:
+                    raise SystemExit(f'error: {MSGS_MISSING}') from None
+            super().run()
+    return Checked
+
+
 setup(
     name=package_name,
+    cmdclass={'install': _check_msgs(install), 'develop': _check_msgs(develop)},
     version='0.1.0',
     packages=find_packages(exclude=['test']),
     ext_modules=[rk4],

@@ -168,7 +168,7 @@ MONITOR = {
 }
 """``monitor``."""
 
-WARDEN = {
+WARDEN: dict[str, tuple[Any, Spec]] = {
     'num_vehicles': (1, Spec('', 'the vehicles of the fleet it heals', low=1, high=10_000)),
     'vehicles_per_process': (1, Spec('', "the launch's vehicle nodes per process", low=1,
                                      high=10_000)),
@@ -178,7 +178,8 @@ WARDEN = {
 }
 """``warden`` (``fleet.launch.py`` sets them: :mod:`formation_control.ros.warden`)."""
 
-NODES = {'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR, 'warden': WARDEN}
+NODES: dict[str, dict[str, tuple[Any, Spec]]] = {
+    'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR, 'warden': WARDEN}
 
 
 def _number(x: float) -> str:

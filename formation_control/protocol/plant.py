@@ -275,7 +275,7 @@ class Plant:
             level, text = 'error', f'vehicles {stopped} stopped: non-finite state'
         silent = self.silent(unmatched)
         behind = self.behind()
-        if behind > 0 and level == 'ok':
+        if self.pacer is not None and behind > 0 and level == 'ok':
             pace = self.pacer.tick_rate * self.sc.dt_integration
             level, text = 'warn', (f'{behind:.1f} s behind the wall clock: the machine does not '
                                    f'keep the pace asked (real_time_factor {pace:g})')

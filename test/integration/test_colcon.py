@@ -22,6 +22,7 @@ package).
 """
 import os
 from pathlib import Path
+import shutil
 import subprocess
 import sys
 
@@ -30,6 +31,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 MSGS = 'formation_control_msgs'
 COLCON = str(Path(sys.executable).parent / 'colcon')
+IGNORED = ('.venv', 'build', 'install', 'log', '*.egg-info', '__pycache__', '.git', '*.npz',
+           '*.png', '.pytest_cache', '.mypy_cache', '.benchmarks', 'node_modules')
 
 
 @pytest.fixture
@@ -93,3 +96,26 @@ def test_one_colcon_build_installs_both_packages(colcon_workspace):
     assert (site / MSGS / 'msg' / '__init__.py').is_file()
     assert (colcon_workspace / 'install' / 'formation_control' / 'share' / 'formation_control'
             / 'package.xml').is_file()
+
+
+def test_a_plain_colcon_build_without_the_messages_stops_saying_what_to_run(tmp_path):
+    """
+    The ROS habit: the repository in ``src/``, then ``colcon build``, without the messages.
+
+    On a machine where formation_control_msgs is nowhere (shadowed here by a module that cannot
+    be imported), the build of formation_control stops at once and says what to run.
+    """
+    shutil.copytree(ROOT, tmp_path / 'src' / 'formation_control',
+                    ignore=shutil.ignore_patterns(*IGNORED))
+    shadow = tmp_path / 'shadow' / MSGS
+    shadow.mkdir(parents=True)
+    (shadow / '__init__.py').write_text("raise ImportError('not built')\n")
+    env = dict(os.environ, PYTHONPATH=str(shadow.parent),
+               PATH=f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}')
+    result = subprocess.run([COLCON, 'build', '--event-handlers', 'console_direct-'],
+                            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    out = result.stdout + result.stderr
+    assert result.returncode != 0 and 'Failed   <<< formation_control [' in out, out[-3000:]
+    assert ('error: formation_control_msgs is not built and not installed: colcon does not look '
+            'inside a package, so name both: colcon build --base-paths src/formation_control '
+            'src/formation_control/formation_control_msgs') in out, out[-3000:]
