@@ -29,6 +29,7 @@ from formation_control.bags.repair import finish_chunk
 from formation_control.protocol import names
 from formation_control.protocol.names import START_TOPIC
 from formation_control.ros import interface as itf
+from formation_control.ros.common import probe_node
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile
 from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
@@ -255,8 +256,7 @@ def main(args=None):
     from formation_control.ros.runner import run
 
     def make(context):
-        probe = Node('formation_bag_recorder', context=context, start_parameter_services=False,
-                     enable_rosout=False)
+        probe = probe_node('formation_bag_recorder', context)
         try:
             bag = probe.declare_parameter('bag', '').value
             n = probe.declare_parameter('num_vehicles', 0).value

@@ -23,6 +23,8 @@ from formation_control.ros import interface as itf
 from formation_control.ros.fits import fits
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -218,3 +220,15 @@ class Latencies:
                 out[f'{name}_ms_p50'] = f'{np.median(ms):.3f}'
                 out[f'{name}_ms_p99'] = f'{np.percentile(ms, 99):.3f}'
         return out
+
+
+def probe_node(name, context):
+    """
+    Return a short-lived node that leaves no trace in the graph once destroyed.
+
+    No parameter services, no rosout, and no ``~/get_type_description`` service: rclpy
+    destroys that one only when not in use, and ``ros2 service list`` kept showing it after
+    the node was gone.
+    """
+    return Node(name, context=context, start_parameter_services=False, enable_rosout=False,
+                parameter_overrides=[Parameter('start_type_description_service', value=False)])

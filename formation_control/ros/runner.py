@@ -27,12 +27,12 @@ from formation_control.ops.lifetime import die_with_parent, end_within, GRACE
 from formation_control.ops.security import check_environment
 from formation_control.ops.signing import check_member
 from formation_control.protocol.node_parameters import checked_overrides
+from formation_control.ros.common import probe_node
 import rclpy
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
-from rclpy.node import Node
 
 WHERE = re.compile(r', at /\S+:\d+')
 """rcl's source locations in its error text, left out of the one line the user reads."""
@@ -81,8 +81,7 @@ def _participant(context):
     rmw_fastrtps creates the participant with the first node and destroys it with the last;
     this node is kept until the real nodes exist.
     """
-    return Node(f'_participant_{os.getpid()}', context=context,
-                start_parameter_services=False, enable_rosout=False)
+    return probe_node(f'_participant_{os.getpid()}', context)
 
 
 def run(make_node, args=None):

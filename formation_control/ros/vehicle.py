@@ -296,8 +296,7 @@ class VehicleNode(Node):
 
 def _probe_parameter(context, name, default):
     """Read ``name`` from the command line / parameter file before naming the node(s)."""
-    probe = Node('vehicle', context=context, start_parameter_services=False,
-                 enable_rosout=False)
+    probe = common.probe_node('vehicle', context)
     try:
         probe.declare_parameter(name, default)
         return probe.get_parameter(name).value

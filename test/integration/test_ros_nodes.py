@@ -238,6 +238,9 @@ def test_parameters_from_yaml_and_run_time_changes(ros, tmp_path):
                 GetParameters.Request(names=['kappa', 'K']))
     assert [v.double_value for v in got.values] == [2.0, -1.0]
     assert vehicle.poll() is None
+    services = [n for n, _ in ros.probe.node.get_service_names_and_types()]
+    assert f'{name}/get_type_description' in services
+    assert not [n for n in services if n.startswith(('/vehicle/', '/_participant'))], services
     assert interrupt(vehicle) == 0
 
 
