@@ -271,7 +271,7 @@ class FleetPlan:
                        fleet=False, clock=True)
 
     def warden(self, heal_after: float) -> Process:
-        """Return the warden of a launched fleet (:mod:`formation_control.ros.warden`)."""
+        """Return the warden of a launched fleet (``formation_control.ros.warden``)."""
         return Process('warden', 'warden', (), {
             'num_vehicles': self.num_vehicles, 'vehicles_per_process': self.per_process,
             'heal_after': float(heal_after)}, fleet=False)

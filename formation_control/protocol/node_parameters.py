@@ -176,7 +176,7 @@ WARDEN: dict[str, tuple[Any, Spec]] = {
                                     'process before it is restarted (plus 2.5 s per process at '
                                     'step 0)', low=0.5, high=3600.0)),
 }
-"""``warden`` (``fleet.launch.py`` sets them: :mod:`formation_control.ros.warden`)."""
+"""``warden`` (``fleet.launch.py`` sets them: ``formation_control.ros.warden``)."""
 
 NODES: dict[str, dict[str, tuple[Any, Spec]]] = {
     'plant': PLANT, 'vehicle': VEHICLE, 'monitor': MONITOR, 'warden': WARDEN}

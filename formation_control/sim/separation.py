@@ -224,10 +224,11 @@ def frames(P0: RealArray, P1: RealArray, d: float, dv: float) -> Frames:
     F, n = P0.shape[:2]
     out = Frames(np.full(F, np.inf), np.full((F, 2), -1), np.zeros(F), np.full(F, np.inf),
                  np.full((F, 2), -1), np.zeros(F), np.zeros(F), np.zeros(F, bool))
-    i, j = np.triu_indices(n, 1)
-    if i.size == 0:
+    pairs = n * (n - 1) // 2
+    if pairs == 0:
         return out
-    if i.size <= ROWS:
+    if pairs <= ROWS:
+        i, j = np.triu_indices(n, 1)
         block = ROWS // i.size
         for start in range(0, F, block):
             f = np.arange(start, min(start + block, F))

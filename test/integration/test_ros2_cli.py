@@ -279,7 +279,7 @@ def test_two_launched_fleets_inspected_and_tuned_with_the_ros2_cli(cli, tmp_path
     window = time.time_ns()
     hz, = cli.many((8.0, ['topic', 'hz', '/fleet_a/vehicle_1/formation_state']))  # alone: the
     window = (window, time.time_ns())                                  # batch loads the CPUs
-    cli.probe.spin_for(0.5)
+    assert cli.probe.spin_until(lambda: states and states[-1] > window[1], 60)  # all taken
     (_, nodes), odom, state, cmd, metric, info, kind, *dumps = out
     dumps, refusals, (run_rc, run_out), bad_launch, too_many, bad_mode, old_bag = (
         dumps[:3], dumps[3:7], *dumps[7:])
