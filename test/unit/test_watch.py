@@ -130,7 +130,7 @@ def test_a_sample_takes_each_vehicles_state_and_command_as_of_its_stamp(clock):
         w.cmd(1, [0.0, 0.1 * n], n * 20 * MS)
     assert w.odom(2, X[:, 1], 0)
     w.sample(0)
-    _, _, shown_X, shown_U = w.shown
+    _, _, shown_X, shown_U, _ = w.shown
     np.testing.assert_array_equal(shown_X, X)
     assert shown_U[1, 0] == 0.0
     assert w.odom(2, X[:, 1], 20 * MS)
