@@ -89,7 +89,7 @@ class Run:
 
     @property
     def gust(self) -> ComplexArray:
-        """The gusts recorded, complex m/s, (T, N): :func:`world.recorded_gust` (0: none)."""
+        """Return the gusts recorded, complex m/s, (T, N): :func:`world.recorded_gust`, or 0."""
         return np.broadcast_to(recorded_gust(self.channels), self.X[:, 0].shape)
 
     def arrays(self) -> dict[str, Any]:
