@@ -36,12 +36,14 @@ from formation_control.bags import schemas
 from formation_control.core.errors import UsageError
 from formation_control.core.flowfields import Flowfield
 from formation_control.core.geometry import RealArray
-from formation_control.core.models import ROW_OMEGA
+from formation_control.core.models import ground_velocity, ROW_OMEGA
 from formation_control.core.scenario import resolve, Scenario
 from formation_control.core.vehicles import vehicle_model
+from formation_control.core.world import GUST_CHANNELS
 from formation_control.protocol import names
-from formation_control.protocol.messages import (input_from_cmd, INTERFACE_VERSION,
-                                                 METRIC_DOC, stamp_ns, state_from_odom)
+from formation_control.protocol.messages import (ground_velocity_of, input_from_cmd,
+                                                 INTERFACE_VERSION, METRIC_DOC, odom_values_of,
+                                                 stamp_ns, state_from_odom)
 from formation_control.sim.simulator import Run
 import numpy as np
 from rosbags.rosbag2 import Reader
@@ -130,7 +132,10 @@ def read_run(path: str | Path) -> Run:
         odometry is present (:func:`_periods`: a real-time plant samples the vehicles at
         staggered steps of each period; the run's time is the period's start), with each
         vehicle's latest command at its sample; its ``meta['skipped']`` is {topic: samples
-        left out} (undecodable, or an odometry or command not finite).
+        left out} (undecodable, or an odometry or command not finite). In gusts
+        (``gust_intensity``) its channels hold each vehicle's gust (:data:`world.GUST_CHANNELS`):
+        the odometry's ground velocity less that of the state in the flowfield, which the
+        metrics read (a particle's state has no place for it).
 
     Raises
     ------
@@ -172,33 +177,38 @@ def read_run(path: str | Path) -> Run:
         U[at >= 0, :, k] = values[at[at >= 0]]
     if vehicle_model(sc.model).first_order:
         X[:, ROW_OMEGA] = U[:, 1]
-    return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)})
+    gust = np.array([[cols[k][2] for k in range(n)] for cols in chosen])
+    channels = dict(zip(GUST_CHANNELS, (gust.real, gust.imag))) if sc.gust_intensity else {}
+    return Run(sc, steps * sc.dt_control, X, U, {'source': str(path), 'skipped': dict(skipped)},
+               channels=channels)
 
 
 def _periods(sc: Scenario, samples: list[tuple[int, int, Any, str]], skipped: Counter[str],
-             path: str | Path) -> dict[int, dict[int, tuple[int, RealArray]]]:
+             path: str | Path) -> dict[int, dict[int, tuple[int, RealArray, complex]]]:
     """
-    Return {control period: {vehicle index: (odometry stamp, state)}} of the odometry samples.
+    Return {control period: {vehicle index: (odometry stamp, state, gust)}} of the odometry.
 
     In lockstep every vehicle's sample of a period is stamped with its start; in real time
     the plant samples vehicle k at integration step (k - 1) mod substeps of each period
     (:func:`~formation_control.protocol.lockstep.sample_slots`): the period is the one the
     stamp falls in, counted from the first sample (t = 0). The flow a state is taken relative
-    to is the flowfield's at the sample's own time.
+    to is the flowfield's at the sample's own time; the gust is what of the odometry's ground
+    velocity the state in it does not explain.
     """
     if not samples:
         raise UsageError(f'{path}: the bag has no odometry of the fleet')
     t0 = min(stamp for stamp, _, _, _ in samples)
     period_ns, half_step = round(sc.dt_control * 1e9), round(sc.dt_integration * 5e8)
     field = Flowfield(sc)
-    out: defaultdict[int, dict[int, tuple[int, RealArray]]] = defaultdict(dict)
+    out: defaultdict[int, dict[int, tuple[int, RealArray, complex]]] = defaultdict(dict)
     for stamp, k, msg, topic in samples:
         pos = msg.pose.pose.position
         with np.errstate(invalid='ignore'):
             flow = complex(field((stamp - t0) * 1e-9, pos.x, pos.y))
         x = state_from_odom(msg, flow, sc.model)
         if _finite(x, topic, skipped):
-            out[(stamp - t0 + half_step) // period_ns].setdefault(k, (stamp, x))
+            gust = ground_velocity_of(odom_values_of(msg)) - complex(ground_velocity(x, flow))
+            out[(stamp - t0 + half_step) // period_ns].setdefault(k, (stamp, x, gust))
     return out
 
 

@@ -565,7 +565,8 @@ class Controller:
         return X
 
     def view(self, X: RealArray, F_held: RealArray | None = None,
-             flow: complex | ComplexArray | None = None) -> laws.View:
+             flow: complex | ComplexArray | None = None,
+             gust: complex | ComplexArray = 0.0) -> laws.View:
         """
         Return the particle view of the vehicles ``X``: what each vehicle shares with the others.
 
@@ -579,6 +580,10 @@ class Controller:
         flow : array_like of complex, shape (n,), optional
             The flow each vehicle uses (m/s): its known local flow or its estimate; the
             scenario's uniform flow by default (:meth:`flow`).
+        gust : complex or array_like of complex, optional
+            A gust on top of ``flow`` (m/s, :mod:`world`), which the vehicles are not told:
+            the view is then of the true motion in ``flow + gust`` (the metrics'), the
+            derivatives still those of the flowfield.
 
         Returns
         -------
@@ -589,6 +594,7 @@ class Controller:
         """
         flow = self.flow(flow)
         jet = self.jet(X, flow)
+        flow = flow + gust
         if not self.rigid:
             return particle_view(X, flow, jet, self.speed)
         held = np.zeros(X.shape[1:]) if F_held is None else F_held

@@ -41,7 +41,7 @@ the same numbers.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 from formation_control.core import formations
@@ -57,6 +57,8 @@ TAG = 0x776f726c
 CHANNELS = {'mismatch': 1, 'gust': 2, 'sensors': 3}
 CHUNK = 256
 """Normal draws a vehicle's gust stream takes at a time (the sequence does not depend on it)."""
+GUST_CHANNELS = ('gust_x', 'gust_y')
+"""What a run in gusts records of each vehicle beside the state: its gust (m/s, map frame)."""
 
 
 def active(sc: Scenario) -> bool:
@@ -103,6 +105,19 @@ def mismatch_factors(sc: Scenario, seed: int | None = None) -> dict[str, RealArr
         given = getattr(sc, f'mismatch_{name}')
         out[name] = np.array(given, float) if given else drawn[:, j]
     return out
+
+
+def recorded_gust(channels: Mapping[str, RealArray]) -> complex | ComplexArray:
+    """
+    Return the gust a record's ``channels`` carry (:data:`GUST_CHANNELS`), complex m/s; else 0.
+
+    The gust each vehicle met over the integration step that ended at the sample: with the
+    flowfield it is the flow the vehicle moves in, ``(u + i v) e^{i theta} + f + g`` its true
+    ground velocity (8.1), whose direction is the course the formation's metrics read.
+    """
+    if GUST_CHANNELS[0] not in channels:
+        return 0.0
+    return np.asarray(channels['gust_x']) + 1j * np.asarray(channels['gust_y'])
 
 
 def rate_limits(sc: Scenario) -> RealArray:

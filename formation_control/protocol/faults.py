@@ -238,7 +238,8 @@ def survivors_converged(run: Run,
                    'pattern': 'none', 'pattern_form': 'auto', 'init_x': [], 'init_y': [],
                    'init_theta': [], 'init_omega': [], 'init_u': [], 'init_v': []})
     ctrl = Controller(sub)
-    flags = [bool(metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows])))
-             for X, U in zip(run.X, run.U)]
+    flags = [bool(metrics.converged(sub, metrics.snapshot(ctrl, X[:, rows], U[:, rows], t,
+                                                          gust=gust[rows])))
+             for t, X, U, gust in zip(run.t, run.X, run.U, run.gust)]
     verdict = metrics.settling(sub, run.t, flags)
     return verdict.converged, verdict.since if verdict.converged else None

@@ -318,7 +318,8 @@ class Watch:
         self.clock, self.stale, self.converge_within = clock, stale_timeout, converge_within
         self.X = np.full((6, n), np.nan)
         self.U = np.zeros((2, n))
-        self.past = {'X': History(6, n), 'U': History(2, n)}
+        self.gust = np.zeros((2, n))
+        self.past = {'X': History(6, n), 'U': History(2, n), 'gust': History(2, n)}
         self.heard = {stream: np.full(n, np.nan) for stream in STREAMS}
         self.started = clock()
         self.sampling = Sampling(n, period)
@@ -328,7 +329,7 @@ class Watch:
         self.saturated = np.zeros(n, bool)
         self.values: dict[str, float] = {}
         self.deaf: set[tuple[int, int]] = set()     # (k, j): k's latest state does not hear j
-        self.shown: tuple[int, float, RealArray, RealArray] | None = None
+        self.shown: tuple[int, float, RealArray, RealArray, ComplexArray] | None = None
         self.d_min = separation.limits(sc).d_min
         self.closest: tuple[float, int, int] = (np.nan, -1, -1)
 
@@ -350,8 +351,20 @@ class Watch:
         """Return the flow at (x, y) at the time of the last sample."""
         return self.ctrl.plant.flow(self.t, x, y)
 
-    def odom(self, k: int, x: ArrayLike, ns: int) -> bool:
-        """Note vehicle k's state ``x`` stamped ``ns``; return whether to sample now."""
+    def odom(self, k: int, x: ArrayLike, ns: int, ground: complex | None = None) -> bool:
+        """
+        Note vehicle k's state ``x`` stamped ``ns``; return whether to sample now.
+
+        ``ground``: the odometry's ground velocity (complex m/s), the true motion; what the
+        state in the flowfield (:meth:`flow`) does not explain of it is the vehicle's gust, which
+        the metrics then read (:func:`metrics.snapshot`): a particle's, whose speed through the
+        water is its model's (a rigid body's u, v are read from the odometry, so none is left).
+        """
+        x = np.asarray(x, float)
+        if ground is not None:
+            gust = ground - complex(ground_velocity(x, self.flow(x[ROW_X], x[ROW_Y])))
+            self.gust[:, k - 1] = gust.real, gust.imag
+            self.past['gust'].add(k - 1, ns, self.gust[:, k - 1])
         self.X[:, k - 1] = x
         self.past['X'].add(k - 1, ns, x)
         self.heard['odom'][k - 1] = self.clock()
@@ -388,14 +401,17 @@ class Watch:
 
         """
         X, U = self.past['X'].as_of(ns, self.X), self.past['U'].as_of(ns, self.U)
-        snap = metrics.snapshot(self.ctrl, X, U, self.t)
+        gust = self.past['gust'].as_of(ns, self.gust)
+        gust = gust[0] + 1j * gust[1]
+        snap = metrics.snapshot(self.ctrl, X, U, self.t, gust=gust)
         fresh, live = self.live_graph()
         self.values = {**snap.values(), 'live_links': float(len(live)),
                        'algebraic_connectivity': graphs.connectivity(fresh, live)}
-        self.shown = ns, self.t, X, U
+        self.shown = ns, self.t, X, U, gust
         self.trails.add(position(X))
         flow = self.flow(X[ROW_X], X[ROW_Y])
-        self.vehicle_ok = metrics.vehicles_converged(self.ctrl, self.ctrl.view(X, U[1], flow))
+        self.vehicle_ok = metrics.vehicles_converged(self.ctrl,
+                                                     self.ctrl.view(X, U[1], flow, gust))
         self.saturated = self.ctrl.saturated(U)
         self.closest = separation.closest_pair(np.stack([X[ROW_X], X[ROW_Y]], axis=-1))
         return self.values, self.latch.update(bool(metrics.converged(self.sc, snap)), self.t)
@@ -457,12 +473,13 @@ class Watch:
         """
         if self.shown is None:
             return None
-        ns, t, X, U = self.shown
-        flow = self.ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+        ns, t, X, U, gust = self.shown
+        field = self.ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+        flow = field + gust
         ground = ground_velocity(X, flow) if np.any(flow != 0) else None
         centres: ComplexArray | None = None
         target: complex | None = None
         if isinstance(self.ctrl.formation, laws.Circular):
-            centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1], flow))
+            centres = self.ctrl.formation.centres(self.ctrl.view(X, U[1], field, gust))
             target = self.sc.c0_c if self.sc.informed else None
         return X, ns, self.trails.ordered(), ground, centres, target

@@ -173,7 +173,7 @@ class MonitorNode(Node):
         x = messages.state_from_odom_values(values, flow, self.sc.model)
         if not np.all(np.isfinite(x)):
             return self.reject('non_finite', f'a non-finite odometry of vehicle {k}')
-        if self.watch.odom(k, x, ns):
+        if self.watch.odom(k, x, ns, messages.ground_velocity_of(values)):
             self._sample(ns)
 
     def _sample(self, ns):

@@ -21,7 +21,8 @@ in :data:`BACKENDS`, chosen by :func:`backend_of`:
 
 - ``native``: the nominal model, :func:`models.integrate` (RK4, compiled in a uniform flow);
 - ``world``: the native plant with any part of :class:`world.World` on (model mismatch,
-  actuators, gusts; :func:`world.active`), one :meth:`world.World.step` per integration step;
+  actuators, gusts; :func:`world.active`), one :meth:`world.World.step` per integration step,
+  recording each vehicle's gust (:data:`world.GUST_CHANNELS`) when gusts blow;
 - ``jsbsim``: JSBSim aircraft under their autopilot (:class:`aircraft.Fleet`), which hold an
   autopilot demand (airspeed, turn rate) and record :data:`aircraft.CHANNELS`.
 
@@ -37,7 +38,7 @@ from formation_control.core import aircraft
 from formation_control.core.geometry import ComplexArray, RealArray
 from formation_control.core.models import integrate, Plant, ROW_OMEGA
 from formation_control.core.parameters import Scenario
-from formation_control.core.world import active, World
+from formation_control.core.world import active, GUST_CHANNELS, World
 import numpy as np
 
 AIRCRAFT_SPREAD_TOL = 0.05
@@ -166,6 +167,13 @@ class NativeInWorld(PlantBackend):
     def true_flow(self, flow: ComplexArray) -> ComplexArray:
         """Return ``flow`` and each vehicle's gust (m/s)."""
         return flow + self.world.gust
+
+    @property
+    def channels(self) -> dict[str, RealArray]:
+        """Return each vehicle's gust now (:data:`world.GUST_CHANNELS`; {} without gusts)."""
+        if not self.gusts:
+            return {}
+        return dict(zip(GUST_CHANNELS, (self.world.gust.real.copy(), self.world.gust.imag.copy())))
 
     @property
     def gusts(self) -> bool:

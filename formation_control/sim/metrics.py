@@ -88,7 +88,8 @@ class Snapshot:
 
 
 def snapshot(ctrl: Controller, X: RealArray, inputs: RealArray,
-             t: float | RealArray = 0.0, separation: bool = True) -> Snapshot:
+             t: float | RealArray = 0.0, separation: bool = True,
+             gust: complex | ComplexArray = 0.0) -> Snapshot:
     """
     Return the formation metrics of the fleet at one instant.
 
@@ -107,6 +108,12 @@ def snapshot(ctrl: Controller, X: RealArray, inputs: RealArray,
     separation : bool, optional
         Whether to compute the minimum separation (:func:`min_separation`, the costliest
         value: O(N log^2 N) per fleet); nan if not.
+    gust : complex or array_like of complex, optional
+        Each vehicle's gust (m/s, :func:`world.recorded_gust`), broadcast against
+        ``X.shape[1:]``: the metrics read the true motion, the course and centres from the
+        ground velocity (8.1) in the flowfield and the gust, the flow each vehicle moves in
+        (:func:`moving_flow`), not the flowfield alone the vehicles are told; the flow's
+        derivatives are the flowfield's (:meth:`control.Controller.view`).
 
     Returns
     -------
@@ -119,8 +126,9 @@ def snapshot(ctrl: Controller, X: RealArray, inputs: RealArray,
         and mean crab angles (:func:`crab_angles`).
 
     """
-    flow = ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
-    view = ctrl.view(X, inputs[1], flow)
+    field = ctrl.plant.flow(t, X[ROW_X], X[ROW_Y])
+    view = ctrl.view(X, inputs[1], field, gust)
+    flow = field + gust
     f = ctrl.formation
     nan = np.full(np.shape(view.r)[:-1], np.nan)
     extra: dict[str, Any] = {'min_separation': min_separation(view.r) if separation else nan}
@@ -147,6 +155,17 @@ def snapshot(ctrl: Controller, X: RealArray, inputs: RealArray,
     one: dict[str, Any] = {k: complex(v) if k == 'centre' else v if k == 'phase_orders'
                            else float(v) for k, v in extra.items()}
     return Snapshot(**one)
+
+
+def moving_flow(ctrl: Controller, X: RealArray, t: float | RealArray = 0.0,
+                gust: complex | ComplexArray = 0.0) -> ComplexArray:
+    """
+    Return the flow each vehicle moves in (m/s): the flowfield at its place at ``t``, and its gust.
+
+    ``ground_velocity(X, moving_flow(...))`` is the true ground velocity (8.1), its direction
+    the course every metric and verdict reads (:func:`snapshot`).
+    """
+    return ctrl.plant.flow(t, X[ROW_X], X[ROW_Y]) + gust
 
 
 def min_separation(r: ComplexArray) -> Value:

@@ -62,10 +62,10 @@ def series(run: Run) -> Series:
 
     """
     ctrl = Controller(run.sc)
-    snaps = [metrics.snapshot(ctrl, X, inputs, t, separation=False)
-             for t, X, inputs in zip(run.t, run.X, run.U)]
+    snaps = [metrics.snapshot(ctrl, X, inputs, t, separation=False, gust=run.gust[i])
+             for i, (t, X, inputs) in enumerate(zip(run.t, run.X, run.U))]
     X = run.X.transpose(1, 0, 2)
-    flow = np.array([ctrl.plant.flow(t, x, y) for t, x, y in zip(run.t, X[ROW_X], X[ROW_Y])])
+    flow = metrics.moving_flow(ctrl, X, run.t[:, None], run.gust)
     beta, beta_hat = metrics.crab_angles(X, flow)
     ground = ground_velocity(X, flow)
     out = {'t': run.t, 'x': X[ROW_X], 'y': X[ROW_Y], 'theta': X[ROW_THETA],
@@ -193,7 +193,8 @@ def report(run: Run) -> tuple[dict[str, Any], list[Row]]:
     out = summary(run)
     if run.sc.pattern != 'none':
         out = dict(out, pattern=pattern_text(run.sc))
-    final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1], run.t[-1]).values()
+    final = metrics.snapshot(Controller(run.sc), run.X[-1], run.U[-1], run.t[-1],
+                             gust=run.gust[-1]).values()
     predicted = predictions(run.sc, run.X[-1])
     rows = [(name, value, *predicted.get(name, (None, ''))) for name, value in final.items()]
     return out, rows

@@ -41,6 +41,7 @@ from formation_control.core.scenario import initial_state, practical, resolve
 from formation_control.core.sensors import Sample, Sensors
 from formation_control.core.separation import limits
 from formation_control.core.vehicles import vehicle_model
+from formation_control.core.world import GUST_CHANNELS, recorded_gust
 from formation_control.sim import metrics, separation
 from formation_control.sim.allocator import keep_freed_memory
 from formation_control.sim.backends import backend_of
@@ -74,7 +75,8 @@ class Run:
         None where the record does not hold it (the plant node's: the estimates are the
         vehicles').
     channels : dict of str to ndarray, shape (T, N)
-        What a plant backend records beside the state (JSBSim: :data:`aircraft.CHANNELS`).
+        What a plant backend records beside the state (JSBSim: :data:`aircraft.CHANNELS`;
+        the world in gusts: :data:`world.GUST_CHANNELS`).
 
     """
 
@@ -85,6 +87,11 @@ class Run:
     meta: dict[str, Any] = field(default_factory=dict)
     flow_hat: ComplexArray | None = None
     channels: dict[str, RealArray] = field(default_factory=dict)
+
+    @property
+    def gust(self) -> ComplexArray:
+        """Return the gusts recorded, complex m/s, (T, N): :func:`world.recorded_gust`, or 0."""
+        return np.broadcast_to(recorded_gust(self.channels), self.X[:, 0].shape)
 
     def arrays(self) -> dict[str, Any]:
         """
@@ -141,7 +148,7 @@ def load_run(path: str | PathLike[str]) -> Run:
             U[:, 1] = d['command']
         meta = json.loads(str(d['meta'])) if 'meta' in d else {}
         flow_hat = d['flow_hat_x'] + 1j * d['flow_hat_y'] if 'flow_hat_x' in d else None
-        channels = {name: d[name].copy() for name in CHANNELS if name in d}
+        channels = {name: d[name].copy() for name in CHANNELS + GUST_CHANNELS if name in d}
         return Run(sc, d['t'].copy(), X, U, meta, flow_hat, channels)
 
 
@@ -418,7 +425,8 @@ class Outcome:
         if n % self.sc.record_every == 0 or n == self.steps:
             t = n * self.sc.dt_control
             every = n == self.steps or metrics.needs_separation(self.sc)
-            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=every)
+            self.final = metrics.snapshot(self.ctrl, X, U, t, separation=every,
+                                          gust=recorded_gust(channels or {}))
             self.times.append(t)
             self.samples.append(np.asarray(metrics.converged(self.sc, self.final)))
             self.met.append(metrics.conditions(self.sc, self.final))
@@ -426,7 +434,7 @@ class Outcome:
             self.X, self.U = X.copy(), U.copy()
             P = separation.positions(X, (channels or {}).get('altitude'))
             self.apart.add(t, P.reshape(-1, *P.shape[-2:]))
-            if channels:
+            if channels and 'altitude' in channels:
                 self.flown.append((self.X, channels['altitude'].copy()))
 
     def run(self) -> Outcome:
@@ -595,8 +603,8 @@ def aircraft_circle_errors(run: Run, last: float) -> tuple[float, float, float]:
     """
     ctrl = Controller(run.sc)
     keep = run.t >= run.t[-1] - last
-    snaps = [metrics.snapshot(ctrl, X, U, t) for X, U, t in
-             zip(run.X[keep], run.U[keep], run.t[keep])]
+    snaps = [metrics.snapshot(ctrl, run.X[i], run.U[i], run.t[i], gust=run.gust[i])
+             for i in np.flatnonzero(keep)]
     radius = 1.0 / abs(run.sc.omega0)
     return (max(float(s.spread) for s in snaps),
             max(abs(float(s.radius) - radius) for s in snaps) / radius,
@@ -638,7 +646,7 @@ def summary(run: Run) -> dict[str, Any]:
     errors: list[dict[str, Any]] = []
     every, last = metrics.needs_separation(sc), len(run.t) - 1
     for i, (t, X, U) in enumerate(zip(run.t, run.X, run.U)):
-        final = metrics.snapshot(ctrl, X, U, t, every or i == last)
+        final = metrics.snapshot(ctrl, X, U, t, every or i == last, run.gust[i])
         flags.append(metrics.converged(sc, final))
         met.append(metrics.conditions(sc, final))
         errors.append(metrics.steady_errors(sc, final))

@@ -31,7 +31,8 @@ from runs import CONFIG
 
 def _errors(run):
     ctrl = Controller(run.sc)
-    snaps = [metrics.snapshot(ctrl, X, U, t) for t, X, U in zip(run.t, run.X, run.U)]
+    snaps = [metrics.snapshot(ctrl, X, U, t, gust=g)
+             for t, X, U, g in zip(run.t, run.X, run.U, run.gust)]
     names = metrics.steady_errors(run.sc, snaps[-1])
     return {n: np.array([metrics.steady_errors(run.sc, s)[n] for s in snaps]) for n in names}
 

@@ -13,10 +13,13 @@
 # limitations under the License.
 
 """The formation_state record, the decode-or-check path, the delay and hears-me (no DDS)."""
+from collections import Counter
 import struct
 from types import SimpleNamespace
 
+from formation_control.bags import reader
 from formation_control.core import scenario
+from formation_control.core.models import ground_velocity
 from formation_control.protocol import intake, messages
 from formation_control.protocol.intake import Rejection
 from formation_control.protocol.lockstep import REPEATED
@@ -375,3 +378,36 @@ def test_the_plant_protocol_refuses_bad_commands_and_reports_who_it_waits_for():
     which, ns1, step = plant.advance()
     assert which.all() and step and ns1 == round(sc.dt_control * 1e9)
     assert plant.fleet.pending[1].tolist() == [0.1, -0.1]
+
+
+def _odometry(values):
+    """Return an Odometry stand-in with the ODOM_FIELDS ``values``."""
+    def node(*names):
+        return SimpleNamespace(**dict.fromkeys(names, 0.0))
+    msg = SimpleNamespace(pose=SimpleNamespace(pose=SimpleNamespace(
+        position=node('x', 'y', 'z'), orientation=node('x', 'y', 'z', 'w'))),
+        twist=SimpleNamespace(twist=SimpleNamespace(linear=node('x', 'y', 'z'),
+                                                    angular=node('x', 'y', 'z'))))
+    return messages.set_fields(msg, messages.ODOM_FIELDS, values)
+
+
+@pytest.mark.parametrize('name', ['particle_circular_flow', 'rigid_circular_flow_center'])
+def test_a_bags_odometry_in_a_gust_gives_the_state_and_the_gust_back(name):
+    """The bag reader keeps the gust the plant's odometry carries (issue 43, item 2)."""
+    sc = scenario.load(CONFIG / f'{name}.yaml', [], gust_intensity=0.1)
+    stepper = simulator.Stepper(sc)
+    stepper.command()
+    stepper.advance()
+    X, flow, field = stepper.X, stepper.true_flow(), stepper.local_flow()
+    t = stepper.t
+    samples = [(round(t * 1e9), k, _odometry(messages.odom_values(X[:, k], flow[k])), 'odom')
+               for k in range(sc.num_vehicles)]
+    samples.insert(0, (0, 0, _odometry(messages.odom_values(X[:, 0], flow[0])), 'odom'))
+    got = reader._periods(sc, samples, Counter(), 'bag')[round(t / sc.dt_control)]
+    state = np.column_stack([got[k][1] for k in range(sc.num_vehicles)])
+    gust = np.array([got[k][2] for k in range(sc.num_vehicles)])
+    assert np.all(abs(flow - field) > 1e-3)
+    np.testing.assert_allclose(ground_velocity(state, field) + gust, ground_velocity(X, flow),
+                               atol=1e-9)
+    if name.startswith('particle'):                  # its state has no place for the gust
+        np.testing.assert_allclose(gust, flow - field, atol=1e-9)

@@ -20,8 +20,8 @@ And ``formation-control sim`` of a large fleet stays within a bounded memory, an
 monitor's sample (its hearing graph and lambda_2).
 """
 import os
-import re
 from pathlib import Path
+import re
 import subprocess
 import sys
 import tracemalloc

@@ -15,8 +15,8 @@
 """The monitor's rules with a fake clock (no ROS, no DDS): gains, sampling, latch, status."""
 from formation_control.core import scenario
 from formation_control.core.errors import ScenarioError
-from formation_control.core.models import ROW_THETA, ROW_U, ROW_X, ROW_Y
-from formation_control.protocol import watch
+from formation_control.core.models import ground_velocity, ROW_THETA, ROW_U, ROW_X, ROW_Y
+from formation_control.protocol import messages, watch
 from formation_control.protocol.watch import ERROR, OK, WARN
 from formation_control.sim import metrics
 import numpy as np
@@ -130,7 +130,7 @@ def test_a_sample_takes_each_vehicles_state_and_command_as_of_its_stamp(clock):
         w.cmd(1, [0.0, 0.1 * n], n * 20 * MS)
     assert w.odom(2, X[:, 1], 0)
     w.sample(0)
-    _, _, shown_X, shown_U = w.shown
+    _, _, shown_X, shown_U, _ = w.shown
     np.testing.assert_array_equal(shown_X, X)
     assert shown_U[1, 0] == 0.0
     assert w.odom(2, X[:, 1], 20 * MS)
@@ -278,3 +278,35 @@ def test_the_picture_shows_the_last_sample_with_its_trails_and_centres(clock):
     expected = (shown[ROW_X] + 1j * shown[ROW_Y]
                 + 1j * np.exp(1j * shown[ROW_THETA]) / sc.omega0)
     np.testing.assert_allclose(centres, expected, atol=1e-12)
+
+
+@pytest.mark.parametrize('name', ['particle_circular_flow', 'rigid_circular_flow_center'])
+def test_the_monitor_measures_the_course_the_odometry_shows_gust_and_all(clock, name):
+    """
+    Issue 43, item 2: the plant's odometry carries the ground velocity in the flow and the gust.
+
+    The monitor's centres are those of that motion (:func:`metrics.snapshot` with the gust),
+    not of the flowfield it knows alone; particles included, whose state has no place for it.
+    """
+    sc = _scenario(name, num_vehicles=3, informed=[1])
+    w = _watch(sc, clock)
+    rng = np.random.default_rng(43)
+    X = _aligned(3)
+    X[ROW_THETA] = rng.uniform(-np.pi, np.pi, 3)
+    gust = 0.2 * (rng.standard_normal(3) + 1j * rng.standard_normal(3))
+    field = w.flow(X[ROW_X], X[ROW_Y])
+    for k in (1, 2, 3):
+        values = messages.odom_values(X[:, k - 1], field[k - 1] + gust[k - 1])
+        state = messages.state_from_odom_values(values, complex(field[k - 1]), sc.model)
+        w.odom(k, state, 0, messages.ground_velocity_of(values))
+    got, _ = w.sample(0)
+    truth = metrics.snapshot(w.ctrl, X, np.zeros((2, 3)), 0.0, gust=gust)
+    assert got['centre_spread'] == pytest.approx(truth.spread, abs=1e-9)
+    assert got['centre_x'] + 1j * got['centre_y'] == pytest.approx(truth.centre, abs=1e-9)
+
+    def centres(flow):
+        course = np.angle(ground_velocity(X, flow))
+        return X[ROW_X] + 1j * X[ROW_Y] + 1j * np.exp(1j * course) / sc.omega0
+
+    np.testing.assert_allclose(w.picture()[4], centres(field + gust), atol=1e-9)
+    assert np.max(abs(centres(field) - centres(field + gust))) > 0.1

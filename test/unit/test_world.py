@@ -19,7 +19,8 @@ Off, the plant is the nominal model, and unit factors integrate it to rounding; 
 per vehicle and seeded; the controllers keep the nominal values; the steady speed under drag
 and thrust mismatch and the actuator-lag limit derived in docs/errata.md hold in simulation
 over a census of seeds; the actuators lag and rate-limit as asked; the gust has the intensity
-and correlation asked; the PI law's anti-windup; bad input refused naming the parameter.
+and correlation asked, is recorded, and the metrics read the course flown in it; the PI law's
+anti-windup; bad input refused naming the parameter.
 """
 from dataclasses import replace
 
@@ -28,7 +29,8 @@ from formation_control.core.control import Controller
 from formation_control.core.errors import ScenarioError
 from formation_control.core.models import ROW_U, ROW_V
 from formation_control.core.steering import LAWS
-from formation_control.sim import backends, simulator
+from formation_control.protocol.fleet import FleetPlant
+from formation_control.sim import backends, metrics, simulator
 import numpy as np
 import pytest
 from runs import CONFIG
@@ -237,6 +239,64 @@ def test_a_gust_moves_the_vehicles_and_a_told_rigid_body_reads_it_in_its_water_s
     gust = stepper.backend.world.gust
     np.testing.assert_allclose(rel, gust * np.exp(-1j * stepper.X[2]), atol=1e-12)
     np.testing.assert_allclose(stepper.true_flow() - stepper.local_flow(), gust)
+
+
+def _centre_spread_flown(run):
+    """
+    Return the centre spread (m) at the inner samples of ``run``, from its positions alone.
+
+    The course is the direction of the central difference of the recorded positions (the
+    motion flown, gusts and all), the centres ``r + i e^{i course} / omega0`` (thesis 2.6).
+    """
+    r = run.X[:, 0] + 1j * run.X[:, 1]
+    course = np.angle(r[2:] - r[:-2])
+    c = r[1:-1] + 1j * np.exp(1j * course) / run.sc.omega0
+    return abs(c - c.mean(axis=1, keepdims=True)).max(axis=1)
+
+
+def test_the_metrics_read_the_course_flown_in_a_gust_not_the_flowfields_alone():
+    """
+    Issue 43, item 2: the band test's centres come from the true ground velocity.
+
+    A 0.1 m/s gust the vehicles are not told (estimating the flow, the envelope's cell C2): the
+    centre spread of the record and of a study's batch equals that of the course flown, taken
+    from the recorded positions by finite differences, to the differences' error (the gust's
+    steps and the turn over a sample); the course through the flowfield alone is 20 times
+    further off. Both from the sample 5 s in, every 0.02 s (one integration step).
+    """
+    sc = scenario.load(CONFIG / 'rigid_circular_flow_center.yaml', gust_intensity=0.1,
+                       gust_time=30.0, duration=20.0, dt_integration=0.02, record_dt=0.02,
+                       flow_source='estimated', seed=7)
+    run = simulator.simulate(sc)
+    flown = _centre_spread_flown(run)
+    ctrl, inner = Controller(sc), range(1, len(run.t) - 1)
+    measured = np.array([metrics.snapshot(ctrl, run.X[i], run.U[i], run.t[i],
+                                          gust=run.gust[i]).spread for i in inner])
+    proxy = np.array([metrics.snapshot(ctrl, run.X[i], run.U[i], run.t[i]).spread
+                      for i in inner])
+    study = simulator.simulate(sc, simulator.initial_states(sc, [7]), simulator.Outcome(sc),
+                               seeds=[7])
+    batch = np.array([e['centre_spread'][0] for e in study.errors])[1:-1]
+    after = run.t[1:-1] >= 5.0
+    for spread in (measured, batch):
+        off = abs(spread - flown)[after]
+        assert np.median(off) < 0.01 and off.max() < 0.05
+    assert np.median(abs(proxy - flown)[after]) > 0.05
+
+
+def test_the_plant_nodes_record_carries_the_gust_the_simulators_does(tmp_path):
+    """The plant node's record (FleetPlant) holds each vehicle's gust, saved and read back."""
+    sc = _rigid(gust_intensity=0.1, gust_time=2.0, duration=0.5, record_dt=0.1)
+    fleet = FleetPlant(sc)
+    while fleet.hold(np.zeros(sc.num_vehicles, bool), True):
+        fleet.integrate()
+        fleet.next_period()
+    fleet.run({}).save(tmp_path / 'plant.npz')
+    run, ref = simulator.load_run(tmp_path / 'plant.npz'), simulator.simulate(sc)
+    assert set(world.GUST_CHANNELS) <= set(run.channels) and np.all(abs(run.gust) > 0)
+    np.testing.assert_array_equal(run.gust, ref.gust)         # the draws ignore the commands
+    np.testing.assert_array_equal(run.gust[-1], fleet.stepper.backend.world.gust)
+    assert not simulator.simulate(_rigid(duration=0.5)).channels    # no gust, nothing more
 
 
 def test_anti_windup_holds_the_pi_integrator_while_the_steering_force_is_on_its_limit():
