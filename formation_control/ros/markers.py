@@ -29,6 +29,7 @@ HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
     ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in (
         palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
         palette.LINK, palette.LABEL))
+DISC = tuple(ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in palette.DISC)
 
 
 def _marker(ns, frame, name, ident, kind, color):
@@ -44,8 +45,12 @@ def _point(z):
     return Point(x=float(z.real), y=float(z.imag))
 
 
-def vehicle_markers(ns, frame, k, position, heading, ground_velocity, trail):
-    """Return the heading arrow, ground-velocity arrow (None: no flow) and trail of vehicle k."""
+def vehicle_markers(ns, frame, k, position, heading, ground_velocity, trail, disc=None):
+    """
+    Return vehicle k's heading arrow, ground-velocity arrow (None: no flow), trail and disc.
+
+    ``disc``: (diameter d_min, level 0 ok / 1 warn / 2 error), the safety disc; None: none.
+    """
     arrow = _marker(ns, frame, 'heading', k, Marker.ARROW, HEADING)
     arrow.pose.position = _point(position)
     messages.yaw_quaternion(arrow.pose.orientation, heading)
@@ -60,6 +65,11 @@ def vehicle_markers(ns, frame, k, position, heading, ground_velocity, trail):
     line.points = [_point(z) for z in trail]
     line.scale.x = picture.TRAIL_WIDTH
     out.append(line)
+    if disc is not None:
+        ring = _marker(ns, frame, 'disc', k, Marker.CYLINDER, DISC[disc[1]])
+        ring.pose.position = _point(position)
+        ring.scale.x, ring.scale.y, ring.scale.z = disc[0], disc[0], picture.DISC_HEIGHT
+        out.append(ring)
     return out
 
 

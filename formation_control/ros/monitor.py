@@ -206,7 +206,7 @@ class MonitorNode(Node):
             return
         X, ns, trails, ground, centres, target = shown
         pic = picture.of_states(ns, X, ground, trails, self.watch.live_graph()[1], centres,
-                                target)
+                                target, self.watch.d_min)
         if rviz or live_markers:
             msg = markers.fleet_markers(pic, self.watch.values, self.p['world_frame'])
             if rviz:

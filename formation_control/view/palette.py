@@ -22,3 +22,6 @@ CENTRE = (0.1, 0.7, 0.2, 1.0)
 TARGET = (1.0, 0.6, 0.0, 0.8)
 LINK = (0.5, 0.2, 0.7, 0.6)
 LABEL = (0.0, 0.0, 0.0, 1.0)
+DISC = ((0.1, 0.7, 0.2, 0.25), (1.0, 0.6, 0.0, 0.45), (0.9, 0.1, 0.1, 0.6))
+"""Each vehicle's safety disc by its separation level: ok, within 2 d_min of a neighbour
+(warn), within d_min (error), as the monitor's diagnostics grade them."""

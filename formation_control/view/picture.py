@@ -18,13 +18,15 @@ The picture of a fleet the monitor shows, one for both renderers.
 The RViz markers (:mod:`formation_control.ros.markers`) and the Foxglove scene
 (:mod:`formation_control.view.scene`) draw the same :class:`Picture` with the same sizes (m)
 and colours (:mod:`formation_control.view.palette`): each vehicle's heading arrow, its
-ground-velocity arrow in a flow (m/s drawn as m), its trail, the live links, the circle
-centres c_k and the prescribed centre c0.
+ground-velocity arrow in a flow (m/s drawn as m), its trail, its safety disc (diameter d_min,
+coloured by how near its nearest neighbour is), the live links, the circle centres c_k and the
+prescribed centre c0.
 """
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, NamedTuple, Optional
 
-from formation_control.core.geometry import ComplexArray
+from formation_control.core import separation
+from formation_control.core.geometry import ComplexArray, IntArray
 from formation_control.core.models import position, ROW_THETA
 import numpy as np
 
@@ -33,6 +35,8 @@ HEADING_LENGTH = 0.6
 TRAIL_WIDTH = 0.03
 LINK_WIDTH = 0.02
 CENTRE_SIZE = 0.1
+DISC_HEIGHT = 0.01
+"""Thickness of the safety discs (m)."""
 """Diameter of the spheres at the circle centres c_k (m)."""
 TARGET_SIZE = (0.25, 0.02)
 """Diameter and height of the disc at the prescribed centre c0 (m)."""
@@ -65,6 +69,8 @@ class Picture(NamedTuple):
         Circle centres c_k (m); None: not a circular formation.
     target : complex or None
         The prescribed centre c0 (m).
+    d_min : float or None
+        The separation distance (m): each vehicle's safety disc has this diameter (None: none).
 
     """
 
@@ -76,23 +82,49 @@ class Picture(NamedTuple):
     edges: Any
     centres: Optional[np.ndarray] = None
     target: Optional[complex] = None
+    d_min: Optional[float] = None
 
 
 def of_states(ns: int, X: Any, ground_velocity: Optional[np.ndarray],
               trails: Sequence[Sequence[complex]], edges: Any,
-              centres: Optional[np.ndarray] = None, target: Optional[complex] = None) -> Picture:
+              centres: Optional[np.ndarray] = None, target: Optional[complex] = None,
+              d_min: Optional[float] = None) -> Picture:
     """Return the :class:`Picture` of the states ``X`` (6, N) (rows of :mod:`models`)."""
     return Picture(ns, position(X), np.asarray(X[ROW_THETA], float), ground_velocity, trails,
-                   edges, centres, target)
+                   edges, centres, target, d_min)
+
+
+def disc_levels(positions: ComplexArray, d_min: float) -> IntArray:
+    """
+    Return each vehicle's separation level (N,): 0, 1 within 2 d_min of another, 2 within d_min.
+
+    The grades of the monitor's separation diagnostics (WARN, ERROR), per vehicle, from the
+    pairs within 2 d_min (:func:`~formation_control.core.separation.pairs_within`).
+    """
+    z = np.asarray(positions, complex)
+    levels = np.zeros(z.size, np.int64)
+    i, j, distance = separation.pairs_within(np.stack([z.real, z.imag], axis=-1), 2.0 * d_min)
+    level = np.where(distance < d_min, 2, 1)
+    np.maximum.at(levels, i, level)
+    np.maximum.at(levels, j, level)
+    return levels
 
 
 def vehicles(picture: Picture) -> Iterator[
-        tuple[int, complex, float, complex | None, Sequence[complex]]]:
-    """Yield each vehicle's (k, position, heading, ground velocity or None, trail)."""
+        tuple[int, complex, float, complex | None, Sequence[complex],
+              tuple[float, int] | None]]:
+    """
+    Yield each vehicle's (k, position, heading, ground velocity or None, trail, disc).
+
+    ``disc``: (diameter d_min, level of :func:`disc_levels`), or None without a d_min.
+    """
+    levels = (None if picture.d_min is None
+              else disc_levels(picture.positions, picture.d_min))
     for i, z in enumerate(picture.positions):
         ground = picture.ground_velocity
         yield (i + 1, complex(z), float(picture.headings[i]),
-               None if ground is None else complex(ground[i]), picture.trails[i])
+               None if ground is None else complex(ground[i]), picture.trails[i],
+               None if levels is None else (float(picture.d_min), int(levels[i])))
 
 
 def link_points(positions: Sequence[complex] | ComplexArray,

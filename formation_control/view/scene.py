@@ -39,6 +39,7 @@ HEADING, VELOCITY, TRAIL, CENTRE, TARGET, LINK, LABEL = (
     Color(r=r, g=g, b=b, a=a) for r, g, b, a in (
         palette.HEADING, palette.VELOCITY, palette.TRAIL, palette.CENTRE, palette.TARGET,
         palette.LINK, palette.LABEL))
+DISC = tuple(Color(r=r, g=g, b=b, a=a) for r, g, b, a in palette.DISC)
 
 
 def stamp(ns: int) -> Timestamp:
@@ -66,6 +67,7 @@ def _arrow(z: complex, angle: float, length: float, color: Color,
 
 def vehicle_entity(ns: int, k: int, position: complex, heading: float,
                    ground_velocity: complex | None, trail: Sequence[complex],
+                   disc: tuple[float, int] | None = None,
                    frame: str = WORLD_FRAME) -> SceneEntity:
     """
     Return the SceneEntity ``vehicle_k``.
@@ -84,6 +86,9 @@ def vehicle_entity(ns: int, k: int, position: complex, heading: float,
         Ground velocity (m/s); None: no arrow (no flow: it is the heading).
     trail : sequence of complex
         Recent positions (m), oldest first.
+    disc : (float, int), optional
+        The safety disc: its diameter d_min (m) and level (0 ok, 1 warn, 2 error:
+        :func:`~formation_control.view.picture.disc_levels`); None: none.
     frame : str, optional
         The world frame of the positions.
 
@@ -97,8 +102,13 @@ def vehicle_entity(ns: int, k: int, position: complex, heading: float,
                            color=TRAIL)]
     label = TextPrimitive(pose=_pose(position + 0.25j), billboard=True, font_size=14.0,
                           scale_invariant=True, color=LABEL, text=str(k))
+    cylinders = []
+    if disc is not None:
+        size = Vector3(x=disc[0], y=disc[0], z=picture.DISC_HEIGHT)
+        cylinders.append(CylinderPrimitive(pose=_pose(position), size=size, bottom_scale=1.0,
+                                           top_scale=1.0, color=DISC[disc[1]]))
     return SceneEntity(timestamp=stamp(ns), frame_id=frame, id=f'vehicle_{k}', arrows=arrows,
-                       lines=lines, texts=[label],
+                       lines=lines, texts=[label], cylinders=cylinders,
                        metadata=[KeyValuePair(key='vehicle_id', value=str(k))])
 
 
@@ -128,9 +138,10 @@ def links_entity(ns: int, positions: Sequence[complex], edges: Any,
 
 def fleet_scene(ns: int, positions: Any, headings: Any, ground_velocity: Any,
                 trails: Sequence[Sequence[complex]], edges: Any, centres: Any = None,
-                target: complex | None = None, frame: str = WORLD_FRAME) -> SceneUpdate:
+                target: complex | None = None, d_min: float | None = None,
+                frame: str = WORLD_FRAME) -> SceneUpdate:
     """
-    Return the SceneUpdate of a fleet: every vehicle, its live links, the circle centres.
+    Return the SceneUpdate of a fleet: every vehicle and its disc, the live links, the centres.
 
     Parameters
     ----------
@@ -150,6 +161,8 @@ def fleet_scene(ns: int, positions: Any, headings: Any, ground_velocity: Any,
         Circular formations: c_k = r_k + i e^{i phase_k} / omega0 (m).
     target : complex, optional
         The prescribed centre c0 (m).
+    d_min : float, optional
+        The separation distance (m): each vehicle's safety disc (None: none).
     frame : str, optional
         The world frame (the monitor's ``world_frame``).
 
@@ -158,7 +171,8 @@ def fleet_scene(ns: int, positions: Any, headings: Any, ground_velocity: Any,
     foxglove.messages.SceneUpdate
 
     """
-    pic = picture.Picture(ns, positions, headings, ground_velocity, trails, edges)
+    pic = picture.Picture(ns, positions, headings, ground_velocity, trails, edges,
+                          d_min=d_min)
     entities = [vehicle_entity(ns, *vehicle, frame) for vehicle in picture.vehicles(pic)]
     entities.append(links_entity(ns, positions, edges, frame))
     if centres is not None:

@@ -30,9 +30,9 @@ from formation_control import cli
 from formation_control.core import scenario
 from formation_control.core.errors import UsageError
 from formation_control.protocol import messages, names
-from formation_control.ros import interface as itf, live as live_view
+from formation_control.ros import interface as itf, live as live_view, markers
 from formation_control.ros.monitor import MonitorNode
-from formation_control.view import layout, picture, scene
+from formation_control.view import layout, palette, picture, scene
 from formation_control_msgs.msg import FormationMetrics
 from foxglove.messages import SceneUpdate
 from foxglove_client import client, protobuf_class
@@ -98,6 +98,31 @@ def test_scene_shows_each_vehicle_its_velocity_trail_links_and_centres():
     without = _decode(scene.fleet_scene(0, r, theta, None, trails, []))
     assert all(len(e.arrows) == 1 for e in without.entities if e.id.startswith('vehicle'))
     assert 'centres' not in {e.id for e in without.entities}
+    assert not any(e.cylinders for e in without.entities if e.id.startswith('vehicle'))
+
+
+def test_each_vehicle_has_a_safety_disc_coloured_by_its_nearest_neighbour():
+    """Diameter d_min; ok, warn within 2 d_min of another, error within d_min (as brute force)."""
+    rng = np.random.default_rng(8243)
+    r = rng.uniform(-6, 6, 40) + 1j * rng.uniform(-6, 6, 40)
+    d_min = 0.7
+    gaps = np.abs(r[:, None] - r[None, :]) + np.diag(np.full(r.size, np.inf))
+    expected = np.where(gaps.min(axis=1) < d_min, 2, np.where(gaps.min(axis=1) < 2 * d_min, 1, 0))
+    assert set(expected) == {0, 1, 2}
+    np.testing.assert_array_equal(picture.disc_levels(r, d_min), expected)
+    got = _decode(scene.fleet_scene(0, r, np.zeros(r.size), None, [[z] for z in r], [],
+                                    d_min=d_min))
+    for e in (e for e in got.entities if e.id.startswith('vehicle_')):
+        k = int(e.id.split('_')[1]) - 1
+        (disc,) = e.cylinders
+        assert _xy(disc.pose.position) == pytest.approx(r[k])
+        assert (disc.size.x, disc.size.y) == (d_min, d_min)
+        assert (disc.color.r, disc.color.g, disc.color.b, disc.color.a) == pytest.approx(
+            palette.DISC[expected[k]])
+    (ring,) = [m for m in markers.vehicle_markers(0, 'map', 1, r[0], 0.0, None, [r[0]],
+                                                  (d_min, int(expected[0])))
+               if m.ns == 'disc']
+    assert (ring.scale.x, ring.pose.position.x) == pytest.approx((d_min, r[0].real))
 
 
 def test_metrics_message_is_json_with_every_metric_by_name():
