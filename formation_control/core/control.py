@@ -746,7 +746,8 @@ class Controller:
         before = self.shift if self.shift is not None and self.shift.shape == shift.shape \
             else shift
         self.shift = shift
-        return lam + getattr(self.sc, self.law.gain) * shift + (shift - before) / self.sc.dt_control
+        gain = getattr(self.sc, self.law.gain)
+        return lam + gain * shift + (shift - before) / self.sc.dt_control
 
     def _hold_integral(self, before: RealArray | None, clipped: BoolArray) -> None:
         """Anti-windup: undo this period's integration for the vehicles whose steering clipped."""

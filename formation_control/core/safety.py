@@ -19,7 +19,7 @@ A vehicle of speed V whose only input is its turn rate ``u = theta'``, ``|u| <= 
 turns at ``sigma u_max`` (the layer's side sigma = +1 left, -1 right) flies a circle of radius
 ``rho = V / u_max`` about its **backup centre**
 
-    c_k = r_k + sigma rho i e^{i theta_k},     c_k' = V (1 - sigma u_k / u_max) e^{i theta_k}   (S.1)
+    c_k = r_k + sigma rho i e^{i theta_k},   c_k' = V (1 - sigma u_k / u_max) e^{i theta_k}   (S.1)
 
 which stands still while it turns so. For each pair within the sensing range the barrier is
 
@@ -30,7 +30,7 @@ Its rate ``h' = g_k(u_k) + g_j(u_j)``, ``g_k(u) = V (1 - sigma u / u_max) <c_hat
 with ``c_hat`` the unit vector from c_j to c_k, has relative degree 1 in each vehicle's turn
 rate. Each vehicle keeps its half of the pair's condition ``h' >= -alpha h``:
 
-    g_k(u_k) >= -alpha h / 2   <=>   a u_k <= b,   a = sigma rho p,   b = V p + alpha h / 2    (S.3)
+    g_k(u_k) >= -alpha h / 2  <=>  a u_k <= b,   a = sigma rho p,   b = V p + alpha h / 2    (S.3)
 
 with ``p = <c_hat, e^{i theta_k}>``: a half-line in u_k (:func:`half_lines`), from the
 neighbour's position and heading alone. The neighbour keeps the other half, by the same rule
@@ -45,7 +45,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 import math
 
-from formation_control.core import aircraft, formations
+from formation_control.core import aircraft
 from formation_control.core.errors import refuse as _fail
 from formation_control.core.flow import vehicle_speed
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
@@ -129,7 +129,7 @@ class Layer:
 
 def turn_rate(sc: Scenario) -> float:
     """
-    Return u_max (rad/s): ``safety_turn_rate``, else first order's ``max_turn_rate``, else V/d_min.
+    Return u_max (rad/s): safety_turn_rate, else first order's max_turn_rate, else V / d_min.
 
     The derived ``V / d_min`` makes the backup circle's radius d_min (particles: 10 rad/s).
     """
@@ -189,7 +189,7 @@ def check(sc: Scenario) -> tuple[str, ...]:
         _fail('safety_turn_rate', layer.turn_rate, f'> V |omega0| = {circle:.4g} rad/s, the '
               'turn rate of the formation circle')
     if layer.sensing_range < layer.needed_range:
-        return (f"sensing_range {layer.sensing_range:.4g} m is below what the safety layer "
+        return (f'sensing_range {layer.sensing_range:.4g} m is below what the safety layer '
                 f'needs to keep d_min: D + 2 rho + 4 V dt = {layer.needed_range:.4g} m '
                 f'(rho = V/u_max = {layer.rho:.4g} m): a pair may be heard too late',)
     return ()
