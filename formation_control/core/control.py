@@ -718,6 +718,8 @@ class Controller:
         ``flow`` (the commanded vehicles' own flow: a uniform flow is the same at both vehicles
         of a pair, and cancels from their relative motion). What it did is kept in ``filtered``.
         """
+        if self.safety is None:
+            return u
         ground = view.speed * view.e
         f = np.asarray(flow)
         if f.ndim and f.shape != ground.shape:             # one vehicle's flow: uniform
@@ -734,12 +736,13 @@ class Controller:
 
         The law's desired phase rate phi is turned into the body turn rate it asks for (5.1),
         filtered (:meth:`safe_turn_rate`) and turned back: ``phi_s = phi + g (u_s - u)``. The
-        steering law then tracks phi_s instead of phi: ``lam + k (phi_s - phi)``, k its gain
-        (backstepping kappa, proportional K_p), whose error ``z = rate - phi_s`` decays at
+        steering law then tracks phi_s instead of phi: ``lam + k (phi_s - phi) + (phi_s -
+        phi)'``, k its gain (backstepping kappa, proportional K_p), the shift's rate the
+        difference of two periods' (kept in ``shift``): its error ``z = rate - phi_s`` decays at
         the rate k (docs/separation.md, "Second order: through the backstepping chain").
         """
         phi = self.formation_of(members).terms(view, idx).phi
-        f = np.asarray(flow) / self.speed
+        f = np.asarray(np.divide(flow, self.speed), complex)
         u = body_rate_from_inertial(phi, X[ROW_THETA], f, self.jet(X, flow))
         shift = particle_speed_terms(X[ROW_THETA], f)[2] * (self.safe_turn_rate(
             u, view, idx, flow) - u)

@@ -49,6 +49,7 @@ from formation_control.core import aircraft
 from formation_control.core.errors import refuse as _fail
 from formation_control.core.flow import vehicle_speed
 from formation_control.core.geometry import BoolArray, ComplexArray, IntArray, RealArray
+from formation_control.core.laws import Index
 from formation_control.core.parameters import Scenario
 from formation_control.core.separation import limits, pairs_within
 from formation_control.core.steering import law
@@ -208,9 +209,8 @@ def barrier(layer: Layer, r_k: ArrayLike, heading_k: ArrayLike, r_j: ArrayLike,
 
 def centre_velocity(layer: Layer, heading: ArrayLike, u: ArrayLike) -> ComplexArray:
     """Return ``c' = V (1 - sigma u / u_max) e^{i theta}`` (S.1), complex (m/s)."""
-    u = np.asarray(u, float)
-    return layer.speed * (1.0 - layer.side * u / layer.turn_rate) * np.exp(1j * np.asarray(
-        heading))
+    rate = layer.speed * (1.0 - layer.side * np.asarray(u, float) / layer.turn_rate)
+    return np.asarray(rate * np.exp(1j * np.asarray(heading)), complex)
 
 
 def barrier_rate(layer: Layer, r_k: ArrayLike, heading_k: ArrayLike, u_k: ArrayLike,
@@ -360,7 +360,7 @@ def neighbours(r: ComplexArray, reach: float) -> tuple[IntArray, IntArray]:
 
 
 def filter_turn_rates(layer: Layer, r: ArrayLike, heading: ArrayLike, u_nom: ArrayLike,
-                      ego: slice | IntArray = slice(None)) -> Filtered:
+                      ego: Index = slice(None)) -> Filtered:
     """
     Filter the nominal turn rates of vehicles ``ego`` against every vehicle within range.
 
