@@ -79,6 +79,8 @@ test_requires = [
     'pydocstyle',
     'mypy',                              # test/unit/test_mypy.py: the type hints of core,
                                          # protocol and sim
+    'quadprog',                          # test/unit/test_safety.py: the QP the safety layer's
+                                         # closed form is checked against
 ]
 
 docs_requires = ['sphinx', 'myst-parser', 'numpydoc']   # docs/conf.py, make docs

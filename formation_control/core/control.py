@@ -25,7 +25,7 @@ from dataclasses import replace
 import math
 from typing import Any
 
-from formation_control.core import aircraft, formations, laws, steering
+from formation_control.core import aircraft, formations, laws, safety, steering
 from formation_control.core.flow import uses_flow_rates, vehicle_speed
 from formation_control.core.flowfields import Jet
 from formation_control.core.geometry import BoolArray, ComplexArray, inner, RealArray
@@ -436,6 +436,10 @@ class Controller:
     rates : bool
         Whether the laws take the flow's change along each path into account (:meth:`jet`,
         :func:`flow.uses_flow_rates`): a known flow that is not uniform and steady.
+    safety : safety.Layer or None
+        The safety layer of particles (``safety: on``), between the law and the actuators.
+    filtered : safety.Filtered or None
+        What the layer did at the last :meth:`command`.
 
     """
 
@@ -456,6 +460,9 @@ class Controller:
         self.law = steering.law(sc)
         self.integral: RealArray | None = None
         self.limits = command_limits(sc)
+        self.safety = None if self.rigid else safety.of(sc)
+        self.filtered: safety.Filtered | None = None
+        self.shift: RealArray | None = None
 
     def thrust(self, X: RealArray) -> RealArray:
         """Return the thrust of ``X`` (6, n), (7.1)/(8.10): (n,) N; 0 for particles."""
@@ -688,6 +695,8 @@ class Controller:
             flow = self.flow(flow)
             U[1] = body_rate_from_inertial(w, X[ROW_THETA], flow / self.speed,
                                            self.jet(X, flow))
+            if self.safety is not None:
+                U[1] = self.safe_turn_rate(U[1], view, idx, flow)
             return self.saturate(U)
         before = self.integral
         lam = self.phase_accel(view, idx, members)
@@ -696,12 +705,58 @@ class Controller:
             U[1] = steering_force(lam, X, self.plant, sc.cancel_drag_moment)
         else:
             flow = self.flow(flow)
+            if self.safety is not None:
+                lam = self.safe_phase_accel(lam, view, X, idx, members, flow)
             U[1] = body_accel_from_inertial(lam, X[ROW_THETA], X[ROW_OMEGA], flow / self.speed,
                                             self.jet(X, flow))
         out = self.saturate(U)
         if sc.anti_windup and self.law.integrates:
             self._hold_integral(before, U[1] != out[1])
         return out
+
+    def safe_turn_rate(self, u: RealArray, view: laws.View, idx: laws.Index,
+                       flow: complex | ComplexArray) -> RealArray:
+        """
+        Return the turn rates ``u`` (rad/s) of the vehicles ``idx`` through the safety layer.
+
+        Each vehicle filters against every vehicle of ``view`` within the sensing range
+        (:func:`safety.filter_turn_rates`), at the headings of their velocities through the
+        ``flow`` (the commanded vehicles' own flow: a uniform flow is the same at both vehicles
+        of a pair, and cancels from their relative motion). What it did is kept in ``filtered``.
+        """
+        if self.safety is None:
+            return u
+        ground = view.speed * view.e
+        f = np.asarray(flow)
+        if f.ndim and f.shape != ground.shape:             # one vehicle's flow: uniform
+            f = np.mean(f, axis=-1, keepdims=True)
+        heading = np.angle(ground - f)
+        self.filtered = safety.filter_turn_rates(self.safety, view.r, heading, u, idx)
+        return self.filtered.u
+
+    def safe_phase_accel(self, lam: RealArray, view: laws.View, X: RealArray,
+                         idx: laws.Index, members: BoolArray | None,
+                         flow: complex | ComplexArray) -> RealArray:
+        """
+        Return the phase accelerations of second-order particles that track the filtered rate.
+
+        The law's desired phase rate phi is turned into the body turn rate it asks for (5.1),
+        filtered (:meth:`safe_turn_rate`) and turned back: ``phi_s = phi + g (u_s - u)``. The
+        steering law then tracks phi_s instead of phi: ``lam + k (phi_s - phi) + (phi_s -
+        phi)'``, k its gain (backstepping kappa, proportional K_p), the shift's rate the
+        difference of two periods' (kept in ``shift``): its error ``z = rate - phi_s`` decays at
+        the rate k (docs/separation.md, "Second order: through the backstepping chain").
+        """
+        phi = self.formation_of(members).terms(view, idx).phi
+        f = np.asarray(np.divide(flow, self.speed), complex)
+        u = body_rate_from_inertial(phi, X[ROW_THETA], f, self.jet(X, flow))
+        shift = particle_speed_terms(X[ROW_THETA], f)[2] * (self.safe_turn_rate(
+            u, view, idx, flow) - u)
+        before = self.shift if self.shift is not None and self.shift.shape == shift.shape \
+            else shift
+        self.shift = shift
+        gain = getattr(self.sc, self.law.gain)
+        return lam + gain * shift + (shift - before) / self.sc.dt_control
 
     def _hold_integral(self, before: RealArray | None, clipped: BoolArray) -> None:
         """Anti-windup: undo this period's integration for the vehicles whose steering clipped."""

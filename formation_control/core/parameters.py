@@ -135,6 +135,7 @@ READERS = {r.text: r for r in (
             shared="a fleet's sensor suite is often given to particles and rigid bodies alike"),
     _models('', lambda m: m.first_order),
     _models('', lambda m: m.particle and not m.first_order),
+    _models('', lambda m: m.particle),
     *(Reader(model_reader(p), 'model', reading(p))
       for p in dict.fromkeys(p for m in VEHICLE_MODELS.values() for p in m.params)),
     Reader('formation circular', 'formation', ('circular',), _FORMATION),
@@ -148,7 +149,8 @@ READERS = {r.text: r for r in (
     Reader('position_filter kalman', 'position_filter', ('kalman',)),
     Reader('pattern splay or symmetric', 'pattern', PATTERNS[1:]),
     Reader('pattern symmetric', 'pattern', ('symmetric',)),
-    *(Reader(f'graph {g}', 'graph', (g,)) for g in ('circulant', 'random', 'explicit')))}
+    *(Reader(f'graph {g}', 'graph', (g,)) for g in ('circulant', 'random', 'explicit')),
+    Reader('safety on', 'safety', ('on',)))}
 """The configurations that read parameters, by their words (:attr:`Spec.reads`): each a set of
 values of one axis, its models from the vehicle registry."""
 
@@ -229,6 +231,9 @@ _NATIVE = ('plant_backend native',)
 _JSBSIM = ('plant_backend jsbsim',)
 _WATER = _NATIVE + ('rigid bodies (their through-water sensor)',)
 _CIRCULAR = ('formation circular',)
+_PARTICLES = 'model first_order or second_order'
+SWITCH = ('off', 'on')
+"""The choices of a switch; YAML 1.1 reads a bare ``on`` as true (:func:`coerce`)."""
 _ESTIMATED = ('flow_source estimated',)
 _FILTER = _ESTIMATED + ('flow_estimator filter',)
 _OBSERVER = _ESTIMATED + ('flow_estimator observer',)
@@ -458,6 +463,21 @@ class Scenario:
                                   'vehicle (the safety layer)', low=0.0,
                                   zero='derived: d_min + twice the top ground speed over one '
                                   'time constant of the formation law', rule='>= d_min')
+    # The safety layer (core/safety.py, docs/separation.md)
+    safety: str = _param('off', '', 'decentralized safety layer between the law and the '
+                         'actuators: each vehicle filters its turn rate against every vehicle '
+                         'within sensing_range (turning-circle barrier, closed form)',
+                         choices=SWITCH, rule='not for aircraft, a flow that is not '
+                         'uniform or the pi law', reads=(_PARTICLES,))
+    safety_turn_rate: float = _param(0.0, 'rad/s', 'u_max of the safety layer: the filtered '
+                                     'turn rate lies in [-u_max, u_max], the backup circle has '
+                                     'radius V / u_max', low=0.0,
+                                     zero="derived: first_order's max_turn_rate where set, "
+                                     'else V / d_min', rule='> V |omega0| (circular); <= '
+                                     'max_turn_rate (first_order)', reads=('safety on',))
+    safety_gain: float = _param(0.0, '1/s', "alpha of the safety layer's barrier condition "
+                                "h' >= -alpha h", low=0.0, zero='derived: 2 u_max',
+                                reads=('safety on',))
     # The run
     seed: int = _param(0, '', 'random seed of the initial state', low=0)
     dt_control: float = _param(0.02, 's', 'control period: each command is held this long',
@@ -719,6 +739,8 @@ def coerce(name: str, value: Any) -> Any:
             _fail(name, value, 'must be finite (no NaN or inf)')
         return float(value)
     if isinstance(default, str):
+        if isinstance(value, bool) and CHOICES.get(name) == SWITCH:
+            return SWITCH[value]                 # YAML 1.1 reads a bare on / off as a bool
         if not isinstance(value, str):
             _fail(name, value, f"must be one of {' | '.join(CHOICES[name])}" if name in CHOICES
                   else 'must be a string')

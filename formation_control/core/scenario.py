@@ -27,8 +27,8 @@ from dataclasses import replace
 from os import PathLike
 from typing import Any
 
-from formation_control.core import (aircraft, flow, formations, parameters, sensors, separation,
-                                    steering, world)
+from formation_control.core import (aircraft, flow, formations, parameters, safety, sensors,
+                                    separation, steering, world)
 from formation_control.core.errors import ScenarioError
 from formation_control.core.geometry import RealArray
 from formation_control.core.models import ROW_U, ROW_V
@@ -40,7 +40,7 @@ import numpy as np
 
 CHECKS: tuple[Callable[[Scenario], tuple[str, ...]], ...] = (
     parameters.check, steering.check, formations.check, flow.check, sensors.check, world.check,
-    aircraft.check, separation.check)
+    aircraft.check, separation.check, safety.check)
 """The checks :func:`resolve` runs, in order: the table's, then each feature's."""
 
 

@@ -29,7 +29,7 @@ import json
 from os import PathLike
 from typing import Any, cast, overload
 
-from formation_control.core import formations, sensors, stability
+from formation_control.core import formations, safety, sensors, stability
 from formation_control.core.aircraft import CHANNELS
 from formation_control.core.control import Controller
 from formation_control.core.estimation import neighbour_mean
@@ -181,6 +181,8 @@ class Stepper:
         The flow each vehicle commanded with at the last :meth:`command` (m/s).
     steps : int
         Integration steps taken: the state is at ``t = steps * dt_integration``.
+    safety : safety.Tally
+        What the safety layer did over the periods commanded (``safety: on``).
 
     """
 
@@ -197,6 +199,7 @@ class Stepper:
         self.steps = 0
         self.sensors = Sensors(sc, X.shape[1:], seeds) if sensors.active(sc) else None
         self.flow_hat: complex | ComplexArray = self.local_flow()
+        self.safety = safety.Tally()
 
     @property
     def ctrl(self) -> Controller:
@@ -291,7 +294,10 @@ class Stepper:
         state, :meth:`control.Controller.flow_ahead`), as each vehicle node computes its own.
         """
         self.flow_hat = flow = self.vehicles_flow()
-        return self.hold(self.vehicles.command(self.vehicles.observe(self.observed(), flow)))
+        U = self.hold(self.vehicles.command(self.vehicles.observe(self.observed(), flow)))
+        if self.ctrl.filtered is not None:
+            self.safety.add(self.t, self.ctrl.filtered)
+        return U
 
     def advance(self, steps: int | None = None) -> RealArray:
         """
@@ -402,6 +408,8 @@ class Outcome:
         The metrics at the last step, arrays of shape (B,).
     apart : separation.Tracker
         Each fleet's separation over the run, between samples too.
+    safety : safety.Tally
+        What each fleet's safety layer did (``safety: on``).
 
     """
 
@@ -417,6 +425,7 @@ class Outcome:
         self.flown: list[tuple[RealArray, RealArray]] = []
         lim = limits(sc)
         self.apart = separation.Tracker(lim.d_min, lim.d_min_vertical)
+        self.safety = safety.Tally()
 
     def record(self, n: int, X: RealArray, U: RealArray,
                flow_hat: complex | ComplexArray | None = None,
@@ -570,7 +579,13 @@ def simulate(sc: Scenario, X0: ArrayLike | None = None,
                 flat = stepper.X.reshape(6, -1)
                 raise stability.divergence(sc, (n + 1) * sc.dt_control,
                                            int(np.flatnonzero(bad)[0]), flat)
-    return rec.run()
+    out = rec.run()
+    if sc.safety == 'on':
+        if isinstance(out, Run):
+            out.meta['safety'] = stepper.safety.values()
+        else:
+            out.safety = stepper.safety
+    return out
 
 
 def flow_estimate_errors(sc: Scenario, after: float) -> ComplexArray:
@@ -637,6 +652,8 @@ def summary(run: Run) -> dict[str, Any]:
         ``mean_v`` (m/s). Aircraft: :func:`aircraft.held`; a run that left its airspeed or
         altitude band is not converged, and ``unmet`` names it. ``separation``: how close the
         vehicles came and whether they kept apart (:func:`separation.of_run`, its values).
+        ``safety`` (``safety: on``): the layer's :meth:`safety.Tally.values` (its active share
+        of the vehicle-periods), where the run recorded them (``meta``).
 
     """
     sc = run.sc
@@ -659,6 +676,8 @@ def summary(run: Run) -> dict[str, Any]:
            'order_parameter': final.order, 'lyapunov': final.lyapunov,
            'max_turn_rate': final.max_rate,
            'separation': separation.of_run(run).values()}
+    if sc.safety == 'on':
+        out['safety'] = run.meta.get('safety', {})
     if practical(sc):
         keep = metrics.window(sc, run.t)
         out['unmet'] = [name for name in met[-1] if not all(

@@ -108,7 +108,7 @@ def test_every_reader_is_one_value_set_of_an_axis_and_named_in_the_table():
         assert reader.text == text
         assert set(reader.values) < set(values_of(reader.axis)), text
     assert {'plant_backend', 'model', 'formation', 'controller', 'flow_source', 'flow_estimator',
-            'flow_model', 'position_filter', 'pattern', 'graph'} == set(AXES)
+            'flow_model', 'position_filter', 'pattern', 'graph', 'safety'} == set(AXES)
 
 
 @pytest.mark.parametrize('name', READ_BY_SOME)
