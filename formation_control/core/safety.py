@@ -17,11 +17,11 @@ The decentralized safety layer of constant-speed vehicles: a turning-circle barr
 
 A vehicle of speed V whose only input is its turn rate ``u = theta'``, ``|u| <= u_max``, that
 turns at ``sigma u_max`` (the layer's side sigma = +1 left, -1 right) flies a circle of radius
-``rho = V / u_max`` about its **backup centre**
+``rho = V / u_max`` about its **backup centre**::
 
     c_k = r_k + sigma rho i e^{i theta_k},   c_k' = V (1 - sigma u_k / u_max) e^{i theta_k}   (S.1)
 
-which stands still while it turns so. For each pair within the sensing range the barrier is
+which stands still while it turns so. For each pair within the sensing range the barrier is::
 
     h = |c_k - c_j| - D,   D = 2 rho + d_min + epsilon                                    (S.2)
 

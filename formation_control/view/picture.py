@@ -118,13 +118,13 @@ def vehicles(picture: Picture) -> Iterator[
 
     ``disc``: (diameter d_min, level of :func:`disc_levels`), or None without a d_min.
     """
-    levels = (None if picture.d_min is None
-              else disc_levels(picture.positions, picture.d_min))
+    d_min = picture.d_min
+    levels = None if d_min is None else disc_levels(picture.positions, d_min)
     for i, z in enumerate(picture.positions):
         ground = picture.ground_velocity
         yield (i + 1, complex(z), float(picture.headings[i]),
                None if ground is None else complex(ground[i]), picture.trails[i],
-               None if levels is None else (float(picture.d_min), int(levels[i])))
+               None if d_min is None or levels is None else (float(d_min), int(levels[i])))
 
 
 def link_points(positions: Sequence[complex] | ComplexArray,
