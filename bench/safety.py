@@ -24,7 +24,6 @@ pair apart (infeasible).
     .venv/bin/python bench/safety.py [--seeds 50] [--first-seed 101]
         [--scenarios particle_circular first_order_circular] [-p NAME:=VALUE ...]
 """
-import argparse
 from pathlib import Path
 import time
 
@@ -32,6 +31,7 @@ from formation_control.core import scenario
 from formation_control.sim import simulator
 from formation_control.sim.sweep import wilson
 import numpy as np
+from separation import seeded
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config'
 SCENARIOS = ('particle_circular', 'first_order_circular')
@@ -62,14 +62,7 @@ def study(name, seeds, safety, overrides):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('--seeds', type=int, default=50)
-    parser.add_argument('--first-seed', type=int, default=101)
-    parser.add_argument('--scenarios', nargs='+', default=SCENARIOS)
-    parser.add_argument('-p', dest='overrides', action='append', default=[])
-    args = parser.parse_args()
-    seeds = range(args.first_seed, args.first_seed + args.seeds)
-    print(f'seeds {seeds.start}-{seeds.stop - 1}')
+    args, seeds = seeded(__doc__, SCENARIOS, 50)
     print('| scenario | safety | kept apart [95% Wilson] | converged [95% Wilson] | median '
           'convergence time | closest of all | active share | runs infeasible | wall |')
     print('|---|---|---|---|---|---|---|---|---|')

@@ -58,15 +58,21 @@ def study(name, seeds, overrides):
           flush=True)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('--seeds', type=int, default=20)
+def seeded(doc, scenarios, seeds):
+    """Return the arguments of a seeded study (``--seeds``, ``--first-seed``...), its seeds."""
+    parser = argparse.ArgumentParser(description=doc.split('\n\n')[0])
+    parser.add_argument('--seeds', type=int, default=seeds)
     parser.add_argument('--first-seed', type=int, default=101)
-    parser.add_argument('--scenarios', nargs='+', default=SCENARIOS)
+    parser.add_argument('--scenarios', nargs='+', default=scenarios)
     parser.add_argument('-p', dest='overrides', action='append', default=[])
     args = parser.parse_args()
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     print(f'seeds {seeds.start}-{seeds.stop - 1}')
+    return args, seeds
+
+
+def main():
+    args, seeds = seeded(__doc__, SCENARIOS, 20)
     print('| scenario | N | d_min | end too close | pass too close | kept apart [95% Wilson] '
           '| median time too close | closest of all | path error | wall |')
     print('|---|---|---|---|---|---|---|---|---|---|')
