@@ -111,11 +111,12 @@ demo: setup
 
 # Two pytest workers (pytest-xdist), each taking whole test files: the integration tests wait
 # on DDS and processes much of the time, the unit tests compute. JOBS=0 runs them in this one
-# process. The tests marked serial (the TLS fleet) run alone afterwards.
+# process. The tests marked serial (the TLS fleet) run alone afterwards. Each phase ends with
+# its slowest tests (--durations): where the time goes.
 JOBS ?= 2
 test: setup
-	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m 'not serial'
-	$(PY) -m pytest -q -m serial
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m 'not serial' --durations=20
+	$(PY) -m pytest -q -m serial --durations=5
 
 # The tools of the browser test (test/integration/test_browser.py: the live view in Foxglove
 # Studio's web bundle): Debian's chromium and node/npm (apt-get, as root; otherwise it says what
