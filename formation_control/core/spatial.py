@@ -272,11 +272,11 @@ class Circular:
     K : float
         Formation gain (1/s), > 0.
     omega0 : float
-        Turn rate about b (rad/s of unit-speed motion), != 0: circles of radius 1/|omega0|.
+        Turn rate about b (rad/s of unit-speed motion), != 0: circles of radius ``1/|omega0|``.
     b : tuple of float
         The axis direction (normalised here).
     axial : float
-        The common velocity along b, |axial| < 1: 0 circles, else helices of pitch
+        The common velocity along b, ``|axial| < 1``: 0 circles, else helices of pitch
         ``2 pi axial / |omega0|`` and radius ``sqrt(1 - axial^2)/|omega0|``.
     coupling : laws.Coupling or None
         The communication graph; None = all-to-all.
@@ -290,7 +290,7 @@ class Circular:
     coupling: Coupling | None = None
 
     def __post_init__(self) -> None:
-        """Refuse K <= 0, omega0 = 0, |axial| >= 1 and a zero axis; normalise b."""
+        """Refuse K <= 0, omega0 = 0, ``|axial| >= 1`` and a zero axis; normalise b."""
         if not self.K > 0.0 or not np.isfinite(self.K):
             refuse('K', self.K, 'a finite gain > 0')
         if not np.isfinite(self.omega0) or self.omega0 == 0.0:
