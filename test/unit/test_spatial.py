@@ -28,6 +28,7 @@ import pytest
 
 H = 1e-3
 DT = 0.02
+DT_LONG = 0.05
 
 LAWS = {
     'parallel': lambda g: spatial.Parallel(-1.0, coupling=g),
@@ -138,10 +139,11 @@ def test_the_complete_graph_with_nu_n_is_the_all_to_all_law(name):
 @pytest.mark.parametrize('graph', ['all', 'ring'])
 def test_parallel_aligns_the_velocities(seed, graph):
     law = LAWS['parallel'](GRAPHS[graph])
-    rs, Rs = _run(law, *_fleet(seed), 1500 if graph == 'all' else 3000)
+    rs, Rs = _run(law, *_fleet(seed), 600 if graph == 'all' else 1200, DT_LONG)
     x = Rs[-1][:, :, 0]
     assert np.linalg.norm(x.mean(axis=0)) > 1 - 1e-9
-    assert np.linalg.norm(np.diff(rs[-2:], axis=0)[0] - DT * x.mean(axis=0), axis=1).max() < 1e-6
+    last = np.diff(rs[-2:], axis=0)[0]
+    assert np.linalg.norm(last - DT_LONG * x.mean(axis=0), axis=1).max() < 1e-6
 
 
 def _fit(positions, dt):
@@ -173,9 +175,9 @@ def _fit(positions, dt):
                                         ('helical', 'all'), ('circular', 'ring')])
 def test_circular_and_helical_reach_one_axis_radius_and_pitch(name, graph, seed):
     law = LAWS[name](GRAPHS[graph])
-    rs, _ = _run(law, *_fleet(seed), 4000 if graph == 'all' else 9000)
-    orbit = int(np.ceil(2 * np.pi / abs(law.omega0) / DT)) + 2
-    fits = [_fit(rs[-orbit:, k], DT) for k in range(rs.shape[1])]
+    rs, _ = _run(law, *_fleet(seed), 1600 if graph == 'all' else 3600, DT_LONG)
+    orbit = int(np.ceil(2 * np.pi / abs(law.omega0) / DT_LONG)) + 2
+    fits = [_fit(rs[-orbit:, k], DT_LONG) for k in range(rs.shape[1])]
     b = np.array(law.b) / np.linalg.norm(law.b)
     radius = np.sqrt(1 - law.axial ** 2) / abs(law.omega0)
     for n, axial, point, rho, residual in fits:
@@ -189,6 +191,61 @@ def test_circular_and_helical_reach_one_axis_radius_and_pitch(name, graph, seed)
     across = points - points.mean(axis=0)
     across -= np.outer(across @ b, b)
     assert np.linalg.norm(across, axis=1).max() < 1e-3
+
+
+def _helix_fleet(law, seed, n=6):
+    """Return a fleet on the law's formation by construction, and how to place it at time t."""
+    rng = np.random.default_rng(seed)
+    b = np.array(law.b)
+    e1 = np.cross(b, rng.normal(size=3))
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(b, e1)
+    o, phase, height = rng.normal(size=3), rng.uniform(0, 2 * np.pi, n), rng.normal(size=n)
+    rho = np.sqrt(1 - law.axial ** 2) / abs(law.omega0)
+
+    def at(t):
+        ph = phase + law.omega0 * t
+        r = o + np.outer(height + law.axial * t, b) + rho * (
+            np.outer(np.cos(ph), e1) + np.outer(np.sin(ph), e2))
+        x = law.axial * b + np.sign(law.omega0) * np.sqrt(1 - law.axial ** 2) * (
+            -np.outer(np.sin(ph), e1) + np.outer(np.cos(ph), e2))
+        return r, x
+
+    r, x = at(0.0)
+    y = np.cross(x, rng.normal(size=(n, 3)))
+    y /= np.linalg.norm(y, axis=1)[:, None]
+    return r, np.stack([x, y, np.cross(x, y)], -1), at
+
+
+@pytest.mark.parametrize('name', ['circular', 'circular_tilted', 'helical'])
+def test_the_formation_is_a_relative_equilibrium_flown_exactly(name):
+    law = LAWS[name](None)
+    r, R0, at = _helix_fleet(law, 41)
+    assert law.potential(r, R0) < 1e-28
+    R = R0
+    for _ in range(2000):
+        u, v, w = law.controls(r, R)
+        r, R = spatial.step(r, R, u, v, 0.05, w)
+    r_t, _ = at(100.0)
+    np.testing.assert_allclose(r, r_t, rtol=0, atol=1e-10)
+    b, angle = np.array(law.b), law.omega0 * 100.0
+    turn = (np.cos(angle) * np.eye(3) + np.sin(angle) * spatial.hat(b)
+            + (1 - np.cos(angle)) * np.outer(b, b))
+    np.testing.assert_allclose(R, turn @ R0, rtol=0, atol=1e-11)   # one twist: rigid about b
+
+
+def test_flying_along_the_axis_is_an_equilibrium_but_not_a_minimum():
+    law = LAWS['circular'](None)
+    n = 6
+    r = np.outer(np.arange(n), law.b)
+    R = np.tile(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]), (n, 1, 1))
+    np.testing.assert_array_equal(R[:, :, 0], np.tile(law.b, (n, 1)))
+    np.testing.assert_array_equal(law.controls(r, R)[:2], 0.0)     # no curvature: it stays
+    assert law.potential(r, R) == pytest.approx(n / (2 * law.omega0 ** 2))
+    r, R = spatial.step(r, R, 1e-4, 0.0, 1.0)                  # nudge
+    assert law.potential_rate(r, R, *law.controls(r, R)[:2]) < 0.0
+    rs, Rs = _run(law, r, R, 2000, DT_LONG)
+    assert law.potential(rs[-1], Rs[-1]) < 1e-8
 
 
 def _planar(r, R):
@@ -230,7 +287,11 @@ PLANAR = [(spatial.Parallel(-1.0), laws.Parallel(-1.0)),
            laws.Circular(1.0, 1.0, coupling=GRAPHS['random']))]
 
 
-@pytest.mark.parametrize('pair', PLANAR, ids=str)
+PLANAR_IDS = ['parallel', 'circular', 'circular_negative_omega0', 'parallel_ring',
+              'circular_random_graph']
+
+
+@pytest.mark.parametrize('pair', PLANAR, ids=PLANAR_IDS)
 def test_the_planar_law_is_the_special_case(pair):
     law3, law2 = pair
     r, R = _embedded(31)
