@@ -322,15 +322,19 @@ class Circular:
         """
         return r + np.cross(self.b, R[:, :, 0]) / self.omega0
 
-    def _spread(self, r: RealArray, R: RealArray) -> RealArray:
-        """Return d_k (N, 3): the centres' spread across b, all-to-all or on the graph."""
+    def _across(self, r: RealArray, R: RealArray) -> RealArray:
+        """Return ``P c_k`` (N, 3): the centres projected on the plane normal to b."""
         b = np.asarray(self.b)
         c = self.centres(r, R)
-        pc = c - np.outer(c @ b, b)
+        return c - np.outer(c @ b, b)
+
+    def _spread(self, r: RealArray, R: RealArray) -> RealArray:
+        """Return d_k (N, 3): the centres' spread across b, all-to-all or on the graph."""
+        pc = self._across(r, R)
         g = self.coupling
         if g is None:
             return pc - pc.mean(axis=0)
-        return (pc * g.total(np.ones(len(g.src)), len(c))[:, None] - _neighbours(g, pc)) / g.nu
+        return (pc * g.total(np.ones(len(g.src)), len(pc))[:, None] - _neighbours(g, pc)) / g.nu
 
     def _h(self, r: RealArray, R: RealArray) -> RealArray:
         """Return ``h_k = omega0 d_k x b + a_k b`` (N, 3), (S8)."""
@@ -384,10 +388,8 @@ class Circular:
             (m^2); on a graph the first sum is ``sum_arcs |P (c_j - c_k)|^2 / (4 nu)``.
 
         """
-        b = np.asarray(self.b)
-        c = self.centres(r, R)
-        pc = c - np.outer(c @ b, b)
-        a = R[:, :, 0] @ b - self.axial
+        pc = self._across(r, R)
+        a = R[:, :, 0] @ np.asarray(self.b) - self.axial
         g = self.coupling
         if g is None:
             spread = 0.5 * np.sum((pc - pc.mean(axis=0)) ** 2)

@@ -146,6 +146,15 @@ def test_parallel_aligns_the_velocities(seed, graph):
     assert np.linalg.norm(last - DT_LONG * x.mean(axis=0), axis=1).max() < 1e-6
 
 
+@pytest.mark.parametrize('seed', [51, 52])
+def test_parallel_with_k_positive_balances_the_velocities(seed):
+    law = spatial.Parallel(1.0)
+    r, R = _fleet(seed)
+    assert law.potential_rate(r, R, *law.controls(r, R)[:2]) > 0.0      # (S5), K > 0
+    _, Rs = _run(law, r, R, 800, DT_LONG)
+    assert np.linalg.norm(Rs[-1][:, :, 0].mean(axis=0)) < 1e-5
+
+
 def _fit(positions, dt):
     """
     Return the axis direction, axial speed, axis point, radius and fit residual of a helix.
