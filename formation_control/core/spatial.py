@@ -112,7 +112,7 @@ def step(r: RealArray, R: RealArray, u: RealArray | float, v: RealArray | float,
     Returns
     -------
     r, R : ndarray
-        ``R exp(dt [Omega]_x)`` and ``r + dt R J(dt Omega) e_1`` (S2), ``Omega = (w, -v, u)``,
+        ``r + dt R J(dt Omega) e_1`` and ``R exp(dt [Omega]_x)`` (S2), ``Omega = (w, -v, u)``,
         with ``exp(A) = I + (sin t/t) A + ((1 - cos t)/t^2) A^2`` and the left Jacobian
         ``J = I + ((1 - cos t)/t^2) A + ((t - sin t)/t^3) A^2``, ``t = |dt Omega|``; then one
         Newton step of the polar decomposition, ``R (3 I - R^T R)/2``, which squares the
