@@ -363,15 +363,16 @@ def _links(box, k):
 LOSSY = {'drop_probability': 0.2, 'delay': 0.05, 'delay_jitter': 0.1, 'fault_seed': 5}
 
 
-@pytest.mark.parametrize('name, duration', [('rigid_parallel', 18), ('rigid_circular', 60),
-                                            ('rigid_parallel_flow', 15)])
+@pytest.mark.parametrize('name, duration', [('rigid_parallel', 20), ('rigid_circular', 60),
+                                            ('rigid_parallel_flow', 20)])
 def test_rigid_scenarios_converge_with_lossy_late_links(ros, tmp_path, name, duration):
     """
     Converge in real time with lossy, late links, the faults seen to act.
 
     rigid_circular converges at 27 s offline and in real time; 60 s leave room under load. The
-    parallel ones converge at 6-7 s, with or without the faults; 18 s leave the 6.28 s hold
-    window after that with room.
+    parallel ones converge at 6-7 s, with or without the faults; 20 s leave the 6.28 s hold
+    window after that with room (rigid_parallel_flow in 15 s once held only part of it, under
+    load: not settled).
 
     Of the neighbour states that reached a vehicle (no more than were sent, nearly as many as
     reached this probe by then), its ``links`` status counts a share drop_probability as
