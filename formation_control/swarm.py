@@ -391,6 +391,8 @@ def wait_plant(swarm, timeout, supervisor=None, schedule=None):
     end = time.monotonic() + timeout
     if supervisor is not None and supervisor.recorder is not None:
         supervisor.start_when_discovered(timeout, swarm)
+    elif supervisor is not None and supervisor.start is not None:
+        supervisor.start_when_clocked(timeout, swarm)
     while swarm.plant.poll() is None:
         swarm.check()
         if time.monotonic() > end:
@@ -434,7 +436,7 @@ class Supervisor:
     """
 
     def __init__(self, n, mode, bag=None, monitor=True, namespace='/',
-                 vehicle_topics=names.KNOWN_FLOW_TOPICS):
+                 vehicle_topics=names.KNOWN_FLOW_TOPICS, starts=False):
         from diagnostic_msgs.msg import DiagnosticArray
         from formation_control_msgs.msg import FaultEvent
         from nav_msgs.msg import Odometry
@@ -460,13 +462,18 @@ class Supervisor:
         self.fault_pub = self.node.create_publisher(FaultEvent, prefix + names.FAULTS_TOPIC,
                                                     itf.FAULTS_QOS)
         if mode == 'lockstep':
-            subscribe_messages(self.node, Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
-                               Rejections(self.node.get_logger(), ['malformed']),
-                               qos_profile=itf.LATCHED_QOS)
+            self.time_sub = subscribe_messages(
+                self.node, Clock, prefix + names.CLOCK_TOPIC, self._on_clock,
+                Rejections(self.node.get_logger(), ['malformed']), qos_profile=itf.LATCHED_QOS)
         else:
             self.wire = itf.odom_wire(1)
-            self.node.create_subscription(Odometry, prefix + names.topic(1, 'odom'), self._on_odom,
-                                          itf.STATE_QOS, raw=True)
+            self.time_sub = self.node.create_subscription(
+                Odometry, prefix + names.topic(1, 'odom'), self._on_odom, itf.STATE_QOS,
+                raw=True)
+        self.start = None
+        if bag is not None or starts:
+            self.start = self.node.create_publisher(Empty, prefix + names.START_TOPIC,
+                                                    itf.LATCHED_QOS)
         self.hearing = Hearing(namespace)
         self.node.create_subscription(DiagnosticArray, names.DIAGNOSTICS_TOPIC,
                                       self._on_diagnostics, itf.STREAM_QOS)
@@ -487,8 +494,6 @@ class Supervisor:
             except RuntimeError:
                 self.close()
                 raise
-            self.start = self.node.create_publisher(Empty, prefix + names.START_TOPIC,
-                                                    itf.LATCHED_QOS)
             self.recording = EventsExecutor(context=self.context)
             self.recording.add_node(self.recorder)
 
@@ -550,6 +555,22 @@ class Supervisor:
             if time.monotonic() > end:
                 raise TimeoutError('the bag recorder did not discover every topic in time: '
                                    f'{unmatched[:5]} have no publisher')
+            self.spin(0.05)
+        self.start.publish(self.Empty())
+
+    def start_when_clocked(self, timeout, swarm):
+        """
+        Start the plant once this node hears the fleet's time (scripted faults act on it).
+
+        A lockstep fleet runs ahead of a supervisor still discovering its clock: a fault
+        scripted at 1 s was once applied at 6.9 s, after the fleet had converged.
+        """
+        end = time.monotonic() + timeout
+        while self.time_sub.get_publisher_count() == 0:
+            swarm.check()
+            if time.monotonic() > end:
+                raise TimeoutError('the time of the fleet was not heard in time: no plant '
+                                   'started')
             self.spin(0.05)
         self.start.publish(self.Empty())
 
@@ -636,7 +657,8 @@ def run_swarm(sc, options=SwarmOptions(), mode='lockstep', per_process=1, namesp
         raise FileExistsError(f'bag directory {bag} exists already')
     secure = options.secure
     swarm = Swarm(sc, FleetPlan(sc.num_vehicles, mode, per_process, namespace, secure is not None,
-                                bag is not None, process_faults=schedule.acts_on_processes),
+                                bag is not None, process_faults=schedule.acts_on_processes,
+                                held=bool(schedule)),
                   options)
     print(f"swarm: logs and the plant's record {swarm.record} in {swarm.dir}", file=sys.stderr,
           flush=True)
@@ -646,7 +668,7 @@ def run_swarm(sc, options=SwarmOptions(), mode='lockstep', per_process=1, namesp
             os.environ.pop(name, None)
     with dds_profile.given(None if secure else swarm.dir):
         supervisor = Supervisor(sc.num_vehicles, mode, bag, options.monitor, namespace,
-                                vehicle_topics(sc))
+                                vehicle_topics(sc), starts=bool(schedule))
     try:
         with swarm:
             wait_plant(swarm, timeout, supervisor, schedule)

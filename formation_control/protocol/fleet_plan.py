@@ -215,6 +215,9 @@ class FleetPlan:
         ``world_frame`` and ``base_frame`` of every node that takes them (empty: the defaults).
     process_faults : bool
         Scripted faults act on vehicles' processes (kill, restart, stop, cont).
+    held : bool
+        The plant holds step 0 until the starter says go (``wait_for_start``): a bag's
+        recorder, or the swarm of a fault script, which acts on the fleet's time.
 
     Raises
     ------
@@ -227,7 +230,8 @@ class FleetPlan:
     def __init__(self, num_vehicles: int, mode: str = 'lockstep', per_process: int | str = 1,
                  namespace: str = '/', secure: bool = False, recorded: bool = False,
                  labels: tuple[str, str] = SWARM_LABELS,
-                 frames: Mapping[str, str] | None = None, process_faults: bool = False) -> None:
+                 frames: Mapping[str, str] | None = None, process_faults: bool = False,
+                 held: bool = False) -> None:
         if mode not in MODES:
             raise ScenarioError(f"mode {mode!r} is invalid: {' or '.join(MODES)}")
         self.per_process = (auto_per_process(num_vehicles, cores(), secure or process_faults)
@@ -240,6 +244,7 @@ class FleetPlan:
                                 f'restart, stop, cont): a fault acts on the process of one '
                                 f'vehicle, 1 only')
         self.num_vehicles, self.mode, self.recorded = num_vehicles, mode, recorded
+        self.held = recorded or held
         self.prefix = names.namespace_prefix(namespace)
         self.clock = ('/clock', self.prefix + 'clock')
         """The remapping of the fleet's clock: ``/clock`` to the namespace's."""
@@ -255,7 +260,7 @@ class FleetPlan:
 
     def plant(self, **parameters: Any) -> Process:
         """Return the plant process; ``parameters`` come before ``wait_for_start``."""
-        return Process('plant', 'plant', (), {**parameters, 'wait_for_start': self.recorded})
+        return Process('plant', 'plant', (), {**parameters, 'wait_for_start': self.held})
 
     def vehicles(self) -> list[Process]:
         """Return the vehicle processes."""
