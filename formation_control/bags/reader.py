@@ -159,13 +159,12 @@ def read_run(path: str | Path) -> Run:
             if _finite(u, topic, skipped):
                 cmds[cmd_index[topic]].append((_stamp(msg), u))
     periods = _periods(sc, samples, skipped, path)
-    steps = np.array(sorted(p for p, cols in periods.items() if len(cols) == n), int)
-    if steps.size == 0:
+    whole = np.array(sorted(p for p, cols in periods.items() if len(cols) == n), int)
+    if whole.size == 0:
         raise UsageError(f'{path}: no control period with the odometry of all {n} vehicles')
-    steps = steps - steps[0]
+    steps = whole - whole[0]
     keep = (steps % sc.record_every == 0) | (steps == steps[-1])
-    first = min(periods)
-    chosen = [periods[first + p] for p in steps[keep]]
+    chosen = [periods[p] for p in whole[keep]]
     steps = steps[keep]
     X = np.array([np.column_stack([cols[k][1] for k in range(n)]) for cols in chosen])
     U = np.zeros((len(chosen), 2, n))
